@@ -1,0 +1,15 @@
+"""box2d-driving: multi-agent Box2D driving worlds in which road rules emerge.
+
+Quick start::
+
+    import box2d_driving
+    env = box2d_driving.make("intersection-v0", num_cars=4, lidar_noise=0.25)
+    observations, infos = env.reset(seed=0)
+"""
+
+__version__ = "0.1.0"
+
+from box2d_driving.config import ConfigError, DrivingConfig
+from box2d_driving.registry import make, registry
+
+__all__ = ["ConfigError", "DrivingConfig", "make", "registry", "__version__"]

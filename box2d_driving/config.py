@@ -1,0 +1,222 @@
+"""Typed, frozen configuration shared by every scenario.
+
+Every number the world uses lives here (or in a scenario's subclass of :class:`DrivingConfig`).
+Units: metres, seconds, radians, metres per second (squared). Invalid values are rejected when the
+config is constructed, with a message that names the field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Optional
+
+
+class ConfigError(ValueError):
+    """A configuration value, override name, env id or input file is invalid."""
+
+
+def accel_levels(low: float, high: float, step: float) -> tuple[float, ...]:
+    """Evenly spaced acceleration levels from ``low`` to ``high`` inclusive (m/s^2)."""
+    n = int(round((high - low) / step)) + 1
+    return tuple(round(low + i * step, 10) for i in range(n))
+
+
+LIDAR_ENCODINGS = ("inverse", "proximity")
+LIDAR_BACKENDS = ("auto", "numba", "box2d")
+RENDER_MODES = (None, "rgb_array", "human")
+
+
+@dataclass(frozen=True)
+class DrivingConfig:
+    """Fields common to every scenario.
+
+    Attributes:
+        num_cars: number of cars (agents) per episode.
+        horizon: episode length in decisions; reaching it truncates.
+        dt: physics step (s).
+        substeps: physics steps per decision; an action is held for ``dt * substeps`` seconds.
+        history: number of stacked observation frames (oldest first).
+        n_rays: LiDAR rays, equally spaced over 360 degrees starting at the heading.
+        lidar_range: LiDAR range (m).
+        lidar_noise: share of rays dropped (set to 0) at every decision, exactly
+            ``round(lidar_noise * n_rays)`` of them.
+        lidar_encoding: ``"inverse"`` (1 / distance, 0 = no return, the paper's) or
+            ``"proximity"`` (1 - distance / range, 0 = no return).
+        lidar_backend: ``"numba"`` (batched, default through ``"auto"``) or ``"box2d"``
+            (``world.RayCast`` callbacks); they agree within 1e-3 m.
+        communication: each car also sends one bit per decision (action space doubles).
+        comm_range: a car hears the nearest other car within this distance (m) ...
+        comm_half_angle: ... and within this angle of its heading (rad).
+        car_length, car_width: car body size (m).
+        v_lim: speed limit (m/s); speed is clipped to ``[0, v_lim]``.
+        accelerations: the discrete longitudinal accelerations (m/s^2).
+        remove_collided: remove a collided car from the world instead of leaving it halted.
+        light_view_distance: a car sees its approach's light within this distance before the
+            stop line (m).
+        light_period_range: ``T ~ U[low, high)`` (s); a light cycles green ``T - yellow``,
+            yellow ``yellow``, red ``T - yellow``, yellow ``yellow``.
+        light_yellow: yellow duration (s).
+        goal_reward: reward on the decision a car reaches its goal.
+        collision_reward: reward on the decision of a car's first collision.
+        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+    """
+
+    num_cars: int = 4
+    horizon: int = 25
+    dt: float = 0.1
+    substeps: int = 10
+    history: int = 5
+    n_rays: int = 100
+    lidar_range: float = 50.0
+    lidar_noise: float = 0.0
+    lidar_encoding: str = "inverse"
+    lidar_backend: str = "auto"
+    communication: bool = False
+    comm_range: float = 30.0
+    comm_half_angle: float = math.pi / 6
+    car_length: float = 4.48
+    car_width: float = 2.2
+    v_lim: float = 8.0
+    accelerations: tuple[float, ...] = accel_levels(-1.5, 1.5, 0.25)
+    remove_collided: bool = False
+    light_view_distance: float = 30.0
+    light_period_range: tuple[float, float] = (10.0, 15.0)
+    light_yellow: float = 1.0
+    goal_reward: float = 1.0
+    collision_reward: float = -1.0
+    render_mode: Optional[str] = None
+
+    # Box2D moves a body at most this far in one step (b2_maxTranslation).
+    _BOX2D_MAX_TRANSLATION = 2.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "accelerations", tuple(float(a) for a in self.accelerations))
+        object.__setattr__(self, "light_period_range", tuple(self.light_period_range))
+        self._validate()
+
+    # -- validation -------------------------------------------------------------------------
+    def _validate(self) -> None:
+        _int_at_least(self, "num_cars", 1)
+        if self.num_cars > self.max_cars():
+            raise ConfigError(
+                f"num_cars={self.num_cars} exceeds the {self.max_cars()} spawn slots of "
+                f"{type(self).__name__}"
+            )
+        _int_at_least(self, "horizon", 1)
+        _int_at_least(self, "substeps", 1)
+        _int_at_least(self, "history", 1)
+        _int_at_least(self, "n_rays", 1)
+        _positive(self, "dt")
+        _positive(self, "lidar_range")
+        _positive(self, "car_length")
+        _positive(self, "car_width")
+        _positive(self, "v_lim")
+        _positive(self, "comm_range")
+        _positive(self, "light_view_distance")
+        if not 0.0 <= self.lidar_noise <= 1.0:
+            raise ConfigError(f"lidar_noise must be in [0, 1], got {self.lidar_noise}")
+        _choice(self, "lidar_encoding", LIDAR_ENCODINGS)
+        _choice(self, "lidar_backend", LIDAR_BACKENDS)
+        _choice(self, "render_mode", RENDER_MODES)
+        if not isinstance(self.communication, bool):
+            raise ConfigError(f"communication must be True or False, got {self.communication!r}")
+        if len(self.accelerations) < 2:
+            raise ConfigError("accelerations needs at least two levels")
+        if list(self.accelerations) != sorted(set(self.accelerations)):
+            raise ConfigError("accelerations must be strictly increasing")
+        lo, hi = self.light_period_range
+        if not (2 * self.light_yellow < lo < hi):
+            raise ConfigError(
+                "light_period_range must satisfy 2 * light_yellow < low < high, "
+                f"got {self.light_period_range} with light_yellow={self.light_yellow}"
+            )
+        # No tunnelling: per physics step, the closing distance of any two bodies must stay
+        # below the extent they must cross to pass through each other (road edges are thin).
+        step = self.max_speed() * self.dt
+        car = min(self.car_width, self.car_length)
+        if step >= self._BOX2D_MAX_TRANSLATION:
+            raise ConfigError(
+                f"a car would move {step:.2f} m per physics step, more than Box2D's "
+                f"{self._BOX2D_MAX_TRANSLATION} m limit: lower v_lim or dt"
+            )
+        if step >= car:
+            raise ConfigError(
+                f"a car moves {step:.2f} m per physics step, not less than its smallest extent "
+                f"({car} m): it could tunnel through a road edge; lower v_lim or dt"
+            )
+        ped_closing = step + self.max_obstacle_speed() * self.dt
+        if ped_closing >= car + self.min_obstacle_size():
+            raise ConfigError(
+                f"a car and a pedestrian close {ped_closing:.2f} m per physics step: they "
+                "could tunnel through each other; lower v_lim or dt"
+            )
+
+    # -- derived ------------------------------------------------------------------------------
+    def max_cars(self) -> int:
+        """Number of distinct spawn slots (scenarios override)."""
+        return 64
+
+    def max_speed(self) -> float:
+        """Highest speed any car can reach (m/s)."""
+        return self.v_lim
+
+    def max_obstacle_speed(self) -> float:
+        """Highest speed of a moving non-car body (pedestrians) (m/s)."""
+        return 0.0
+
+    def min_obstacle_size(self) -> float:
+        """Smallest extent of a non-car body a car can hit (m); infinite when there is none."""
+        return math.inf
+
+    @property
+    def a_max(self) -> float:
+        """Largest acceleration magnitude (m/s^2)."""
+        return max(abs(a) for a in self.accelerations)
+
+    @property
+    def decision_time(self) -> float:
+        """Seconds per decision."""
+        return self.dt * self.substeps
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.accelerations) * (2 if self.communication else 1)
+
+    @classmethod
+    def field_names(cls) -> list[str]:
+        return [f.name for f in dataclasses.fields(cls)]
+
+    @classmethod
+    def from_overrides(cls, **overrides: Any) -> "DrivingConfig":
+        """Build a config from keyword overrides, rejecting unknown names."""
+        valid = cls.field_names()
+        unknown = sorted(set(overrides) - set(valid))
+        if unknown:
+            raise ConfigError(
+                f"unknown override(s) {', '.join(unknown)} for {cls.__name__}; "
+                f"valid: {', '.join(valid)}"
+            )
+        try:
+            return cls(**overrides)
+        except TypeError as exc:  # e.g. a tuple field given a scalar
+            raise ConfigError(f"{cls.__name__}: {exc}") from exc
+
+
+def _int_at_least(cfg: Any, name: str, low: int) -> None:
+    value = getattr(cfg, name)
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ConfigError(f"{name} must be an integer >= {low}, got {value!r}")
+
+
+def _positive(cfg: Any, name: str) -> None:
+    value = getattr(cfg, name)
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
+        raise ConfigError(f"{name} must be a positive number, got {value!r}")
+
+
+def _choice(cfg: Any, name: str, options: tuple) -> None:
+    value = getattr(cfg, name)
+    if value not in options:
+        raise ConfigError(f"{name} must be one of {options}, got {value!r}")

@@ -1,0 +1,285 @@
+"""The parameter-shared multi-agent driving env: orchestrates world, sensors, reward, lights.
+
+A scenario subclasses :class:`DrivingEnv` and supplies only its config class, its layout generator
+(map + spawns, drawn from the env's ``np_random``) and its sat-nav extras.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Optional
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle, seeding
+from pettingzoo import ParallelEnv
+
+from box2d_driving.config import DrivingConfig
+from box2d_driving.envs.observation import FrameHistory, ObservationLayout
+from box2d_driving.envs.reward import TERMS, reward_terms
+from box2d_driving.physics.world import ACTIVE, ARRIVED, COLLIDED, DrivingWorld
+from box2d_driving.road.geometry import wrap_angle
+from box2d_driving.road.layout import Layout
+from box2d_driving.road.lights import NO_LIGHT
+from box2d_driving.sensors import lidar
+
+# Per-car entries of state(): x, y, cos(h), sin(h), speed, acceleration, goal x, goal y,
+# remaining / initial path length, active, arrived, collided, rating.
+STATE_FIELDS = ("x", "y", "cos_heading", "sin_heading", "speed", "acceleration", "goal_x",
+                "goal_y", "remaining_fraction", "active", "arrived", "collided", "rating")
+
+
+class DrivingEnv(ParallelEnv, EzPickle):
+    """Cars on fixed tracks with discrete longitudinal accelerations (SPEC 2-3).
+
+    Agents are ``"car_0" .. "car_{N-1}"``; all share one action space (``Discrete``: acceleration
+    index, or ``acceleration index + n_accelerations * bit`` with communication) and one
+    observation space (see :class:`ObservationLayout`, exposed as :attr:`observation_layout`).
+    """
+
+    config_class: type[DrivingConfig] = DrivingConfig
+    satnav_extras: tuple[str, ...] = ()
+    n_lights: int = 0
+    metadata: dict[str, Any] = {"name": "driving", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(self, **overrides: Any) -> None:
+        EzPickle.__init__(self, **overrides)
+        self.config = self.config_class.from_overrides(**overrides)
+        cfg = self.config
+        self.render_mode = cfg.render_mode
+        self.possible_agents = [f"car_{i}" for i in range(cfg.num_cars)]
+        self.agents: list[str] = []
+        self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        fields = ("light", "speed", "heading_error", "inv_goal_distance") + self.satnav_extras
+        if cfg.communication:
+            fields = fields + ("bit_received",)
+        self.observation_layout = ObservationLayout(cfg.history, cfg.n_rays, fields)
+        self._obs_space = self._make_observation_space()
+        self._act_space = spaces.Discrete(cfg.n_actions)
+        self.observation_spaces = {a: self._obs_space for a in self.possible_agents}
+        self.action_spaces = {a: self._act_space for a in self.possible_agents}
+        n_state = cfg.num_cars * len(STATE_FIELDS) + self.n_lights + 1
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(n_state,), dtype=np.float32)
+        self._levels = np.asarray(cfg.accelerations, dtype=np.float64)
+        self._accel_range = float(self._levels[-1] - self._levels[0])
+        self._backend = "numba" if cfg.lidar_backend == "auto" else cfg.lidar_backend
+        self.world = DrivingWorld(cfg)
+        self.np_random: Optional[np.random.Generator] = None
+        self.layout: Optional[Layout] = None
+
+    # -- spaces -------------------------------------------------------------------------------
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self._obs_space
+
+    def action_space(self, agent: str) -> spaces.Discrete:
+        return self._act_space
+
+    def _make_observation_space(self) -> spaces.Box:
+        lay = self.observation_layout
+        bounds = {
+            "light": (0.0, 1.0), "speed": (0.0, 1.0), "heading_error": (-math.pi, math.pi),
+            "inv_goal_distance": (0.0, 1.0), "rating": (0.0, 1.0), "bit_received": (0.0, 1.0),
+        }
+        lidar_high = np.inf if self.config.lidar_encoding == "inverse" else 1.0
+        low = np.concatenate([np.zeros(lay.history * lay.n_rays),
+                              np.tile([bounds[f][0] for f in lay.satnav_fields], lay.history)])
+        high = np.concatenate([np.full(lay.history * lay.n_rays, lidar_high),
+                               np.tile([bounds[f][1] for f in lay.satnav_fields], lay.history)])
+        return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+    # -- scenario hooks -----------------------------------------------------------------------
+    def build_layout(self, rng: np.random.Generator) -> Layout:
+        """Map and spawns of one episode, drawn from ``rng`` only."""
+        raise NotImplementedError
+
+    def satnav_extra_values(self) -> np.ndarray:
+        """``(N, len(satnav_extras))`` scenario-specific sat-nav values."""
+        return np.zeros((self.config.num_cars, 0))
+
+    # -- API ----------------------------------------------------------------------------------
+    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+        if seed is not None or self.np_random is None:
+            self.np_random, _ = seeding.np_random(seed)
+        cfg = self.config
+        self.layout = self.build_layout(self.np_random)
+        self.world.reset(self.layout)
+        n = cfg.num_cars
+        self.decision = 0
+        self.agents = list(self.possible_agents)
+        self._initial = self.world.s_end.copy()
+        self._goals = np.array([c.path.points[-1] for c in self.layout.cars])
+        self._light_index = np.array([c.light_index for c in self.layout.cars], dtype=np.int64)
+        self._prev_level = np.zeros(n)
+        self._bits = np.zeros(n)
+        self._received = np.zeros(n)
+        self._seen = np.full(n, NO_LIGHT)
+        self._lane_axes = [c.lane_axis for c in self.layout.cars]
+        cars = np.arange(n)
+        lidar_frame, satnav_frame = self._frames(cars, senders=np.zeros(0, dtype=np.int64))
+        self.history = FrameHistory(self.observation_layout, n)
+        self.history.reset(lidar_frame, satnav_frame)
+        obs = self.history.observations(cars)
+        observations = {a: obs[i] for i, a in enumerate(self.agents)}
+        infos = {a: self._info(i, None) for i, a in enumerate(self.agents)}
+        return observations, infos
+
+    def step(self, actions: dict[str, Any]):
+        if not self.agents:
+            raise RuntimeError("step() called after all agents are done; call reset()")
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"no action for live agent(s) {missing}")
+        cfg = self.config
+        n = cfg.num_cars
+        acting = np.array([self._index[a] for a in self.agents], dtype=np.int64)
+        raw = np.array([int(actions[a]) for a in self.agents], dtype=np.int64)
+        n_acc = len(self._levels)
+        if raw.min() < 0 or raw.max() >= cfg.n_actions:
+            raise ValueError(f"actions must be in [0, {cfg.n_actions}), got {raw.tolist()}")
+        level = self._prev_level.copy()
+        level[acting] = self._levels[raw % n_acc]
+        self._bits[:] = 0.0
+        if cfg.communication:
+            self._bits[acting] = raw // n_acc
+        accel = np.zeros(n)
+        accel[acting] = level[acting] * self.world.ratings[acting]
+
+        events = self.world.advance(accel)
+        self.decision += 1
+
+        terms = reward_terms(
+            arrived=events.arrived[acting], collided=events.collided[acting],
+            accel_level=level[acting], prev_accel_level=self._prev_level[acting],
+            accel_range=self._accel_range, remaining=self._remaining()[acting],
+            initial=self._initial[acting], decision=self.decision, horizon=cfg.horizon,
+            goal_reward=cfg.goal_reward, collision_reward=cfg.collision_reward,
+        )
+        self._prev_level = level
+        total = sum(terms[t] for t in TERMS)
+
+        lidar_frame, satnav_frame = self._frames(acting, senders=acting)
+        self.history.push(acting, lidar_frame, satnav_frame)
+        obs = self.history.observations(acting)
+
+        done = events.arrived[acting] | events.collided[acting]
+        truncated = self.decision >= cfg.horizon
+        observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
+        for j, i in enumerate(acting.tolist()):
+            agent = self.possible_agents[i]
+            observations[agent] = obs[j]
+            rewards[agent] = float(total[j])
+            terminations[agent] = bool(done[j])
+            truncations[agent] = bool(truncated and not done[j])
+            infos[agent] = self._info(i, {t: float(terms[t][j]) for t in TERMS}, events)
+        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        w = self.world
+        cols = [w.positions[:, 0], w.positions[:, 1], np.cos(w.headings), np.sin(w.headings),
+                w.speed, w.accel, self._goals[:, 0], self._goals[:, 1],
+                self._remaining() / self._initial, (w.status == ACTIVE).astype(float),
+                (w.status == ARRIVED).astype(float), (w.status == COLLIDED).astype(float),
+                w.ratings]
+        lights = (self.layout.lights.values(self.time) if self.layout.lights is not None
+                  else np.zeros(0))
+        lights = np.resize(lights, self.n_lights) if self.n_lights else np.zeros(0)
+        return np.concatenate([np.stack(cols, axis=1).ravel(), lights,
+                               [self.decision / self.config.horizon]]).astype(np.float32)
+
+    def close(self) -> None:
+        self.world.world = None
+
+    # -- internals ----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Seconds since reset."""
+        return self.decision * self.config.decision_time
+
+    def _remaining(self) -> np.ndarray:
+        return self.world.s_end - self.world.s
+
+    def _frames(self, cars: np.ndarray, senders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """LiDAR and sat-nav frames of ``cars`` at the current state; ``senders`` are the cars
+        whose bits were sent in the last decision."""
+        cfg, w = self.config, self.world
+        pos, head = w.positions[cars], w.headings[cars]
+        distances = self._lidar_distances(cars)
+        if cfg.lidar_noise > 0:
+            distances[lidar.dropout_mask(self.np_random, len(cars), cfg.n_rays, cfg.lidar_noise)] = np.inf
+        lidar_frame = lidar.encode(distances, cfg.lidar_range, cfg.lidar_encoding)
+
+        if self.layout.lights is not None:
+            self._seen[cars] = self.layout.lights.seen(
+                self.time, self._light_index[cars], pos, head, cfg.light_view_distance)
+        remaining = self._remaining()[cars]
+        to_goal = self._goals[cars] - pos
+        heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
+        heading_error = np.where(remaining > 0, heading_error, 0.0)
+        cols = [self._seen[cars], w.speed[cars] / w.v_lim[cars], heading_error,
+                1.0 / np.maximum(remaining, 1.0)]
+        extras = self.satnav_extra_values()[cars]
+        satnav = np.concatenate([np.stack(cols, axis=1), extras], axis=1)
+        if cfg.communication:
+            self._received[cars] = self._receive(cars, senders)
+            satnav = np.concatenate([satnav, self._received[cars][:, None]], axis=1)
+        return lidar_frame, satnav.astype(np.float32)
+
+    def _lidar_distances(self, cars: np.ndarray) -> np.ndarray:
+        cfg, w = self.config, self.world
+        if self._backend == "box2d":
+            return lidar.cast_rays_box2d(w.world, [w.car_bodies[i] for i in cars],
+                                         w.positions[cars], w.headings[cars], cfg.n_rays,
+                                         cfg.lidar_range)
+        segs, owner, one_sided = lidar.scene_segments(
+            w.positions, w.headings, w.present, cfg.car_length, cfg.car_width,
+            w.ped_positions, w.ped_sizes, w.edge_segments)
+        out = np.empty((len(cars), cfg.n_rays))
+        lidar.cast_rays(w.positions[cars], w.headings[cars], cars, cfg.n_rays,
+                        float(cfg.lidar_range), segs, owner, one_sided, out)
+        return out
+
+    def _receive(self, cars: np.ndarray, senders: np.ndarray) -> np.ndarray:
+        """Bit of the nearest other sender within range and angle of each car's heading."""
+        cfg, w = self.config, self.world
+        out = np.zeros(len(cars))
+        if len(senders) == 0:
+            return out
+        rel = w.positions[senders][None, :, :] - w.positions[cars][:, None, :]
+        dist = np.linalg.norm(rel, axis=2)
+        bearing = wrap_angle(np.arctan2(rel[..., 1], rel[..., 0]) - w.headings[cars][:, None])
+        ok = (dist <= cfg.comm_range) & (np.abs(bearing) <= cfg.comm_half_angle)
+        ok &= senders[None, :] != cars[:, None]
+        dist = np.where(ok, dist, np.inf)
+        best = np.argmin(dist, axis=1)
+        has = np.isfinite(dist[np.arange(len(cars)), best])
+        out[has] = self._bits[senders[best[has]]]
+        return out
+
+    def _info(self, i: int, terms: Optional[dict], events=None) -> dict[str, Any]:
+        w = self.world
+        axis = self._lane_axes[i]
+        pos = w.positions[i]
+        info = {
+            "position": pos.copy(),
+            "heading": float(w.headings[i]),
+            "speed": float(w.speed[i]),
+            "acceleration": float(w.accel[i]),
+            "light": float(self._seen[i]),
+            "in_junction": bool(self.layout.in_junction(pos[None])[0]),
+            "lane_offset": float(axis.offset(pos)) if axis is not None else float("nan"),
+            "distance_to_goal": float(w.s_end[i] - w.s[i]),
+            "arrived": bool(w.status[i] == ARRIVED),
+            "collided": bool(w.status[i] == COLLIDED),
+            "collided_with": w.collided_with[i],
+            "rating": float(w.ratings[i]),
+            "decision": self.decision,
+            "approach": self.layout.cars[i].approach,
+        }
+        if self.config.communication:
+            info["bit_sent"] = int(self._bits[i])
+            info["bit_received"] = int(self._received[i])
+        if terms is not None:
+            info["reward_terms"] = terms
+        return info
+

@@ -1,0 +1,102 @@
+"""Highway with a crosswalk and pedestrians (SPEC 4, "crosswalk").
+
+The road spans ``x in [-road_length/2, road_length/2]``; the crosswalk covers
+``x in crosswalk_x`` across the road. Between ``pedestrians_range`` pedestrians (0.8 m squares)
+spawn at random non-overlapping points on the crosswalk, the walkway included, each walking across
+the road (+y or -y) at ``U[pedestrian_speed_range)`` and turning back past the walkway. The LiDAR
+sees them; hitting one is a collision.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from box2d_driving.config import ConfigError, accel_levels
+from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
+from box2d_driving.road.layout import Layout, PedestrianSpawn
+
+_SPAWN_TRIES = 200
+
+
+@dataclass(frozen=True)
+class CrosswalkConfig(HighwayConfig):
+    """Crosswalk defaults (the paper's).
+
+    Attributes:
+        crosswalk_x: crosswalk extent along the road (m).
+        walkway: how far beyond each road edge pedestrians walk before turning back (m).
+        pedestrians_range: the number of pedestrians is uniform in ``[low, high]``.
+        pedestrian_speed_range: walking speed range ``[low, high)`` (m/s).
+        pedestrian_size: pedestrian square side (m).
+    """
+
+    num_cars: int = 4
+    horizon: int = 30
+    v_lim: float = 10.0
+    accelerations: tuple[float, ...] = accel_levels(-3.0, 3.0, 0.25)
+    road_length: float = 140.0
+    x_start: float = -70.0
+    rating_range: tuple[float, float] = (1.0, 1.0)
+    spawn_slots: int = 5
+    crosswalk_x: tuple[float, float] = (-10.0, 10.0)
+    walkway: float = 2.0
+    pedestrians_range: tuple[int, int] = (1, 10)
+    pedestrian_speed_range: tuple[float, float] = (1.0, 2.0)
+    pedestrian_size: float = 0.8
+
+    def _validate(self) -> None:
+        super()._validate()
+        lo, hi = self.pedestrians_range
+        if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
+            raise ConfigError(f"pedestrians_range must be integers 0 <= low <= high, got {self.pedestrians_range}")
+        s_lo, s_hi = self.pedestrian_speed_range
+        if not 0 < s_lo <= s_hi:
+            raise ConfigError("pedestrian_speed_range must be positive and increasing")
+        if self.pedestrian_size <= 0:
+            raise ConfigError("pedestrian_size must be positive")
+        c0, c1 = self.crosswalk_x
+        if not (self.x_start < c0 < c1 < self.x_start + self.road_length):
+            raise ConfigError("crosswalk_x must lie on the road")
+        if c1 - c0 < self.pedestrian_size:
+            raise ConfigError("the crosswalk must be wider than a pedestrian")
+        if self.x_start + self.last_slot() + self.spawn_jitter + self.car_length / 2 >= c0:
+            raise ConfigError("spawn slots reach the crosswalk: fewer slots or a longer road")
+
+    def max_obstacle_speed(self) -> float:
+        return self.pedestrian_speed_range[1]
+
+    def min_obstacle_size(self) -> float:
+        return self.pedestrian_size
+
+
+class CrosswalkEnv(HighwayEnv):
+    """Highway with pedestrians crossing; cars must see them with the LiDAR and slow down."""
+
+    config_class = CrosswalkConfig
+    satnav_extras = ()
+    metadata = {"name": "crosswalk_v0", "render_modes": [], "is_parallelizable": True}
+
+    def _finish_layout(self, rng: np.random.Generator, layout: Layout) -> Layout:
+        cfg: CrosswalkConfig = self.config
+        size = cfg.pedestrian_size
+        y_max = cfg.road_width / 2 + cfg.walkway
+        count = int(rng.integers(cfg.pedestrians_range[0], cfg.pedestrians_range[1] + 1))
+        peds: list[PedestrianSpawn] = []
+        for _ in range(_SPAWN_TRIES):
+            if len(peds) == count:
+                break
+            p = np.array([rng.uniform(cfg.crosswalk_x[0] + size / 2, cfg.crosswalk_x[1] - size / 2),
+                          rng.uniform(-y_max, y_max)])
+            speed = float(rng.uniform(*cfg.pedestrian_speed_range))
+            direction = 1.0 if rng.random() < 0.5 else -1.0
+            if all(np.max(np.abs(p - q.position)) > size for q in peds):
+                peds.append(PedestrianSpawn(p, np.array([0.0, direction * speed]), (-y_max, y_max), size))
+        half = cfg.road_width / 2
+        crosswalk = (cfg.crosswalk_x[0], -half, cfg.crosswalk_x[1], half)
+        return dataclasses.replace(layout, pedestrians=peds, crosswalk=crosswalk)
+
+    def satnav_extra_values(self) -> np.ndarray:
+        return np.zeros((self.config.num_cars, 0))

@@ -1,0 +1,114 @@
+"""Straight one-way highway with fixed straight tracks (SPEC 4, "highway").
+
+The road runs from ``x = 0`` to ``x = road_length`` with ``|y| <= road_width / 2``; traffic flows
+towards +x. Cars start spread along the road: car spawns take distinct random slots at
+``x = spawn_start + k * spawn_slot_spacing`` (+- ``spawn_jitter``), each at a random lateral
+position in ``lateral_range * W/2``, and drive straight to ``x = road_length - goal_margin``.
+Each car draws an acceleration rating ``~ U[rating_range)`` that scales its accelerations and its
+speed limit (``v_lim * rating``); the rating is a sat-nav extra.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from box2d_driving.config import ConfigError, DrivingConfig, accel_levels
+from box2d_driving.envs.base import DrivingEnv
+from box2d_driving.road.geometry import Path
+from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
+
+
+@dataclass(frozen=True)
+class HighwayConfig(DrivingConfig):
+    """Highway defaults (the paper's).
+
+    Attributes:
+        road_length: road length (m).
+        road_width: road width ``W`` (m).
+        x_start: x of the road's start (m).
+        rating_range: acceleration rating range ``[low, high)``; equal ends fix the rating.
+        spawn_start: distance of the first slot from the road's start (m).
+        spawn_slot_spacing: distance between slot centres (m).
+        spawn_slots: number of slots.
+        spawn_jitter: uniform jitter around the slot centre along the road (m).
+        lateral_range: track lateral position range, as fractions of ``W/2`` (+ = left, +y).
+        goal_margin: the goal is this far before the road's end (m).
+    """
+
+    num_cars: int = 10
+    horizon: int = 30
+    v_lim: float = 16.0
+    accelerations: tuple[float, ...] = accel_levels(-3.0, 3.0, 0.25)
+    road_length: float = 250.0
+    road_width: float = 25.0
+    x_start: float = 0.0
+    rating_range: tuple[float, float] = (0.5, 1.0)
+    spawn_start: float = 5.0
+    spawn_slot_spacing: float = 10.0
+    spawn_slots: int = 12
+    spawn_jitter: float = 2.0
+    lateral_range: tuple[float, float] = (-0.75, 0.75)
+    goal_margin: float = 5.0
+
+    def _validate(self) -> None:
+        if not isinstance(self.spawn_slots, int) or self.spawn_slots < 1:
+            raise ConfigError(f"spawn_slots must be an integer >= 1, got {self.spawn_slots!r}")
+        lo, hi = self.rating_range
+        if not 0.0 < lo <= hi <= 1.0:
+            raise ConfigError(f"rating_range must satisfy 0 < low <= high <= 1, got {self.rating_range}")
+        super()._validate()
+        if self.spawn_slot_spacing - 2 * self.spawn_jitter <= self.car_length:
+            raise ConfigError("spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
+        if self.spawn_start - self.spawn_jitter < self.car_length / 2:
+            raise ConfigError("spawn_start - spawn_jitter must keep cars on the road")
+        if self.last_slot() + self.spawn_jitter + self.car_length >= self.road_length - self.goal_margin:
+            raise ConfigError("spawn slots reach past the goal: fewer slots or a longer road")
+        lat_lo, lat_hi = self.lateral_range
+        limit = 1.0 - self.car_width / self.road_width
+        if not -limit <= lat_lo <= lat_hi <= limit:
+            raise ConfigError(f"lateral_range must lie within +-{limit:.3f} to keep cars on the road")
+
+    def max_cars(self) -> int:
+        return self.spawn_slots
+
+    def max_speed(self) -> float:
+        return self.v_lim * self.rating_range[1]
+
+    def last_slot(self) -> float:
+        """Distance of the last slot centre from the road's start (m)."""
+        return self.spawn_start + (self.spawn_slots - 1) * self.spawn_slot_spacing
+
+
+class HighwayEnv(DrivingEnv):
+    """One-way straight road; cars of different acceleration ratings on straight tracks."""
+
+    config_class = HighwayConfig
+    satnav_extras = ("rating",)
+    metadata = {"name": "highway_v0", "render_modes": [], "is_parallelizable": True}
+
+    def build_layout(self, rng: np.random.Generator) -> Layout:
+        cfg: HighwayConfig = self.config
+        x0, x1, half = cfg.x_start, cfg.x_start + cfg.road_length, cfg.road_width / 2
+        edges = np.array([[[x0, -half], [x1, -half]], [[x0, half], [x1, half]]])
+        drivable = [np.array([[x0, -half], [x1, -half], [x1, half], [x0, half]])]
+        slots = rng.permutation(cfg.spawn_slots)[: cfg.num_cars]
+        axis = LaneAxis(np.array([x0, 0.0]), np.array([1.0, 0.0]), half)
+        cars = []
+        for slot in slots:
+            x = x0 + cfg.spawn_start + slot * cfg.spawn_slot_spacing
+            x += float(rng.uniform(-cfg.spawn_jitter, cfg.spawn_jitter))
+            y = float(rng.uniform(*cfg.lateral_range)) * half
+            lo, hi = cfg.rating_range
+            rating = float(rng.uniform(lo, hi)) if hi > lo else lo
+            path = Path.straight(np.array([x, y]), np.array([x1 - cfg.goal_margin, y]))
+            cars.append(CarSpawn(path=path, rating=rating, lane_axis=axis))
+        return self._finish_layout(rng, Layout(edges=edges, cars=cars, drivable=drivable))
+
+    def _finish_layout(self, rng: np.random.Generator, layout: Layout) -> Layout:
+        """Hook for scenarios built on the highway (the crosswalk adds pedestrians)."""
+        return layout
+
+    def satnav_extra_values(self) -> np.ndarray:
+        return self.world.ratings[:, None]

@@ -1,0 +1,142 @@
+"""Four-way signalled junction with fixed straight tracks (SPEC 4, "intersection").
+
+Geometry (per episode): four arms of length ``L ~ U[road_length_range)`` and width
+``W ~ U[road_width_range)`` around a ``W x W`` junction box centred at the origin. Approach ``a``
+(0: from the west, 1: south, 2: east, 3: north) drives in direction ``(cos a*pi/2, sin a*pi/2)``
+on the right-hand side of the road (``lane_fraction * W/2`` right of the axis) from its spawn slot
+to a goal on the opposite road ``0.5 * (goal_fraction * L + W)`` from the centre. Car ``i`` starts
+on approach ``i % 4`` (round-robin) in a random free slot; slots sit ``spawn_first_slot +
+k * spawn_slot_spacing`` (+- ``spawn_jitter``) before the stop line, which is the junction box's
+edge. Lights: approaches 0 and 2 form group 0, approaches 1 and 3 group 1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from box2d_driving.config import ConfigError, DrivingConfig
+from box2d_driving.envs.base import DrivingEnv
+from box2d_driving.road.geometry import Path
+from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
+from box2d_driving.road.lights import sample_lights
+
+N_APPROACHES = 4
+
+
+@dataclass(frozen=True)
+class IntersectionConfig(DrivingConfig):
+    """Intersection defaults (the paper's, with the horizon raised to satisfy the timing
+    invariant; see :meth:`worst_case_arrival_time`).
+
+    Attributes:
+        road_length_range: arm length ``L`` range (m).
+        road_width_range: road width ``W`` range (m).
+        lane_fraction: track offset right of the road axis, as a fraction of ``W/2``.
+        goal_fraction: the goal lies ``0.5 * (goal_fraction * L + W)`` from the centre.
+        spawn_first_slot: distance of the nearest slot's centre before the stop line (m).
+        spawn_slot_spacing: distance between slot centres (m).
+        slots_per_approach: slots on each approach.
+        spawn_jitter: uniform jitter of a car around its slot centre (m).
+    """
+
+    horizon: int = 36
+    road_length_range: tuple[float, float] = (55.0, 80.0)
+    road_width_range: tuple[float, float] = (15.0, 30.0)
+    lane_fraction: float = 0.5
+    goal_fraction: float = 0.67
+    spawn_first_slot: float = 8.0
+    spawn_slot_spacing: float = 8.0
+    slots_per_approach: int = 4
+    spawn_jitter: float = 1.0
+
+    def _validate(self) -> None:
+        if not isinstance(self.slots_per_approach, int) or self.slots_per_approach < 1:
+            raise ConfigError(f"slots_per_approach must be an integer >= 1, got {self.slots_per_approach!r}")
+        super()._validate()
+        lo_l, hi_l = self.road_length_range
+        lo_w, hi_w = self.road_width_range
+        if not (0 < lo_l < hi_l) or not (0 < lo_w < hi_w):
+            raise ConfigError("road_length_range and road_width_range must be increasing and positive")
+        if lo_w / 2 < self.car_width:
+            raise ConfigError("roads must be at least two car widths wide")
+        if self.spawn_first_slot - self.spawn_jitter < self.car_length / 2:
+            raise ConfigError("spawn_first_slot - spawn_jitter must leave the car behind the stop line")
+        if self.spawn_slot_spacing - 2 * self.spawn_jitter <= self.car_length:
+            raise ConfigError("spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
+        if self.farthest_spawn() + self.car_length / 2 > lo_l:
+            raise ConfigError(
+                f"the farthest spawn slot ({self.farthest_spawn():.1f} m before the stop line) "
+                f"does not fit on the shortest road ({lo_l} m)"
+            )
+        if not 0.0 <= self.lane_fraction <= 1.0 - self.car_width / lo_w:
+            raise ConfigError("lane_fraction must keep the track on the road")
+        if not 0.0 < self.goal_fraction <= 1.0:
+            raise ConfigError("goal_fraction must be in (0, 1]")
+
+    def max_cars(self) -> int:
+        return N_APPROACHES * self.slots_per_approach
+
+    def farthest_spawn(self) -> float:
+        """Largest distance of a car's centre before the stop line at spawn (m)."""
+        return self.spawn_first_slot + (self.slots_per_approach - 1) * self.spawn_slot_spacing + self.spawn_jitter
+
+    def worst_case_arrival_time(self) -> float:
+        """Seconds a car needs in the worst case: spawned at the farthest slot on the largest
+        map, it drives to the stop line and stops there, waits a full red (``T_max - yellow``),
+        then drives to its goal; at ``v_lim`` and the largest acceleration. The SPEC 4 timing
+        invariant asks this to fit in the horizon (with a decision of slack per phase)."""
+        a, v = max(self.accelerations), self.v_lim
+        d_stop = self.farthest_spawn()
+        t_stop = 2 * v / a + (d_stop - v * v / a) / v if d_stop >= v * v / a else 2 * math.sqrt(d_stop / a)
+        d_go = self.road_width_range[1] + 0.5 * self.goal_fraction * self.road_length_range[1]
+        t_go = v / a + (d_go - v * v / (2 * a)) / v if d_go >= v * v / (2 * a) else math.sqrt(2 * d_go / a)
+        return t_stop + (self.light_period_range[1] - self.light_yellow) + t_go
+
+
+class IntersectionEnv(DrivingEnv):
+    """Signalled four-way junction; cars drive straight across on fixed tracks."""
+
+    config_class = IntersectionConfig
+    n_lights = N_APPROACHES
+    metadata = {"name": "intersection_v0", "render_modes": [], "is_parallelizable": True}
+
+    def build_layout(self, rng: np.random.Generator) -> Layout:
+        cfg: IntersectionConfig = self.config
+        length = float(rng.uniform(*cfg.road_length_range))
+        width = float(rng.uniform(*cfg.road_width_range))
+        half = width / 2
+        dirs = np.array([[math.cos(a * math.pi / 2), math.sin(a * math.pi / 2)]
+                         for a in range(N_APPROACHES)])
+        rights = np.stack([dirs[:, 1], -dirs[:, 0]], axis=1)
+
+        edges, drivable = [], [np.array([[-half, -half], [half, -half], [half, half], [-half, half]])]
+        for u, r in zip(dirs, rights):  # arm pointing along u
+            for side in (-1.0, 1.0):
+                edges.append([u * half + side * r * half, u * (half + length) + side * r * half])
+            drivable.append(np.array([u * half - r * half, u * (half + length) - r * half,
+                                      u * (half + length) + r * half, u * half + r * half]))
+
+        lane = cfg.lane_fraction * half
+        stop_points = -half * dirs + lane * rights
+        stop_lines = np.stack([-half * dirs, -half * dirs + half * rights], axis=1)
+        lights = sample_lights(rng, stop_points, dirs, np.arange(N_APPROACHES) % 2,
+                               cfg.light_period_range, cfg.light_yellow)
+
+        goal_dist = 0.5 * (cfg.goal_fraction * length + width)
+        free = [list(rng.permutation(cfg.slots_per_approach)) for _ in range(N_APPROACHES)]
+        cars = []
+        for i in range(cfg.num_cars):
+            a = i % N_APPROACHES
+            slot = int(free[a].pop())
+            back = half + cfg.spawn_first_slot + slot * cfg.spawn_slot_spacing
+            back += float(rng.uniform(-cfg.spawn_jitter, cfg.spawn_jitter))
+            d, r = dirs[a], rights[a]
+            path = Path.straight(-back * d + lane * r, goal_dist * d + lane * r)
+            cars.append(CarSpawn(path=path, light_index=a, rating=1.0,
+                                 lane_axis=LaneAxis(np.zeros(2), d.copy(), half), approach=a))
+        return Layout(edges=np.array(edges), cars=cars, lights=lights,
+                      junction_box=(-half, -half, half, half), drivable=drivable,
+                      stop_lines=stop_lines)

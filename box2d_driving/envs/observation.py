@@ -1,0 +1,90 @@
+"""Observation layout and frame history.
+
+An observation is one flat float32 vector::
+
+    [ LiDAR frame t-H+1 | ... | LiDAR frame t | sat-nav frame t-H+1 | ... | sat-nav frame t ]
+
+with ``H = history`` frames, oldest first (at reset the first frame is repeated). A LiDAR frame has
+``n_rays`` values (ray 0 along the heading, counter-clockwise). A sat-nav frame has the fields named
+in :attr:`ObservationLayout.satnav_fields`: the light seen, ``speed / v_lim``, the heading error to
+the goal (rad, in ``[-pi, pi]``), ``1 / max(distance_to_goal, 1)``, then scenario extras.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Where each part of the flat observation lives.
+
+    Attributes:
+        history: frames stacked (oldest first).
+        n_rays: LiDAR values per frame.
+        satnav_fields: names of the sat-nav values per frame.
+    """
+
+    history: int
+    n_rays: int
+    satnav_fields: tuple[str, ...]
+
+    @property
+    def n_satnav(self) -> int:
+        return len(self.satnav_fields)
+
+    @property
+    def lidar(self) -> slice:
+        """Slice of the whole LiDAR history (``history * n_rays`` values)."""
+        return slice(0, self.history * self.n_rays)
+
+    @property
+    def satnav(self) -> slice:
+        """Slice of the whole sat-nav history (``history * n_satnav`` values)."""
+        start = self.history * self.n_rays
+        return slice(start, start + self.history * self.n_satnav)
+
+    @property
+    def size(self) -> int:
+        return self.history * (self.n_rays + self.n_satnav)
+
+    def split(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(..., size)`` observations to LiDAR ``(..., history, n_rays)`` and sat-nav
+        ``(..., history, n_satnav)`` arrays."""
+        obs = np.asarray(obs)
+        lead = obs.shape[:-1]
+        return (obs[..., self.lidar].reshape(*lead, self.history, self.n_rays),
+                obs[..., self.satnav].reshape(*lead, self.history, self.n_satnav))
+
+    def field(self, name: str) -> int:
+        """Index of a sat-nav field within a frame."""
+        return self.satnav_fields.index(name)
+
+
+class FrameHistory:
+    """Rolling ``(N, H, F)`` buffers of LiDAR and sat-nav frames for N cars."""
+
+    def __init__(self, layout: ObservationLayout, n_cars: int) -> None:
+        self.layout = layout
+        self.lidar = np.zeros((n_cars, layout.history, layout.n_rays), dtype=np.float32)
+        self.satnav = np.zeros((n_cars, layout.history, layout.n_satnav), dtype=np.float32)
+
+    def reset(self, lidar: np.ndarray, satnav: np.ndarray) -> None:
+        self.lidar[:] = lidar[:, None, :]
+        self.satnav[:] = satnav[:, None, :]
+
+    def push(self, cars: np.ndarray, lidar: np.ndarray, satnav: np.ndarray) -> None:
+        """Append a frame for the cars listed in ``cars`` (indices)."""
+        self.lidar[cars, :-1] = self.lidar[cars, 1:]
+        self.lidar[cars, -1] = lidar
+        self.satnav[cars, :-1] = self.satnav[cars, 1:]
+        self.satnav[cars, -1] = satnav
+
+    def observations(self, cars: np.ndarray) -> np.ndarray:
+        """Flat ``(len(cars), size)`` observations."""
+        n = len(cars)
+        return np.concatenate(
+            [self.lidar[cars].reshape(n, -1), self.satnav[cars].reshape(n, -1)], axis=1
+        )

@@ -1,0 +1,1 @@
+"""The Box2D world: bodies, velocity control along paths, and contact events."""

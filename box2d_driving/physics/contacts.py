@@ -1,0 +1,30 @@
+"""Contact recording. The listener only records; the world decides what a contact means."""
+
+from __future__ import annotations
+
+from Box2D import b2ContactListener
+
+# Body kinds stored in fixture userData as (kind, index).
+CAR = "car"
+EDGE = "edge"
+PEDESTRIAN = "pedestrian"
+
+# Collision filter categories.
+CAT_CAR = 0x0001
+CAT_EDGE = 0x0002
+CAT_PEDESTRIAN = 0x0004
+
+
+class ContactRecorder(b2ContactListener):
+    """Appends ``((kind_a, index_a), (kind_b, index_b))`` for every contact that starts touching."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.events: list[tuple[tuple[str, int], tuple[str, int]]] = []
+
+    def BeginContact(self, contact) -> None:  # noqa: N802 (Box2D's name)
+        self.events.append((contact.fixtureA.userData, contact.fixtureB.userData))
+
+    def drain(self) -> list[tuple[tuple[str, int], tuple[str, int]]]:
+        events, self.events = self.events, []
+        return events

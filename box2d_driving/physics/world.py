@@ -1,0 +1,233 @@
+"""The Box2D world of one episode: car and pedestrian bodies, velocity control, contacts.
+
+Cars follow their paths by velocity control: every physics step, Box2D is given the velocity that
+carries the body along the exactly integrated path motion, and Box2D integrates it, so contacts and
+ray casts see the real swept motion. Bodies are Box2D sensors: a contact is an event, never an
+impulse, so a collided car halts exactly where it touched. Contacts are evaluated after every
+physics step (a zero-length ``Step`` updates them at the new poses), so an overlap is recorded on
+the step that created it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from Box2D import b2EdgeShape, b2PolygonShape, b2World
+
+from box2d_driving.config import DrivingConfig
+from box2d_driving.physics.contacts import (
+    CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, EDGE, PEDESTRIAN, ContactRecorder,
+)
+from box2d_driving.physics.kinematics import longitudinal_profile, path_poses
+from box2d_driving.road.geometry import pack_paths, wrap_angle
+from box2d_driving.road.layout import Layout
+
+ACTIVE = 0
+ARRIVED = 1
+COLLIDED = 2
+
+# Box2D solver iterations: bodies are sensors, so there are no constraints to solve.
+_VELOCITY_ITERATIONS = 1
+_POSITION_ITERATIONS = 1
+
+
+@dataclass
+class DecisionEvents:
+    """What happened to each car during one decision.
+
+    Attributes:
+        arrived: ``(N,)`` reached its goal during this decision.
+        collided: ``(N,)`` had its first collision during this decision.
+        collided_with: per car, ``"car"``, ``"edge"``, ``"pedestrian"`` or None.
+        substep: ``(N,)`` physics step (1-based) of the event, 0 if none.
+    """
+
+    arrived: np.ndarray
+    collided: np.ndarray
+    collided_with: list
+    substep: np.ndarray
+
+
+class DrivingWorld:
+    """Owns the ``b2World`` of one episode and the cars' longitudinal state."""
+
+    def __init__(self, config: DrivingConfig) -> None:
+        self.config = config
+        self.contacts = ContactRecorder()
+        self.world: b2World | None = None
+        self.layout: Layout | None = None
+
+    # -- building ------------------------------------------------------------------------------
+    def reset(self, layout: Layout) -> None:
+        cfg = self.config
+        self.layout = layout
+        self.contacts.drain()
+        self.world = b2World(gravity=(0, 0), doSleep=False, contactListener=self.contacts)
+        n = len(layout.cars)
+        self.n_cars = n
+
+        edge_body = self.world.CreateStaticBody()
+        for j, (a, b) in enumerate(np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)):
+            fx = edge_body.CreateFixture(
+                shape=b2EdgeShape(vertices=[tuple(a), tuple(b)]), isSensor=True,
+                categoryBits=CAT_EDGE, maskBits=CAT_CAR,
+            )
+            fx.userData = (EDGE, j)
+        self.edge_segments = np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)
+
+        paths = [c.path for c in layout.cars]
+        self.path_points, self.path_cumlen, self.path_counts = pack_paths(paths)
+        self.s_end = np.array([p.length for p in paths], dtype=float)
+        self.ratings = np.array([c.rating for c in layout.cars], dtype=float)
+        self.v_lim = cfg.v_lim * self.ratings
+        self.s = np.zeros(n)
+        self.speed = np.zeros(n)
+        self.accel = np.zeros(n)
+        self.status = np.full(n, ACTIVE, dtype=np.int64)
+        self.collided_with: list = [None] * n
+
+        hl, hw = cfg.car_length / 2, cfg.car_width / 2
+        self.car_bodies = []
+        for i, spawn in enumerate(layout.cars):
+            (x, y), heading = spawn.path.pose(0.0)
+            body = self.world.CreateDynamicBody(position=(float(x), float(y)), angle=float(heading))
+            fx = body.CreateFixture(
+                shape=b2PolygonShape(box=(hl, hw)), density=1.0, isSensor=True,
+                categoryBits=CAT_CAR, maskBits=CAT_CAR | CAT_EDGE | CAT_PEDESTRIAN,
+            )
+            fx.userData = (CAR, i)
+            self.car_bodies.append(body)
+        self._angular = [0.0] * n
+
+        self.ped_bodies = []
+        self.ped_bounds = np.array([p.y_bounds for p in layout.pedestrians], dtype=float).reshape(-1, 2)
+        self.ped_sizes = np.array([p.size for p in layout.pedestrians], dtype=float)
+        self.ped_velocity = np.array([p.velocity for p in layout.pedestrians], dtype=float).reshape(-1, 2)
+        for k, ped in enumerate(layout.pedestrians):
+            body = self.world.CreateDynamicBody(position=tuple(map(float, ped.position)))
+            fx = body.CreateFixture(
+                shape=b2PolygonShape(box=(ped.size / 2, ped.size / 2)), density=1.0, isSensor=True,
+                categoryBits=CAT_PEDESTRIAN, maskBits=CAT_CAR,
+            )
+            fx.userData = (PEDESTRIAN, k)
+            body.linearVelocity = tuple(map(float, ped.velocity))
+            self.ped_bodies.append(body)
+
+        # Evaluate contacts at the spawn poses (spawns never overlap, so this records nothing).
+        self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
+        self.contacts.drain()
+        self.read_poses()
+
+    # -- stepping -----------------------------------------------------------------------------
+    def advance(self, accel: np.ndarray) -> DecisionEvents:
+        """Hold accelerations ``accel`` (m/s^2, per car) for one decision."""
+        cfg = self.config
+        n, k_steps, dt = self.n_cars, cfg.substeps, cfg.dt
+        moving = self.status == ACTIVE
+        self.accel = np.where(moving, accel, 0.0)
+
+        s_out = np.empty((n, k_steps + 1))
+        v_out = np.empty((n, k_steps + 1))
+        arrive = np.zeros(n, dtype=np.int64)
+        longitudinal_profile(self.s, self.speed, self.accel, self.v_lim, self.s_end, moving,
+                             dt, k_steps, s_out, v_out, arrive)
+        xy = np.empty((n, k_steps + 1, 2))
+        heading = np.empty((n, k_steps + 1))
+        path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
+        velocity = (np.diff(xy, axis=1) / dt).tolist()
+        angular = (wrap_angle(np.diff(heading, axis=1)) / dt).tolist()
+        arrive_at = arrive.tolist()
+
+        events = DecisionEvents(
+            arrived=np.zeros(n, dtype=bool), collided=np.zeros(n, dtype=bool),
+            collided_with=[None] * n, substep=np.zeros(n, dtype=np.int64),
+        )
+        live = [i for i in range(n) if moving[i]]
+        bodies = self.car_bodies
+        for k in range(k_steps):
+            for i in live:
+                body = bodies[i]
+                body.linearVelocity = velocity[i][k]
+                w = angular[i][k]
+                if w != self._angular[i]:
+                    body.angularVelocity = w
+                    self._angular[i] = w
+            self.world.Step(dt, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
+            self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
+            if self.contacts.events:
+                for i in self._apply_contacts(self.contacts.drain(), events, k + 1):
+                    self.s[i] = s_out[i, k + 1]
+                    if i in live:
+                        live.remove(i)
+            for i in list(live):
+                if arrive_at[i] == k + 1:
+                    live.remove(i)
+                    self.status[i] = ARRIVED
+                    events.arrived[i] = True
+                    events.substep[i] = k + 1
+                    self.s[i] = self.s_end[i]
+                    self.speed[i] = v_out[i, k + 1]
+                    bodies[i].linearVelocity = (0.0, 0.0)
+                    bodies[i].angularVelocity = 0.0
+                    bodies[i].active = False
+        for i in live:
+            self.s[i] = s_out[i, k_steps]
+            self.speed[i] = v_out[i, k_steps]
+        self._turn_pedestrians()
+        self.read_poses()
+        return events
+
+    def _apply_contacts(self, contacts, events: DecisionEvents, substep: int) -> list[int]:
+        """Mark first collisions; returns the cars that collided now."""
+        hit: list[int] = []
+        for a, b in contacts:
+            for me, other in ((a, b), (b, a)):
+                if me[0] != CAR:
+                    continue
+                i = me[1]
+                if self.status[i] != ACTIVE:
+                    continue
+                self.status[i] = COLLIDED
+                self.collided_with[i] = other[0]
+                events.collided[i] = True
+                events.collided_with[i] = other[0]
+                events.substep[i] = substep
+                hit.append(i)
+        for i in hit:
+            body = self.car_bodies[i]
+            body.linearVelocity = (0.0, 0.0)
+            body.angularVelocity = 0.0
+            self._angular[i] = 0.0
+            self.speed[i] = 0.0
+            if self.config.remove_collided:
+                body.active = False
+        return hit
+
+    def _turn_pedestrians(self) -> None:
+        """Pedestrians that walked past the end of their crossing turn back."""
+        for k, body in enumerate(self.ped_bodies):
+            y = body.position.y
+            vy = self.ped_velocity[k, 1]
+            lo, hi = self.ped_bounds[k]
+            if (y > hi and vy > 0) or (y < lo and vy < 0):
+                self.ped_velocity[k] *= -1.0
+                body.linearVelocity = tuple(self.ped_velocity[k])
+
+    # -- reading ------------------------------------------------------------------------------
+    def read_poses(self) -> None:
+        """Cache car and pedestrian poses from Box2D (float64 copies)."""
+        pos = np.empty((self.n_cars, 2))
+        ang = np.empty(self.n_cars)
+        for i, body in enumerate(self.car_bodies):
+            pos[i] = body.position.tuple
+            ang[i] = body.angle
+        self.positions = pos
+        self.headings = wrap_angle(ang)
+        self.ped_positions = np.array([b.position.tuple for b in self.ped_bodies],
+                                      dtype=float).reshape(-1, 2)
+
+    @property
+    def present(self) -> np.ndarray:
+        """Cars whose bodies are in the world (active or halted, not arrived or removed)."""
+        return np.array([b.active for b in self.car_bodies], dtype=bool)

@@ -1,0 +1,48 @@
+"""Versioned env ids: ``make(env_id, **overrides)`` and ``registry()``."""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any
+
+from box2d_driving.config import ConfigError
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """One registered env: its id, the module that provides ``parallel_env``, a description."""
+
+    env_id: str
+    module: str
+    description: str
+
+
+_SPECS = {
+    spec.env_id: spec
+    for spec in (
+        EnvSpec("intersection-v0", "box2d_driving.envs.intersection_v0",
+                "signalled four-way junction, fixed straight tracks (traffic lights)"),
+        EnvSpec("highway-v0", "box2d_driving.envs.highway_v0",
+                "one-way highway, cars of different acceleration ratings (safe distance)"),
+        EnvSpec("crosswalk-v0", "box2d_driving.envs.crosswalk_v0",
+                "highway with a crosswalk and crossing pedestrians (slow down for pedestrians)"),
+    )
+}
+
+
+def registry() -> dict[str, str]:
+    """Registered env ids with one-line descriptions."""
+    return {k: v.description for k, v in _SPECS.items()}
+
+
+def env_module(env_id: str):
+    """The PettingZoo-style module of ``env_id`` (has ``parallel_env`` and ``env``)."""
+    if env_id not in _SPECS:
+        raise ConfigError(f"unknown env id {env_id!r}; registered: {', '.join(_SPECS)}")
+    return importlib.import_module(_SPECS[env_id].module)
+
+
+def make(env_id: str, **overrides: Any):
+    """Create the parallel env ``env_id`` with config ``overrides`` (e.g. ``num_cars=8``)."""
+    return env_module(env_id).parallel_env(**overrides)

@@ -1,0 +1,1 @@
+"""Road geometry: paths, splines, traffic lights and the per-episode road layout."""

@@ -1,0 +1,148 @@
+"""Paths that cars follow: polylines with arc length, and centripetal Catmull-Rom splines.
+
+All coordinates are metres in the world frame; headings are radians counter-clockwise from +x.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Path:
+    """A polyline parameterised by arc length.
+
+    Attributes:
+        points: ``(P, 2)`` vertices (m), P >= 2, consecutive vertices distinct.
+        cumlen: ``(P,)`` arc length at each vertex (m); ``cumlen[0] == 0``.
+    """
+
+    points: np.ndarray
+    cumlen: np.ndarray
+
+    @staticmethod
+    def from_points(points: np.ndarray) -> "Path":
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
+            raise ValueError(f"a path needs at least two 2-D points, got shape {pts.shape}")
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        keep = np.concatenate([[True], seg > 1e-9])
+        pts = pts[keep]
+        if len(pts) < 2:
+            raise ValueError("a path needs two distinct points")
+        cumlen = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+        return Path(pts, cumlen)
+
+    @staticmethod
+    def straight(start: np.ndarray, end: np.ndarray) -> "Path":
+        return Path.from_points(np.array([start, end], dtype=np.float64))
+
+    @property
+    def length(self) -> float:
+        return float(self.cumlen[-1])
+
+    def pose(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Position ``(..., 2)`` and heading ``(...)`` at arc length ``s`` (clipped to the path)."""
+        s = np.clip(np.asarray(s, dtype=np.float64), 0.0, self.length)
+        idx = np.clip(np.searchsorted(self.cumlen, s, side="right") - 1, 0, len(self.points) - 2)
+        a = self.points[idx]
+        b = self.points[idx + 1]
+        seg = self.cumlen[idx + 1] - self.cumlen[idx]
+        u = ((s - self.cumlen[idx]) / seg)[..., None]
+        d = b - a
+        return a + u * d, np.arctan2(d[..., 1], d[..., 0])
+
+    def project(self, point: np.ndarray) -> float:
+        """Arc length of the closest point of the path to ``point``."""
+        p = np.asarray(point, dtype=np.float64)
+        a, b = self.points[:-1], self.points[1:]
+        d = b - a
+        u = np.clip(np.einsum("ij,ij->i", p - a, d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+        dist = np.linalg.norm(a + u[:, None] * d - p, axis=1)
+        i = int(np.argmin(dist))
+        return float(self.cumlen[i] + u[i] * (self.cumlen[i + 1] - self.cumlen[i]))
+
+
+def catmull_rom(control: np.ndarray, alpha: float = 0.5, samples_per_segment: int = 64) -> np.ndarray:
+    """Sample a Catmull-Rom spline through ``control`` points.
+
+    ``alpha = 0.5`` is the centripetal parameterisation (no cusps or self-intersections within a
+    segment). The curve passes through every control point; the end segments use mirrored
+    phantom points so that it starts at the first and ends at the last control point.
+
+    Returns ``(samples, 2)`` points, the control points included exactly.
+    """
+    p = np.asarray(control, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 2 or len(p) < 2:
+        raise ValueError(f"catmull_rom needs at least two 2-D control points, got {p.shape}")
+    ext = np.vstack([2 * p[0] - p[1], p, 2 * p[-1] - p[-2]])
+    out = [p[:1]]
+    u = np.linspace(0.0, 1.0, samples_per_segment + 1)[1:, None]
+    for i in range(len(p) - 1):
+        p0, p1, p2, p3 = ext[i], ext[i + 1], ext[i + 2], ext[i + 3]
+        t0 = 0.0
+        t1 = t0 + max(np.linalg.norm(p1 - p0), 1e-9) ** alpha
+        t2 = t1 + max(np.linalg.norm(p2 - p1), 1e-9) ** alpha
+        t3 = t2 + max(np.linalg.norm(p3 - p2), 1e-9) ** alpha
+        t = t1 + u * (t2 - t1)
+        a1 = (t1 - t) / (t1 - t0) * p0 + (t - t0) / (t1 - t0) * p1
+        a2 = (t2 - t) / (t2 - t1) * p1 + (t - t1) / (t2 - t1) * p2
+        a3 = (t3 - t) / (t3 - t2) * p2 + (t - t2) / (t3 - t2) * p3
+        b1 = (t2 - t) / (t2 - t0) * a1 + (t - t0) / (t2 - t0) * a2
+        b2 = (t3 - t) / (t3 - t1) * a2 + (t - t1) / (t3 - t1) * a3
+        c = (t2 - t) / (t2 - t1) * b1 + (t - t1) / (t2 - t1) * b2
+        c[-1] = p2  # exact at the control point
+        out.append(c)
+    return np.vstack(out)
+
+
+def spline_path(control: np.ndarray, alpha: float = 0.5, samples_per_segment: int = 64) -> Path:
+    """A :class:`Path` along the centripetal Catmull-Rom spline through ``control``."""
+    return Path.from_points(catmull_rom(control, alpha, samples_per_segment))
+
+
+def pack_paths(paths: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pad paths into arrays for batched kernels: points ``(N, P, 2)``, cumlen ``(N, P)``,
+    vertex counts ``(N,)``. Padding repeats the last vertex."""
+    n = len(paths)
+    p_max = max(len(p.points) for p in paths) if paths else 2
+    pts = np.zeros((n, p_max, 2))
+    cum = np.zeros((n, p_max))
+    counts = np.zeros(n, dtype=np.int64)
+    for i, path in enumerate(paths):
+        k = len(path.points)
+        pts[i, :k] = path.points
+        pts[i, k:] = path.points[-1]
+        cum[i, :k] = path.cumlen
+        cum[i, k:] = path.cumlen[-1]
+        counts[i] = k
+    return pts, cum, counts
+
+
+def rectangle_corners(x: float, y: float, heading: float, length: float, width: float) -> np.ndarray:
+    """Corners ``(4, 2)`` of a rectangle centred at (x, y), counter-clockwise."""
+    c, s = np.cos(heading), np.sin(heading)
+    hl, hw = length / 2, width / 2
+    local = np.array([[hl, -hw], [hl, hw], [-hl, hw], [-hl, -hw]])
+    rot = np.array([[c, -s], [s, c]])
+    return local @ rot.T + np.array([x, y])
+
+
+def rectangles_overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Separating-axis test for two convex polygons given as ``(K, 2)`` corner arrays."""
+    for poly in (a, b):
+        edges = np.roll(poly, -1, axis=0) - poly
+        for ex, ey in edges:
+            axis = np.array([-ey, ex])
+            pa = a @ axis
+            pb = b @ axis
+            if pa.max() <= pb.min() or pb.max() <= pa.min():
+                return False
+    return True
+
+
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
+    """Wrap to ``[-pi, pi)``."""
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi

@@ -1,0 +1,91 @@
+"""The per-episode road layout a scenario produces and the env turns into a Box2D world."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from box2d_driving.road.geometry import Path
+from box2d_driving.road.lights import TrafficLights
+
+
+@dataclass(frozen=True)
+class LaneAxis:
+    """The road axis a car's lane position is measured from.
+
+    ``offset = (p - origin) . right(direction) / half_width``: positive on the right-hand side of
+    the direction of travel, +-1 at the road edges.
+    """
+
+    origin: np.ndarray
+    direction: np.ndarray
+    half_width: float
+
+    def offset(self, positions: np.ndarray) -> np.ndarray:
+        right = np.array([self.direction[1], -self.direction[0]])
+        return (np.asarray(positions) - self.origin) @ right / self.half_width
+
+
+@dataclass(frozen=True)
+class CarSpawn:
+    """One car: the path it follows from its spawn point (arc length 0) to its goal (the end).
+
+    Attributes:
+        path: the track.
+        light_index: index of the light controlling its approach, -1 if none.
+        rating: acceleration rating; scales accelerations and the speed limit.
+        lane_axis: for the signed normalised lane offset.
+        approach: index of the approach (road) it starts on, -1 if not meaningful.
+    """
+
+    path: Path
+    light_index: int = -1
+    rating: float = 1.0
+    lane_axis: Optional[LaneAxis] = None
+    approach: int = -1
+
+
+@dataclass(frozen=True)
+class PedestrianSpawn:
+    """A square pedestrian (side ``size``, m) walking at constant velocity (m/s), turning back
+    when it leaves ``y_bounds``."""
+
+    position: np.ndarray
+    velocity: np.ndarray
+    y_bounds: tuple[float, float]
+    size: float = 0.8
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Everything a scenario decides for one episode.
+
+    Attributes:
+        edges: ``(E, 2, 2)`` road-edge segments (m).
+        cars: one spawn per car, in agent order.
+        pedestrians: pedestrians on the crosswalk.
+        lights: the junction's lights, or None.
+        junction_box: ``(xmin, ymin, xmax, ymax)`` of the junction, or None.
+        crosswalk: ``(xmin, ymin, xmax, ymax)`` of the crosswalk, or None.
+        drivable: polygons ``(K, 2)`` of drivable surface, for drawing.
+        stop_lines: ``(S, 2, 2)`` stop-line segments, for drawing.
+    """
+
+    edges: np.ndarray
+    cars: list[CarSpawn]
+    pedestrians: list[PedestrianSpawn] = field(default_factory=list)
+    lights: Optional[TrafficLights] = None
+    junction_box: Optional[tuple[float, float, float, float]] = None
+    crosswalk: Optional[tuple[float, float, float, float]] = None
+    drivable: list[np.ndarray] = field(default_factory=list)
+    stop_lines: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+
+    def in_junction(self, positions: np.ndarray) -> np.ndarray:
+        """Whether each position lies inside the junction box."""
+        if self.junction_box is None:
+            return np.zeros(len(positions), dtype=bool)
+        x0, y0, x1, y1 = self.junction_box
+        p = np.asarray(positions)
+        return (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)

@@ -1,0 +1,88 @@
+"""Traffic lights: two antiphase groups and the rule for which light a car can see.
+
+Observation values: green 0.0, yellow 0.5, red 1.0, and 0.75 when no light is visible. Each light
+cycles green ``T - y``, yellow ``y``, red ``T - y``, yellow ``y`` (seconds), where ``T`` is the
+half period and ``y`` the yellow time; group 1 runs half a cycle behind group 0, so when one group
+is green the other is red, and both show yellow together for ``y`` seconds between.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+GREEN = 0.0
+YELLOW = 0.5
+RED = 1.0
+NO_LIGHT = 0.75
+
+
+@dataclass(frozen=True)
+class TrafficLights:
+    """The lights of one junction for one episode.
+
+    Attributes:
+        stop_points: ``(L, 2)`` centre of each light's stop line (m).
+        directions: ``(L, 2)`` unit travel direction of the approach the light controls.
+        groups: ``(L,)`` group index, 0 or 1.
+        half_period: ``T`` (s).
+        yellow: yellow duration ``y`` (s).
+        offset: phase at time 0 (s), in ``[0, 2T)``.
+    """
+
+    stop_points: np.ndarray
+    directions: np.ndarray
+    groups: np.ndarray
+    half_period: float
+    yellow: float
+    offset: float
+
+    def __len__(self) -> int:
+        return len(self.groups)
+
+    def values(self, time: float) -> np.ndarray:
+        """Light value of every light at ``time`` seconds after reset, shape ``(L,)``."""
+        cycle = 2.0 * self.half_period
+        phase = (time + self.offset + self.groups * self.half_period) % cycle
+        return phase_value(phase, self.half_period, self.yellow)
+
+    def seen(self, time: float, light_index: np.ndarray, positions: np.ndarray,
+             headings: np.ndarray, view_distance: float) -> np.ndarray:
+        """The light value each car sees, shape ``(N,)``.
+
+        A car sees only the light of its own approach (``light_index``, -1 for none), and only
+        while its centre is within ``view_distance`` before the stop line and it faces the
+        direction of travel (heading within 90 degrees); otherwise it sees ``NO_LIGHT``.
+        """
+        out = np.full(len(light_index), NO_LIGHT)
+        has = light_index >= 0
+        if not has.any() or len(self) == 0:
+            return out
+        li = light_index[has]
+        d = self.directions[li]
+        ahead = np.einsum("ij,ij->i", self.stop_points[li] - positions[has], d)
+        facing = np.cos(headings[has]) * d[:, 0] + np.sin(headings[has]) * d[:, 1] > 0.0
+        visible = (ahead > 0.0) & (ahead <= view_distance) & facing
+        out[np.flatnonzero(has)[visible]] = self.values(time)[li[visible]]
+        return out
+
+
+def phase_value(phase: np.ndarray, half_period: float, yellow: float) -> np.ndarray:
+    """Value of a group-0 light at ``phase`` seconds into its ``2T`` cycle."""
+    phase = np.asarray(phase, dtype=np.float64)
+    t = half_period
+    return np.select(
+        [phase < t - yellow, phase < t, phase < 2 * t - yellow],
+        [GREEN, YELLOW, RED],
+        default=YELLOW,
+    )
+
+
+def sample_lights(rng: np.random.Generator, stop_points: np.ndarray, directions: np.ndarray,
+                  groups: np.ndarray, period_range: tuple[float, float], yellow: float) -> TrafficLights:
+    """Lights with ``T ~ U[period_range)`` and a uniformly random start phase."""
+    half_period = float(rng.uniform(*period_range))
+    offset = float(rng.uniform(0.0, 2.0 * half_period))
+    return TrafficLights(np.asarray(stop_points, float), np.asarray(directions, float),
+                         np.asarray(groups, np.int64), half_period, yellow, offset)

@@ -1,0 +1,186 @@
+"""LiDAR: ``n_rays`` rays over 360 degrees from each car's centre, starting at its heading.
+
+Two backends return the same distances (they agree within 1e-3 m; tests check every ray):
+
+* ``numba``: all cars x all rays at once. Each segment of the scene is tested only against the
+  rays whose directions fall inside the angle it subtends, so the cost grows with what is in view,
+  not with ``n_rays x segments``.
+* ``box2d``: one ``world.RayCast`` per ray with a closest-hit callback.
+
+Semantics shared by both: the car's own body is excluded; a ray hits the first car, halted car,
+pedestrian or road edge within ``range``; a polygon is seen only from outside (as Box2D does);
+``inf`` means no return.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from Box2D import b2RayCastCallback
+from numba import njit
+
+from box2d_driving.road.geometry import rectangle_corners
+
+OWNER_EDGE = -1
+OWNER_PEDESTRIAN = -2
+
+
+def scene_segments(car_positions: np.ndarray, car_headings: np.ndarray, car_present: np.ndarray,
+                   car_length: float, car_width: float, ped_positions: np.ndarray,
+                   ped_size: np.ndarray, edges: np.ndarray):
+    """Everything a ray can hit as segments.
+
+    Returns ``segs (M, 4)`` as ``[ax, ay, bx, by]``, ``owner (M,)`` (car index, or
+    ``OWNER_EDGE`` / ``OWNER_PEDESTRIAN``) and ``one_sided (M,)`` (polygon sides, counter-clockwise,
+    hit only from outside).
+    """
+    parts, owners, sided = [], [], []
+    for i in np.flatnonzero(car_present):
+        c = rectangle_corners(*car_positions[i], car_headings[i], car_length, car_width)
+        parts.append(np.hstack([c, np.roll(c, -1, axis=0)]))
+        owners.append(np.full(4, i))
+        sided.append(np.ones(4, dtype=bool))
+    for k in range(len(ped_positions)):
+        c = rectangle_corners(*ped_positions[k], 0.0, ped_size[k], ped_size[k])
+        parts.append(np.hstack([c, np.roll(c, -1, axis=0)]))
+        owners.append(np.full(4, OWNER_PEDESTRIAN))
+        sided.append(np.ones(4, dtype=bool))
+    if len(edges):
+        e = np.asarray(edges, dtype=float).reshape(-1, 4)
+        parts.append(e)
+        owners.append(np.full(len(e), OWNER_EDGE))
+        sided.append(np.zeros(len(e), dtype=bool))
+    if not parts:
+        return np.zeros((0, 4)), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
+    return (np.vstack(parts), np.concatenate(owners).astype(np.int64), np.concatenate(sided))
+
+
+@njit(cache=True)
+def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_sided, out):
+    """Closest hit distance of every ray of every observer; ``inf`` where nothing is in range.
+
+    ``observer[c]`` is the car index of observer ``c`` (its own segments are skipped).
+    """
+    dtheta = 2.0 * math.pi / n_rays
+    r2max = max_range * max_range
+    cos_r = np.empty(n_rays)
+    sin_r = np.empty(n_rays)
+    for c in range(origins.shape[0]):
+        ox = origins[c, 0]
+        oy = origins[c, 1]
+        h = headings[c]
+        for k in range(n_rays):
+            cos_r[k] = math.cos(h + k * dtheta)
+            sin_r[k] = math.sin(h + k * dtheta)
+            out[c, k] = math.inf
+        for m in range(segs.shape[0]):
+            if owner[m] == observer[c]:
+                continue
+            ax = segs[m, 0] - ox
+            ay = segs[m, 1] - oy
+            bx = segs[m, 2] - ox
+            by = segs[m, 3] - oy
+            ex = bx - ax
+            ey = by - ay
+            ll = ex * ex + ey * ey
+            if ll <= 0.0:
+                continue
+            u = -(ax * ex + ay * ey) / ll
+            if u < 0.0:
+                u = 0.0
+            elif u > 1.0:
+                u = 1.0
+            px = ax + u * ex
+            py = ay + u * ey
+            if px * px + py * py > r2max:
+                continue
+            alpha = math.atan2(ay, ax) - h
+            beta = math.atan2(by, bx) - h
+            span = beta - alpha
+            span = (span + math.pi) % (2.0 * math.pi) - math.pi
+            if abs(abs(span) - math.pi) < 1e-9:
+                k0 = 0
+                k1 = n_rays - 1
+            else:
+                start = alpha if span >= 0.0 else beta
+                k0 = int(math.floor(start / dtheta)) - 1
+                k1 = int(math.ceil((start + abs(span)) / dtheta)) + 1
+                if k1 - k0 >= n_rays:
+                    k0 = 0
+                    k1 = n_rays - 1
+            for kk in range(k0, k1 + 1):
+                k = kk % n_rays
+                rc = cos_r[k]
+                rs = sin_r[k]
+                denom = rc * ey - rs * ex
+                if denom == 0.0 or (one_sided[m] and denom > 0.0):
+                    continue
+                t = (ax * ey - ay * ex) / denom
+                if t < 0.0 or t > max_range or t >= out[c, k]:
+                    continue
+                s = (ax * rs - ay * rc) / denom
+                if 0.0 <= s <= 1.0:
+                    out[c, k] = t
+
+
+class _ClosestHit(b2RayCastCallback):
+    """Closest fixture along a ray, ignoring one body."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.ignore = None
+        self.fraction = 1.0
+        self.hit = False
+
+    def ReportFixture(self, fixture, point, normal, fraction):  # noqa: N802 (Box2D's name)
+        if fixture.body is self.ignore:
+            return -1.0
+        self.hit = True
+        self.fraction = fraction
+        return fraction
+
+
+def cast_rays_box2d(world, bodies, origins, headings, n_rays: int, max_range: float) -> np.ndarray:
+    """The same distances as :func:`cast_rays`, through ``world.RayCast``. ``bodies[c]`` is
+    observer ``c``'s own body (excluded)."""
+    out = np.full((len(origins), n_rays), np.inf)
+    cb = _ClosestHit()
+    angles = np.arange(n_rays) * (2.0 * math.pi / n_rays)
+    for c in range(len(origins)):
+        ox, oy = float(origins[c, 0]), float(origins[c, 1])
+        cb.ignore = bodies[c]
+        for k in range(n_rays):
+            th = headings[c] + angles[k]
+            end = (ox + max_range * math.cos(th), oy + max_range * math.sin(th))
+            cb.hit, cb.fraction = False, 1.0
+            world.RayCast(cb, (ox, oy), end)
+            if cb.hit:
+                out[c, k] = cb.fraction * max_range
+    return out
+
+
+def dropout_mask(rng: np.random.Generator, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
+    """``(n_cars, n_rays)`` boolean mask with exactly ``round(noise * n_rays)`` True per row,
+    chosen uniformly at random (the rays to drop)."""
+    k = int(math.floor(noise * n_rays + 0.5))
+    mask = np.zeros((n_cars, n_rays), dtype=bool)
+    if k == 0 or n_cars == 0:
+        return mask
+    if k >= n_rays:
+        mask[:] = True
+        return mask
+    idx = np.argpartition(rng.random((n_cars, n_rays)), k, axis=1)[:, :k]
+    np.put_along_axis(mask, idx, True, axis=1)
+    return mask
+
+
+def encode(distances: np.ndarray, max_range: float, encoding: str) -> np.ndarray:
+    """Distances to observation values; no return (``inf``) becomes 0."""
+    hit = np.isfinite(distances)
+    out = np.zeros(distances.shape, dtype=np.float32)
+    if encoding == "inverse":
+        out[hit] = 1.0 / np.maximum(distances[hit], 1e-6)
+    else:
+        out[hit] = 1.0 - distances[hit] / max_range
+    return out
