@@ -120,7 +120,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self.history.reset(lidar_frame, satnav_frame)
         obs = self.history.observations(cars)
         observations = {a: obs[i] for i, a in enumerate(self.agents)}
-        infos = {a: self._info(i, None) for i, a in enumerate(self.agents)}
+        facts = self._facts(cars)
+        infos = {a: self._info(i, facts[j]) for j, (i, a) in enumerate(zip(cars, self.agents))}
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
@@ -164,13 +165,15 @@ class DrivingEnv(ParallelEnv, EzPickle):
         done = events.arrived[acting] | events.collided[acting]
         truncated = self.decision >= cfg.horizon
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
+        facts = self._facts(acting)
         for j, i in enumerate(acting.tolist()):
             agent = self.possible_agents[i]
             observations[agent] = obs[j]
             rewards[agent] = float(total[j])
             terminations[agent] = bool(done[j])
             truncations[agent] = bool(truncated and not done[j])
-            infos[agent] = self._info(i, {t: float(terms[t][j]) for t in TERMS}, events)
+            infos[agent] = self._info(i, facts[j])
+            infos[agent]["reward_terms"] = {t: float(terms[t][j]) for t in TERMS}
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
         return observations, rewards, terminations, truncations, infos
 
@@ -256,18 +259,25 @@ class DrivingEnv(ParallelEnv, EzPickle):
         out[has] = self._bits[senders[best[has]]]
         return out
 
-    def _info(self, i: int, terms: Optional[dict], events=None) -> dict[str, Any]:
+    def _facts(self, cars: np.ndarray) -> list[tuple]:
+        """Per-car geometric facts for infos, computed for all ``cars`` at once."""
         w = self.world
-        axis = self._lane_axes[i]
-        pos = w.positions[i]
+        pos = w.positions[cars]
+        inside = self.layout.in_junction(pos).tolist()
+        offsets = [float(self._lane_axes[i].offset(pos[j])) if self._lane_axes[i] is not None
+                   else float("nan") for j, i in enumerate(cars.tolist())]
+        return list(zip(inside, offsets))
+
+    def _info(self, i: int, facts: tuple) -> dict[str, Any]:
+        w = self.world
         info = {
-            "position": pos.copy(),
+            "position": w.positions[i].copy(),
             "heading": float(w.headings[i]),
             "speed": float(w.speed[i]),
             "acceleration": float(w.accel[i]),
             "light": float(self._seen[i]),
-            "in_junction": bool(self.layout.in_junction(pos[None])[0]),
-            "lane_offset": float(axis.offset(pos)) if axis is not None else float("nan"),
+            "in_junction": facts[0],
+            "lane_offset": facts[1],
             "distance_to_goal": float(w.s_end[i] - w.s[i]),
             "arrived": bool(w.status[i] == ARRIVED),
             "collided": bool(w.status[i] == COLLIDED),
@@ -279,7 +289,4 @@ class DrivingEnv(ParallelEnv, EzPickle):
         if self.config.communication:
             info["bit_sent"] = int(self._bits[i])
             info["bit_received"] = int(self._received[i])
-        if terms is not None:
-            info["reward_terms"] = terms
         return info
-

@@ -20,10 +20,28 @@ import numpy as np
 from Box2D import b2RayCastCallback
 from numba import njit
 
-from box2d_driving.road.geometry import rectangle_corners
 
 OWNER_EDGE = -1
 OWNER_PEDESTRIAN = -2
+
+
+@njit(cache=True)
+def _fill_box_segments(centres, headings, half_length, half_width, out, row):
+    """Write the 4 counter-clockwise sides of each rectangle into ``out`` from ``row`` on."""
+    for i in range(centres.shape[0]):
+        c = math.cos(headings[i])
+        s = math.sin(headings[i])
+        hl = half_length[i]
+        hw = half_width[i]
+        xs = (hl, hl, -hl, -hl)
+        ys = (-hw, hw, hw, -hw)
+        for j in range(4):
+            k = (j + 1) % 4
+            r = row + 4 * i + j
+            out[r, 0] = centres[i, 0] + xs[j] * c - ys[j] * s
+            out[r, 1] = centres[i, 1] + xs[j] * s + ys[j] * c
+            out[r, 2] = centres[i, 0] + xs[k] * c - ys[k] * s
+            out[r, 3] = centres[i, 1] + xs[k] * s + ys[k] * c
 
 
 def scene_segments(car_positions: np.ndarray, car_headings: np.ndarray, car_present: np.ndarray,
@@ -35,25 +53,21 @@ def scene_segments(car_positions: np.ndarray, car_headings: np.ndarray, car_pres
     ``OWNER_EDGE`` / ``OWNER_PEDESTRIAN``) and ``one_sided (M,)`` (polygon sides, counter-clockwise,
     hit only from outside).
     """
-    parts, owners, sided = [], [], []
-    for i in np.flatnonzero(car_present):
-        c = rectangle_corners(*car_positions[i], car_headings[i], car_length, car_width)
-        parts.append(np.hstack([c, np.roll(c, -1, axis=0)]))
-        owners.append(np.full(4, i))
-        sided.append(np.ones(4, dtype=bool))
-    for k in range(len(ped_positions)):
-        c = rectangle_corners(*ped_positions[k], 0.0, ped_size[k], ped_size[k])
-        parts.append(np.hstack([c, np.roll(c, -1, axis=0)]))
-        owners.append(np.full(4, OWNER_PEDESTRIAN))
-        sided.append(np.ones(4, dtype=bool))
-    if len(edges):
-        e = np.asarray(edges, dtype=float).reshape(-1, 4)
-        parts.append(e)
-        owners.append(np.full(len(e), OWNER_EDGE))
-        sided.append(np.zeros(len(e), dtype=bool))
-    if not parts:
-        return np.zeros((0, 4)), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)
-    return (np.vstack(parts), np.concatenate(owners).astype(np.int64), np.concatenate(sided))
+    cars = np.flatnonzero(car_present)
+    edges = np.asarray(edges, dtype=float).reshape(-1, 4)
+    n_car, n_ped = len(cars), len(ped_positions)
+    segs = np.empty((4 * (n_car + n_ped) + len(edges), 4))
+    _fill_box_segments(car_positions[cars], car_headings[cars], np.full(n_car, car_length / 2),
+                       np.full(n_car, car_width / 2), segs, 0)
+    if n_ped:
+        _fill_box_segments(ped_positions, np.zeros(n_ped), ped_size / 2, ped_size / 2, segs,
+                           4 * n_car)
+    segs[4 * (n_car + n_ped):] = edges
+    owner = np.concatenate([np.repeat(cars, 4), np.full(4 * n_ped, OWNER_PEDESTRIAN),
+                            np.full(len(edges), OWNER_EDGE)]).astype(np.int64)
+    one_sided = np.zeros(len(segs), dtype=bool)
+    one_sided[: 4 * (n_car + n_ped)] = True
+    return segs, owner, one_sided
 
 
 @njit(cache=True)

@@ -1,0 +1,137 @@
+"""World speed benchmark (SPEC 7): agent-steps per second on the intersection.
+
+One agent-step is one decision of one car with the paper's settings (1 s decision = 10 physics
+steps of 0.1 s, 100 LiDAR rays, 5-frame history), random actions, one process, no rendering,
+resets included. Prints agent-steps/s for 4, 8, 16 and 32 cars, the share of time in LiDAR,
+physics and Python glue, and the process's peak memory.
+
+Usage: ``python -m box2d_driving.bench [--seconds 5] [--cars 4 8 16 32] [--json FILE]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import resource
+import sys
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+import box2d_driving
+
+# 32 cars need 8 slots per approach, and so longer roads than the default 16-car junction.
+_LARGE = {"slots_per_approach": 8, "road_length_range": (75.0, 100.0)}
+
+
+@dataclass
+class BenchResult:
+    cars: int
+    agent_steps_per_s: float
+    agent_steps: int
+    seconds: float
+    episodes: int
+    lidar_share: float
+    physics_share: float
+    glue_share: float
+
+
+class _Timer:
+    """Wraps a bound method and accumulates the wall time spent in it."""
+
+    def __init__(self, obj, name: str) -> None:
+        self.total = 0.0
+        inner = getattr(obj, name)
+
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.total += time.perf_counter() - t0
+
+        setattr(obj, name, timed)
+
+
+def env_overrides(cars: int) -> dict:
+    return dict(_LARGE) if cars > 16 else {}
+
+
+def run(cars: int, seconds: float, seed: int = 0) -> BenchResult:
+    env = box2d_driving.make("intersection-v0", num_cars=cars, **env_overrides(cars))
+    env.reset(seed=seed)  # first reset compiles/loads the Numba kernels; not timed
+    env.step({a: 0 for a in env.agents})
+    lidar_t = _Timer(env, "_lidar_distances")
+    physics_t = _Timer(env.world, "advance")
+    reset_physics_t = _Timer(env.world, "reset")
+    rng = np.random.default_rng(seed)
+    n_act = env.action_space(env.possible_agents[0]).n
+    steps, episodes = 0, 0
+    env.reset(seed=seed)
+    t0 = time.perf_counter()
+    while True:
+        if not env.agents:
+            env.reset()
+            episodes += 1
+        actions = dict(zip(env.agents, rng.integers(n_act, size=len(env.agents)).tolist()))
+        env.step(actions)
+        steps += len(actions)
+        elapsed = time.perf_counter() - t0
+        if elapsed >= seconds:
+            break
+    physics = physics_t.total + reset_physics_t.total
+    return BenchResult(
+        cars=cars, agent_steps_per_s=steps / elapsed, agent_steps=steps, seconds=elapsed,
+        episodes=episodes, lidar_share=lidar_t.total / elapsed, physics_share=physics / elapsed,
+        glue_share=max(0.0, 1.0 - (lidar_t.total + physics) / elapsed),
+    )
+
+
+def peak_memory_mib() -> float:
+    """Peak resident memory of this process (MiB)."""
+    kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return kib / 1024 if sys.platform != "darwin" else kib / 2**20
+
+
+def format_table(results: list[BenchResult]) -> str:
+    lines = [
+        "| cars | agent-steps/s | LiDAR | physics | glue | episodes |",
+        "|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in results:
+        lines.append(f"| {r.cars} | {r.agent_steps_per_s:,.0f} | {r.lidar_share:.0%} | "
+                     f"{r.physics_share:.0%} | {r.glue_share:.0%} | {r.episodes} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="box2d-driving bench", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="timed seconds per car count")
+    parser.add_argument("--cars", type=int, nargs="+", default=[4, 8, 16, 32])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", help="also write the results to this JSON file")
+    args = parser.parse_args(argv)
+    if args.seconds <= 0 or any(c < 1 for c in args.cars):
+        parser.error("--seconds must be positive and --cars at least 1")
+    print(f"box2d-driving {box2d_driving.__version__} world benchmark: intersection-v0, random "
+          f"actions, 10 x 0.1 s physics steps per decision, 100 rays, history 5, one process")
+    results = []
+    for cars in args.cars:
+        r = run(cars, args.seconds, args.seed)
+        results.append(r)
+        print(f"  {cars:>3} cars: {r.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
+    print()
+    print(format_table(results))
+    print(f"\npeak memory: {peak_memory_mib():.0f} MiB; python {platform.python_version()}, "
+          f"{platform.machine()}; 32 cars use {env_overrides(32)}")
+    if args.json:
+        with open(args.json, "x") as f:
+            json.dump({"results": [asdict(r) for r in results], "peak_memory_mib": peak_memory_mib()},
+                      f, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

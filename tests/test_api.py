@@ -1,0 +1,168 @@
+"""PettingZoo / Gymnasium contract of every registered env."""
+
+import pickle
+
+import numpy as np
+import pytest
+from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
+
+import box2d_driving
+from box2d_driving import ConfigError
+from box2d_driving.registry import env_module
+
+ENV_IDS = sorted(box2d_driving.registry())
+VARIANTS = [(e, {}) for e in ENV_IDS] + [("intersection-v0", {"communication": True, "lidar_noise": 0.5})]
+
+
+@pytest.mark.parametrize("env_id,overrides", VARIANTS)
+def test_parallel_api(env_id, overrides):
+    parallel_api_test(box2d_driving.make(env_id, **overrides), num_cycles=60)
+
+
+@pytest.mark.parametrize("env_id,overrides", VARIANTS)
+def test_parallel_seed(env_id, overrides):
+    parallel_seed_test(lambda: box2d_driving.make(env_id, **overrides), num_cycles=40)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_aec_api(env_id):
+    api_test(env_module(env_id).env(), num_cycles=30)
+
+
+@pytest.mark.parametrize("env_id,overrides", VARIANTS)
+def test_same_seed_same_trajectory_bit_for_bit(env_id, overrides):
+    def rollout():
+        env = box2d_driving.make(env_id, **overrides)
+        rng = np.random.default_rng(123)
+        obs, _ = env.reset(seed=7)
+        frames = [np.stack([obs[a] for a in sorted(obs)])]
+        for _ in range(100):
+            if not env.agents:
+                obs, _ = env.reset()
+            else:
+                actions = {a: int(rng.integers(env.action_space(a).n)) for a in env.agents}
+                obs, *_ = env.step(actions)
+            frames.append(np.stack([obs[a] for a in sorted(obs)]) if obs else np.zeros(0))
+        return frames
+
+    a, b = rollout(), rollout()
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        assert x.tobytes() == y.tobytes()
+
+
+def test_different_seeds_differ():
+    env = box2d_driving.make("intersection-v0")
+    o1, _ = env.reset(seed=1)
+    o2, _ = env.reset(seed=2)
+    assert not np.array_equal(o1["car_0"], o2["car_0"])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_pickle_round_trip(env_id):
+    env = box2d_driving.make(env_id, num_cars=3, lidar_noise=0.25)
+    clone = pickle.loads(pickle.dumps(env))
+    assert clone.config == env.config
+    o1, _ = env.reset(seed=3)
+    o2, _ = clone.reset(seed=3)
+    for a in o1:
+        np.testing.assert_array_equal(o1[a], o2[a])
+
+
+def test_spaces_are_the_same_object_every_call():
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    assert env.observation_space("car_0") is env.observation_space("car_3")
+    assert env.action_space("car_0") is env.action_space("car_0")
+    assert env.action_space("car_0").n == 13
+    assert box2d_driving.make("intersection-v0", communication=True).action_space("car_0").n == 26
+    assert box2d_driving.make("highway-v0").action_space("car_0").n == 25
+
+
+def test_observation_layout_is_documented_and_consistent():
+    env = box2d_driving.make("highway-v0", num_cars=2, n_rays=40, history=3)
+    lay = env.observation_layout
+    assert lay.satnav_fields == ("light", "speed", "heading_error", "inv_goal_distance", "rating")
+    obs, _ = env.reset(seed=0)
+    assert obs["car_0"].shape == (lay.size,) == env.observation_space("car_0").shape
+    lidar, satnav = lay.split(obs["car_0"])
+    assert lidar.shape == (3, 40) and satnav.shape == (3, 5)
+    # at reset the first frame is repeated
+    assert np.all(lidar == lidar[0]) and np.all(satnav == satnav[0])
+    assert satnav[0, lay.field("light")] == 0.75
+    assert 0.5 <= satnav[0, lay.field("rating")] < 1.0
+
+
+def test_history_is_oldest_first():
+    env = box2d_driving.make("intersection-v0", num_cars=1, history=3)
+    env.reset(seed=0)
+    lay = env.observation_layout
+    full = len(env.config.accelerations) - 1
+    speeds = []
+    for _ in range(3):
+        obs, *_ = env.step({"car_0": full})
+    _, satnav = lay.split(obs["car_0"])
+    speeds = satnav[:, lay.field("speed")]
+    assert speeds[0] < speeds[1] < speeds[2]
+
+
+def test_state_shape_and_space():
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    env.reset(seed=0)
+    s = env.state()
+    assert s.shape == env.state_space.shape and s.dtype == np.float32
+
+
+def test_registry_and_make_errors():
+    ids = box2d_driving.registry()
+    assert {"intersection-v0", "highway-v0", "crosswalk-v0"} <= set(ids)
+    assert all(isinstance(d, str) and d for d in ids.values())
+    with pytest.raises(ConfigError, match="unknown env id 'nope-v0'.*intersection-v0"):
+        box2d_driving.make("nope-v0")
+    with pytest.raises(ConfigError, match="unknown override.*num_carz.*valid:.*num_cars"):
+        box2d_driving.make("intersection-v0", num_carz=3)
+
+
+@pytest.mark.parametrize("overrides,match", [
+    ({"num_cars": -1}, "num_cars"),
+    ({"num_cars": 0}, "num_cars"),
+    ({"num_cars": 17}, "spawn slots"),
+    ({"lidar_noise": 1.5}, "lidar_noise"),
+    ({"lidar_noise": -0.1}, "lidar_noise"),
+    ({"n_rays": 0}, "n_rays"),
+    ({"horizon": 2.5}, "horizon"),
+    ({"lidar_backend": "gpu"}, "lidar_backend"),
+    ({"v_lim": 30.0}, "physics step"),
+    ({"accelerations": (1.0, -1.0)}, "increasing"),
+])
+def test_invalid_config_is_rejected_with_a_message(overrides, match):
+    with pytest.raises(ConfigError, match=match):
+        box2d_driving.make("intersection-v0", **overrides)
+
+
+def test_highway_and_crosswalk_limits():
+    with pytest.raises(ConfigError, match="spawn slots"):
+        box2d_driving.make("highway-v0", num_cars=13)
+    with pytest.raises(ConfigError, match="pedestrians_range"):
+        box2d_driving.make("crosswalk-v0", pedestrians_range=(3, 1))
+
+
+def test_step_rejects_bad_actions():
+    env = box2d_driving.make("intersection-v0", num_cars=2)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="no action"):
+        env.step({"car_0": 0})
+    with pytest.raises(ValueError, match="actions must be in"):
+        env.step({"car_0": 0, "car_1": 99})
+
+
+def test_infos_carry_metric_facts():
+    env = box2d_driving.make("intersection-v0", num_cars=4, communication=True)
+    env.reset(seed=0)
+    _, _, _, _, infos = env.step({a: 12 for a in env.agents})
+    keys = {"position", "heading", "speed", "acceleration", "light", "in_junction", "lane_offset",
+            "arrived", "collided", "collided_with", "reward_terms", "distance_to_goal",
+            "bit_sent", "bit_received"}
+    for info in infos.values():
+        assert keys <= set(info)
+        assert set(info["reward_terms"]) == {"goal", "collision", "smoothness", "progress"}
+        assert info["lane_offset"] == pytest.approx(0.5)

@@ -1,0 +1,51 @@
+"""Paths and centripetal Catmull-Rom splines."""
+
+import numpy as np
+import pytest
+
+from box2d_driving.road.geometry import Path, catmull_rom, spline_path, wrap_angle
+
+
+CONTROL = np.array([[0.0, 0.0], [10.0, 4.0], [25.0, -3.0], [40.0, 8.0]])
+
+
+def test_spline_passes_through_its_control_points():
+    pts = catmull_rom(CONTROL, samples_per_segment=50)
+    for c in CONTROL:
+        assert np.min(np.linalg.norm(pts - c, axis=1)) < 1e-12
+    assert np.array_equal(pts[0], CONTROL[0]) and np.array_equal(pts[-1], CONTROL[-1])
+
+
+def _true_length(control):
+    fine = catmull_rom(control, samples_per_segment=20000)
+    return np.sum(np.linalg.norm(np.diff(fine, axis=0), axis=1))
+
+
+def test_arc_length_parameterisation_is_accurate_to_a_centimetre():
+    path = spline_path(CONTROL)
+    assert path.length == pytest.approx(_true_length(CONTROL), abs=0.01)
+    # walking the path by arc length gives points whose spacing matches the arc length
+    s = np.linspace(0, path.length, 401)
+    p, _ = path.pose(s)
+    steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    assert np.all(np.abs(steps - (s[1] - s[0])) < 0.01)
+
+
+def test_centripetal_spline_has_no_cusp_with_uneven_spacing():
+    control = np.array([[0.0, 0.0], [0.5, 10.0], [1.0, 0.0], [30.0, 0.0]])
+    pts = catmull_rom(control, alpha=0.5, samples_per_segment=400)
+    heading = np.arctan2(*np.diff(pts, axis=0)[:, ::-1].T)
+    turn = np.abs(wrap_angle(np.diff(heading)))
+    assert turn.max() < 0.5  # smooth: no reversal within a segment
+
+
+def test_path_pose_and_projection():
+    path = Path.from_points(np.array([[0, 0], [10, 0], [10, 10]]))
+    assert path.length == 20.0
+    p, h = path.pose(15.0)
+    assert np.allclose(p, [10, 5]) and h == pytest.approx(np.pi / 2)
+    assert path.project(np.array([12.0, 7.0])) == pytest.approx(17.0)
+    p, _ = path.pose(25.0)  # clipped to the end
+    assert np.allclose(p, [10, 10])
+    with pytest.raises(ValueError):
+        Path.from_points(np.array([[1.0, 1.0], [1.0, 1.0]]))
