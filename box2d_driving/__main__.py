@@ -1,0 +1,3 @@
+from box2d_driving.cli import main
+
+raise SystemExit(main())
