@@ -25,7 +25,8 @@ def accel_levels(low: float, high: float, step: float) -> tuple[float, ...]:
 
 LIDAR_ENCODINGS = ("inverse", "proximity")
 LIDAR_BACKENDS = ("auto", "numba", "box2d")
-RENDER_MODES = (None, "rgb_array", "human")
+# Rendering ("rgb_array", "human") arrives with the pygame renderer.
+RENDER_MODES = (None,)
 
 
 @dataclass(frozen=True)
@@ -60,7 +61,7 @@ class DrivingConfig:
         light_yellow: yellow duration (s).
         goal_reward: reward on the decision a car reaches its goal.
         collision_reward: reward on the decision of a car's first collision.
-        render_mode: ``None``, ``"rgb_array"`` or ``"human"``.
+        render_mode: ``None`` (no renderer yet).
     """
 
     num_cars: int = 4

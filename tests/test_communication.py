@@ -1,0 +1,53 @@
+"""The 1-bit communication channel."""
+
+import numpy as np
+
+from tests.helpers import hand_env, straight_car
+
+
+def _env(cars):
+    return hand_env(cars, communication=True, horizon=10)
+
+
+def test_receives_bit_of_nearest_car_ahead_within_range_and_angle():
+    cars = [
+        straight_car((0, 0), (100, 0)),     # car_0: listener
+        straight_car((20, 0), (100, 0)),    # car_1: 20 m straight ahead
+        straight_car((10, 10), (100, 10)),  # car_2: 45 degrees off: not heard
+    ]
+    env = _env(cars)
+    obs, info = env.reset(seed=0)
+    n = len(env.config.accelerations)
+    zero = int(np.argmin(np.abs(env.config.accelerations)))
+    lay = env.observation_layout
+    _, _, _, _, info = env.step({"car_0": zero, "car_1": zero + n, "car_2": zero + n})
+    assert info["car_1"]["bit_sent"] == 1 and info["car_0"]["bit_sent"] == 0
+    assert info["car_0"]["bit_received"] == 1
+    assert info["car_1"]["bit_received"] == 0  # car_0 is behind it
+    obs, _, _, _, info = env.step({"car_0": zero + n, "car_1": zero, "car_2": zero + n})
+    _, satnav = lay.split(obs["car_0"])
+    assert satnav[-1, lay.field("bit_received")] == 0.0  # car_1 now sends 0
+    assert info["car_0"]["bit_received"] == 0  # never its own bit
+
+
+def test_nearest_sender_wins_and_range_is_respected():
+    cars = [
+        straight_car((0, 0), (100, 0)),
+        straight_car((20, 0), (100, 0)),    # sends 1, 20 m
+        straight_car((15, 2), (100, 2)),    # sends 0, nearer (15.1 m, 7.6 degrees)
+        straight_car((-35, 0), (100, 0)),   # behind car_0
+    ]
+    env = _env(cars)
+    env.reset(seed=0)
+    n = len(env.config.accelerations)
+    zero = int(np.argmin(np.abs(env.config.accelerations)))
+    _, _, _, _, info = env.step({"car_0": zero, "car_1": zero + n, "car_2": zero, "car_3": zero})
+    assert info["car_0"]["bit_received"] == 0
+    # car_3 hears car_0 (35 m away: out of range) -> nothing
+    _, _, _, _, info = env.step({"car_0": zero + n, "car_1": zero, "car_2": zero, "car_3": zero})
+    assert info["car_3"]["bit_received"] == 0
+    cars[3] = straight_car((-25, 0), (100, 0))
+    env = _env(cars)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step({"car_0": zero + n, "car_1": zero, "car_2": zero, "car_3": zero})
+    assert info["car_3"]["bit_received"] == 1
