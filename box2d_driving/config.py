@@ -25,8 +25,7 @@ def accel_levels(low: float, high: float, step: float) -> tuple[float, ...]:
 
 LIDAR_ENCODINGS = ("inverse", "proximity")
 LIDAR_BACKENDS = ("auto", "numba", "box2d")
-# Rendering ("rgb_array", "human") arrives with the pygame renderer.
-RENDER_MODES = (None,)
+RENDER_MODES = (None, "rgb_array", "human")
 
 
 @dataclass(frozen=True)
@@ -61,7 +60,11 @@ class DrivingConfig:
         light_yellow: yellow duration (s).
         goal_reward: reward on the decision a car reaches its goal.
         collision_reward: reward on the decision of a car's first collision.
-        render_mode: ``None`` (no renderer yet).
+        render_mode: ``None``, ``"rgb_array"`` (``render()`` returns an ``(H, W, 3)`` uint8
+            frame) or ``"human"`` (a pygame window).
+        render_size: frame ``(width, height)`` in pixels.
+        render_lidar: draw LiDAR rays (dropped rays in a different colour).
+        render_fps: frames per second of ``human`` playback and recorded videos.
     """
 
     num_cars: int = 4
@@ -88,6 +91,9 @@ class DrivingConfig:
     goal_reward: float = 1.0
     collision_reward: float = -1.0
     render_mode: Optional[str] = None
+    render_size: tuple[int, int] = (768, 768)
+    render_lidar: bool = False
+    render_fps: float = 4.0
 
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
@@ -95,6 +101,7 @@ class DrivingConfig:
     def __post_init__(self) -> None:
         object.__setattr__(self, "accelerations", tuple(float(a) for a in self.accelerations))
         object.__setattr__(self, "light_period_range", tuple(self.light_period_range))
+        object.__setattr__(self, "render_size", tuple(self.render_size))
         self._validate()
 
     # -- validation -------------------------------------------------------------------------
@@ -121,6 +128,9 @@ class DrivingConfig:
         _choice(self, "lidar_encoding", LIDAR_ENCODINGS)
         _choice(self, "lidar_backend", LIDAR_BACKENDS)
         _choice(self, "render_mode", RENDER_MODES)
+        if len(self.render_size) != 2 or any(not isinstance(v, int) or v < 16 for v in self.render_size):
+            raise ConfigError(f"render_size must be two integers >= 16, got {self.render_size!r}")
+        _positive(self, "render_fps")
         if not isinstance(self.communication, bool):
             raise ConfigError(f"communication must be True or False, got {self.communication!r}")
         if len(self.accelerations) < 2:

@@ -10,6 +10,7 @@ import math
 from typing import Any, Optional
 
 import numpy as np
+from gymnasium import logger as gymnasium_logger
 from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 from pettingzoo import ParallelEnv
@@ -40,7 +41,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
     config_class: type[DrivingConfig] = DrivingConfig
     satnav_extras: tuple[str, ...] = ()
     n_lights: int = 0
-    metadata: dict[str, Any] = {"name": "driving", "render_modes": [], "is_parallelizable": True}
+    metadata: dict[str, Any] = {"name": "driving", "render_modes": ["human", "rgb_array"],
+                                "is_parallelizable": True, "render_fps": 4}
 
     def __init__(self, **overrides: Any) -> None:
         EzPickle.__init__(self, **overrides)
@@ -66,6 +68,9 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self.world = DrivingWorld(cfg)
         self.np_random: Optional[np.random.Generator] = None
         self.layout: Optional[Layout] = None
+        self._viewer = None
+        self._last_rays: Optional[np.ndarray] = None
+        self._last_dropped: Optional[np.ndarray] = None
 
     # -- spaces -------------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Box:
@@ -190,8 +195,26 @@ class DrivingEnv(ParallelEnv, EzPickle):
         return np.concatenate([np.stack(cols, axis=1).ravel(), lights,
                                [self.decision / self.config.horizon]]).astype(np.float32)
 
+    def render(self) -> Optional[np.ndarray]:
+        """Draw the current state: an ``(H, W, 3)`` uint8 frame in ``rgb_array`` mode, a window
+        update in ``human`` mode (see :mod:`box2d_driving.render.viewer`)."""
+        if self.render_mode is None:
+            gymnasium_logger.warn("render() called without a render_mode; pass render_mode=...")
+            return None
+        if self.layout is None:
+            raise RuntimeError("render() needs reset() first")
+        if self._viewer is None:
+            from box2d_driving.render.viewer import Viewer, ViewerConfig
+
+            w, h = self.config.render_size
+            self._viewer = Viewer(self.render_mode, ViewerConfig(width=w, height=h),
+                                  show_lidar=self.config.render_lidar, fps=self.config.render_fps)
+        return self._viewer.render(self)
+
     def close(self) -> None:
-        self.world.world = None
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
 
     # -- internals ----------------------------------------------------------------------------
     @property
@@ -208,8 +231,14 @@ class DrivingEnv(ParallelEnv, EzPickle):
         cfg, w = self.config, self.world
         pos, head = w.positions[cars], w.headings[cars]
         distances = self._lidar_distances(cars)
-        if cfg.lidar_noise > 0:
-            distances[lidar.dropout_mask(self.np_random, len(cars), cfg.n_rays, cfg.lidar_noise)] = np.inf
+        dropped = lidar.dropout_mask(self.np_random, len(cars), cfg.n_rays, cfg.lidar_noise)
+        if self.render_mode is not None:  # kept for drawing the rays
+            if self._last_rays is None or self.decision == 0:
+                self._last_rays = np.full((cfg.num_cars, cfg.n_rays), np.inf)
+                self._last_dropped = np.zeros((cfg.num_cars, cfg.n_rays), dtype=bool)
+            self._last_rays[cars] = distances
+            self._last_dropped[cars] = dropped
+        distances[dropped] = np.inf
         lidar_frame = lidar.encode(distances, cfg.lidar_range, cfg.lidar_encoding)
 
         if self.layout.lights is not None:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from box2d_driving.config import ConfigError, accel_levels
+from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
 from box2d_driving.road.layout import Layout, PedestrianSpawn
 
@@ -77,7 +78,7 @@ class CrosswalkEnv(HighwayEnv):
 
     config_class = CrosswalkConfig
     satnav_extras = ()
-    metadata = {"name": "crosswalk_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {**DrivingEnv.metadata, "name": "crosswalk_v0"}
 
     def _finish_layout(self, rng: np.random.Generator, layout: Layout) -> Layout:
         cfg: CrosswalkConfig = self.config

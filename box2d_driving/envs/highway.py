@@ -86,7 +86,7 @@ class HighwayEnv(DrivingEnv):
 
     config_class = HighwayConfig
     satnav_extras = ("rating",)
-    metadata = {"name": "highway_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {**DrivingEnv.metadata, "name": "highway_v0"}
 
     def build_layout(self, rng: np.random.Generator) -> Layout:
         cfg: HighwayConfig = self.config

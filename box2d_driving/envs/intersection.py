@@ -101,7 +101,7 @@ class IntersectionEnv(DrivingEnv):
 
     config_class = IntersectionConfig
     n_lights = N_APPROACHES
-    metadata = {"name": "intersection_v0", "render_modes": [], "is_parallelizable": True}
+    metadata = {**DrivingEnv.metadata, "name": "intersection_v0"}
 
     def build_layout(self, rng: np.random.Generator) -> Layout:
         cfg: IntersectionConfig = self.config

@@ -1,0 +1,93 @@
+"""Record episodes of any env and any policy as a video (mp4 or GIF) and/or PNG frames."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+VIDEO_SUFFIXES = (".mp4", ".gif")
+
+
+@dataclass
+class Recording:
+    """What was recorded: frame count, episodes, where, and seconds spent drawing per frame."""
+
+    frames: int
+    episodes: int
+    video: Optional[Path]
+    frames_dir: Optional[Path]
+    render_seconds_per_frame: float
+
+
+def check_outputs(video: Optional[Path], frames_dir: Optional[Path], overwrite: bool) -> None:
+    """Refuse to replace existing outputs unless ``overwrite``; reject unknown video formats."""
+    if video is not None:
+        if video.suffix.lower() not in VIDEO_SUFFIXES:
+            raise ValueError(f"video file must end in {' or '.join(VIDEO_SUFFIXES)}: {video}")
+        if video.exists() and not overwrite:
+            raise FileExistsError(f"{video} exists; pass --overwrite to replace it")
+    if frames_dir is not None and frames_dir.exists() and any(frames_dir.iterdir()) and not overwrite:
+        raise FileExistsError(f"{frames_dir} is not empty; pass --overwrite to write into it")
+
+
+def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = None,
+           frames_dir: Optional[Path] = None, seed: Optional[int] = 0, fps: Optional[float] = None,
+           overwrite: bool = False) -> Recording:
+    """Run ``episodes`` episodes of ``env`` (``render_mode="rgb_array"``) with ``policy.act`` and
+    write every decision's frame to ``video`` and/or ``frames_dir/frame_00000.png``..."""
+    import time
+
+    import imageio.v2 as imageio
+
+    if env.render_mode != "rgb_array":
+        raise ValueError("record() needs an env made with render_mode='rgb_array'")
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    video = Path(video) if video is not None else None
+    frames_dir = Path(frames_dir) if frames_dir is not None else None
+    check_outputs(video, frames_dir, overwrite)
+    fps = fps or env.config.render_fps
+    writer = None
+    if video is not None:
+        video.parent.mkdir(parents=True, exist_ok=True)
+        tmp = video.with_name(video.stem + ".partial" + video.suffix)
+        if video.suffix.lower() == ".mp4":
+            writer = imageio.get_writer(tmp, fps=fps, codec="libx264", quality=7,
+                                        pixelformat="yuv420p", macro_block_size=16)
+        else:
+            writer = imageio.get_writer(tmp, mode="I", duration=1000.0 / fps, loop=0)
+    if frames_dir is not None:
+        frames_dir.mkdir(parents=True, exist_ok=True)
+    count, drawing = 0, 0.0
+
+    def emit() -> None:
+        nonlocal count, drawing
+        t0 = time.perf_counter()
+        frame = env.render()
+        drawing += time.perf_counter() - t0
+        if writer is not None:
+            writer.append_data(frame)
+        if frames_dir is not None:
+            imageio.imwrite(frames_dir / f"frame_{count:05d}.png", frame)
+        count += 1
+
+    try:
+        for ep in range(episodes):
+            obs, _ = env.reset(seed=None if seed is None else seed + ep)
+            emit()
+            while env.agents:
+                obs, *_ = env.step(policy.act(obs))
+                emit()
+    except BaseException:
+        if writer is not None:
+            writer.close()
+            tmp.unlink(missing_ok=True)
+        raise
+    if writer is not None:
+        writer.close()
+        os.replace(tmp, video)  # the finished video appears at once, never half-written
+    return Recording(count, episodes, video, frames_dir, drawing / max(count, 1))

@@ -1,0 +1,230 @@
+"""Pygame renderer: roads, lights, crosswalks, pedestrians, cars, goals, LiDAR, paths and a HUD.
+
+``rgb_array`` draws onto an off-screen surface and never touches the display; ``human`` opens a
+window. Where no display exists, ``SDL_VIDEODRIVER=dummy`` is set before pygame starts.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Optional
+
+import numpy as np
+
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+import pygame  # noqa: E402
+
+from box2d_driving.physics.world import ARRIVED, COLLIDED  # noqa: E402
+from box2d_driving.road.geometry import rectangle_corners  # noqa: E402
+from box2d_driving.road.lights import GREEN, RED, YELLOW  # noqa: E402
+
+if TYPE_CHECKING:
+    from box2d_driving.envs.base import DrivingEnv
+
+BACKGROUND = (34, 110, 52)
+ROAD = (72, 72, 78)
+EDGE = (235, 235, 235)
+JUNCTION = (84, 84, 92)
+STOP_LINE = (250, 250, 250)
+CROSSWALK = (215, 215, 215)
+PEDESTRIAN = (255, 140, 0)
+COLLIDED_FILL = (60, 60, 60)
+COLLIDED_BORDER = (230, 30, 30)
+RAY = (255, 255, 120)
+RAY_DROPPED = (200, 60, 200)
+HUD_TEXT = (255, 255, 255)
+LIGHT_COLOURS = {GREEN: (30, 220, 60), YELLOW: (250, 200, 20), RED: (235, 30, 30)}
+CAR_PALETTE = [(31, 119, 180), (255, 127, 14), (148, 103, 189), (23, 190, 207), (227, 119, 194),
+               (188, 189, 34), (140, 86, 75), (127, 127, 255), (255, 187, 120), (152, 223, 138),
+               (197, 176, 213), (158, 218, 229), (247, 182, 210), (219, 219, 141), (196, 156, 148),
+               (174, 199, 232)]
+
+
+def car_colour(i: int) -> tuple[int, int, int]:
+    """Fill colour of car ``i`` (live)."""
+    return CAR_PALETTE[i % len(CAR_PALETTE)]
+
+
+@dataclass(frozen=True)
+class ViewerConfig:
+    """Frame size (pixels), margin around the map (m), light disc radius (m), HUD font size."""
+
+    width: int = 768
+    height: int = 768
+    margin: float = 4.0
+    light_radius: float = 1.6
+    font_size: int = 18
+
+
+class Viewer:
+    """Draws one env's current state; keeps its surface (and window, in ``human`` mode)."""
+
+    def __init__(self, mode: str, config: ViewerConfig = ViewerConfig(), show_lidar: bool = False,
+                 fps: float = 4.0) -> None:
+        if mode not in ("rgb_array", "human"):
+            raise ValueError(f"render mode must be 'rgb_array' or 'human', got {mode!r}")
+        self.mode = mode
+        self.config = config
+        self.show_lidar = show_lidar
+        self.fps = fps
+        pygame.font.init()
+        self.font = pygame.font.Font(None, config.font_size)
+        self.surface = pygame.Surface((config.width, config.height))
+        self.window: Optional[pygame.Surface] = None
+        self.clock: Optional[pygame.time.Clock] = None
+        self._view_for = None
+
+    # -- coordinates --------------------------------------------------------------------------
+    def _fit(self, env: "DrivingEnv") -> None:
+        """Scale and offset so the whole map fits the frame (world y up, pixels y down)."""
+        lay = env.layout
+        pts = [np.asarray(p) for p in lay.drivable] + [np.asarray(lay.edges).reshape(-1, 2)]
+        pts = np.vstack([p for p in pts if len(p)])
+        lo, hi = pts.min(axis=0) - self.config.margin, pts.max(axis=0) + self.config.margin
+        w, h = self.config.width, self.config.height
+        self.scale = min(w / (hi[0] - lo[0]), h / (hi[1] - lo[1]))
+        centre = (lo + hi) / 2
+        self.offset = np.array([w / 2 - centre[0] * self.scale, h / 2 + centre[1] * self.scale])
+        self._view_for = lay
+
+    def to_pixels(self, points: np.ndarray) -> np.ndarray:
+        """World points ``(..., 2)`` (m) to pixel coordinates ``(..., 2)``."""
+        p = np.asarray(points, dtype=float)
+        return np.stack([self.offset[0] + p[..., 0] * self.scale,
+                         self.offset[1] - p[..., 1] * self.scale], axis=-1)
+
+    def _poly(self, colour, points, width: int = 0) -> None:
+        pygame.draw.polygon(self.surface, colour, self.to_pixels(points).tolist(), width)
+
+    # -- drawing ------------------------------------------------------------------------------
+    def draw(self, env: "DrivingEnv") -> pygame.Surface:
+        if self._view_for is not env.layout:
+            self._fit(env)
+        lay, w, cfg = env.layout, env.world, env.config
+        s = self.surface
+        s.fill(BACKGROUND)
+        for poly in lay.drivable:
+            self._poly(ROAD, poly)
+        if lay.junction_box is not None:
+            x0, y0, x1, y1 = lay.junction_box
+            self._poly(JUNCTION, np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
+        if lay.crosswalk is not None:
+            self._draw_crosswalk(lay.crosswalk)
+        for a, b in np.asarray(lay.edges).reshape(-1, 2, 2):
+            pygame.draw.line(s, EDGE, *self.to_pixels(np.array([a, b])).tolist(), 2)
+        for a, b in np.asarray(lay.stop_lines).reshape(-1, 2, 2):
+            pygame.draw.line(s, STOP_LINE, *self.to_pixels(np.array([a, b])).tolist(), 3)
+        if lay.lights is not None:
+            for point, value in zip(self.light_positions(env), lay.lights.values(env.time)):
+                centre = self.to_pixels(point)
+                radius = max(3, int(self.config.light_radius * self.scale))
+                pygame.draw.circle(s, LIGHT_COLOURS[float(value)], centre.tolist(), radius)
+        for i, car in enumerate(lay.cars):  # paths and goals
+            colour = car_colour(i)
+            pygame.draw.lines(s, colour, False, self.to_pixels(car.path.points).tolist(), 1)
+            gx, gy = self.to_pixels(car.path.points[-1])
+            pygame.draw.circle(s, colour, (gx, gy), max(3, int(0.8 * self.scale)), 2)
+        if self.show_lidar and getattr(env, "_last_rays", None) is not None:
+            self._draw_lidar(env)
+        for k, p in enumerate(w.ped_positions):
+            size = w.ped_sizes[k]
+            self._poly(PEDESTRIAN, rectangle_corners(p[0], p[1], 0.0, size, size))
+        for i in range(env.config.num_cars):
+            self._draw_car(i, w.positions[i], w.headings[i], w.status[i], cfg)
+        self._draw_hud(env)
+        return s
+
+    def light_positions(self, env: "DrivingEnv") -> np.ndarray:
+        """Where each light is drawn: beyond the right end of its stop line (m)."""
+        lights = env.layout.lights
+        right = np.stack([lights.directions[:, 1], -lights.directions[:, 0]], axis=1)
+        lines = np.asarray(env.layout.stop_lines).reshape(-1, 2, 2)
+        if len(lines) == len(lights):
+            ends = lines[:, 1]
+        else:
+            ends = lights.stop_points
+        return ends + right * (self.config.light_radius + 0.5)
+
+    def _draw_crosswalk(self, box) -> None:
+        x0, y0, x1, y1 = box
+        stripe = 1.0
+        y = y0
+        while y < y1:
+            self._poly(CROSSWALK, np.array([[x0, y], [x1, y], [x1, min(y + stripe, y1)],
+                                            [x0, min(y + stripe, y1)]]))
+            y += 2 * stripe
+
+    def _draw_car(self, i: int, pos, heading, status, cfg) -> None:
+        corners = rectangle_corners(pos[0], pos[1], heading, cfg.car_length, cfg.car_width)
+        if status == ARRIVED:
+            self._poly(car_colour(i), corners, 2)
+            return
+        if status == COLLIDED:
+            self._poly(COLLIDED_FILL, corners)
+            self._poly(COLLIDED_BORDER, corners, 3)
+            px = self.to_pixels(corners)
+            pygame.draw.line(self.surface, COLLIDED_BORDER, px[0].tolist(), px[2].tolist(), 2)
+            pygame.draw.line(self.surface, COLLIDED_BORDER, px[1].tolist(), px[3].tolist(), 2)
+            return
+        self._poly(car_colour(i), corners)
+        # heading: a bright wedge at the front
+        front = np.array([pos[0], pos[1]]) + 0.5 * cfg.car_length * np.array([math.cos(heading), math.sin(heading)])
+        nose = self.to_pixels(front)
+        centre = self.to_pixels(np.asarray(pos))
+        pygame.draw.line(self.surface, (255, 255, 255), centre.tolist(), nose.tolist(), 2)
+
+    def _draw_lidar(self, env: "DrivingEnv") -> None:
+        cfg, w = env.config, env.world
+        angles = np.arange(cfg.n_rays) * (2 * math.pi / cfg.n_rays)
+        for i in np.flatnonzero(w.status == 0):
+            rays, dropped = env._last_rays[i], env._last_dropped[i]
+            origin = w.positions[i]
+            dist = np.where(np.isfinite(rays), rays, cfg.lidar_range)
+            th = w.headings[i] + angles
+            ends = origin + dist[:, None] * np.stack([np.cos(th), np.sin(th)], axis=1)
+            o = self.to_pixels(origin).tolist()
+            for k, end in enumerate(self.to_pixels(ends)):
+                if dropped[k]:
+                    colour = RAY_DROPPED
+                elif np.isfinite(rays[k]):
+                    colour = RAY
+                else:
+                    continue
+                pygame.draw.line(self.surface, colour, o, end.tolist(), 1)
+
+    def _draw_hud(self, env: "DrivingEnv") -> None:
+        st = env.world.status
+        text = (f"{env.metadata.get('name', '')}  decision {env.decision}/{env.config.horizon}  "
+                f"arrived {int(np.sum(st == ARRIVED))}  collided {int(np.sum(st == COLLIDED))}  "
+                f"driving {int(np.sum(st == 0))}")
+        label = self.font.render(text, True, HUD_TEXT)
+        bg = pygame.Surface((label.get_width() + 8, label.get_height() + 6))
+        bg.set_alpha(150)
+        bg.fill((0, 0, 0))
+        self.surface.blit(bg, (4, 4))
+        self.surface.blit(label, (8, 7))
+
+    # -- output -------------------------------------------------------------------------------
+    def render(self, env: "DrivingEnv") -> Optional[np.ndarray]:
+        surface = self.draw(env)
+        if self.mode == "rgb_array":
+            return np.ascontiguousarray(np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)))
+        if self.window is None:
+            pygame.display.init()
+            pygame.display.set_caption("box2d-driving")
+            self.window = pygame.display.set_mode((self.config.width, self.config.height))
+            self.clock = pygame.time.Clock()
+        pygame.event.pump()
+        self.window.blit(surface, (0, 0))
+        pygame.display.flip()
+        self.clock.tick(self.fps)
+        return None
+
+    def close(self) -> None:
+        if self.window is not None:
+            pygame.display.quit()
+            self.window = None

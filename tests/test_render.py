@@ -1,0 +1,141 @@
+"""Headless rendering, videos, frame dumps and the CLI."""
+
+import math
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from box2d_driving.cli import main as cli
+from box2d_driving.policies import LightRulePolicy, RandomPolicy
+from box2d_driving.render.video import record
+from box2d_driving.render.viewer import COLLIDED_BORDER, COLLIDED_FILL, LIGHT_COLOURS, car_colour
+from box2d_driving.road.lights import GREEN, RED
+from tests.helpers import hand_env, level_index, straight_car
+
+
+def _pixel(frame, viewer, point):
+    x, y = viewer.to_pixels(np.asarray(point, float))
+    return tuple(frame[int(round(y)), int(round(x))])
+
+
+def test_rgb_array_frame_shape_and_dtype():
+    env = box2d_driving.make("intersection-v0", render_mode="rgb_array", render_size=(320, 240))
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape == (240, 320, 3) and frame.dtype == np.uint8
+    assert frame.std() > 0
+
+
+@pytest.mark.parametrize("value", [RED, GREEN])
+def test_light_is_drawn_in_its_colour(value):
+    env = box2d_driving.make("intersection-v0", render_mode="rgb_array")
+    for seed in range(100):
+        env.reset(seed=seed)
+        if env.layout.lights.values(0.0)[0] == value:
+            break
+    frame = env.render()
+    viewer = env._viewer
+    where = viewer.light_positions(env)
+    assert _pixel(frame, viewer, where[0]) == LIGHT_COLOURS[value]
+    other = LIGHT_COLOURS[RED if value == GREEN else GREEN]
+    assert _pixel(frame, viewer, where[1]) == other  # the other group, in antiphase
+
+
+def test_car_is_drawn_where_its_body_is():
+    env = box2d_driving.make("highway-v0", num_cars=3, render_mode="rgb_array")
+    env.reset(seed=1)
+    env.step({a: 20 for a in env.agents})
+    frame = env.render()
+    viewer = env._viewer
+    for i in range(3):
+        p, h = env.world.positions[i], env.world.headings[i]
+        rear = p - 0.3 * env.config.car_length * np.array([math.cos(h), math.sin(h)]) \
+            + 0.3 * env.config.car_width * np.array([-math.sin(h), math.cos(h)])
+        assert _pixel(frame, viewer, rear) == car_colour(i)
+
+
+def test_collided_cars_look_different():
+    road = np.array([[-60, -8], [60, -8], [60, 8], [-60, 8]])
+    env = hand_env([straight_car((-10, 0), (60, 0)), straight_car((10, 0), (-60, 0))],
+                   render_mode="rgb_array", edges=[[[-60, -8], [60, -8]], [[-60, 8], [60, 8]]],
+                   layout_kw={"drivable": [road]})
+    env.reset(seed=0)
+    up = level_index(env, 1.5)
+    while env.agents:
+        env.step({a: up for a in env.agents})
+    frame = env.render()
+    p = env.world.positions[0] + np.array([-1.2, 0.5])
+    assert _pixel(frame, env._viewer, p) in (COLLIDED_FILL, COLLIDED_BORDER)
+
+
+def test_render_without_mode_returns_none():
+    env = box2d_driving.make("intersection-v0")
+    env.reset(seed=0)
+    with pytest.warns(UserWarning):
+        assert env.render() is None
+
+
+def test_human_mode_runs_headless():
+    env = box2d_driving.make("crosswalk-v0", render_mode="human", render_fps=1000)
+    env.reset(seed=0)
+    assert env.render() is None
+    env.close()
+
+
+def test_mp4_decodes_to_the_expected_number_of_frames(tmp_path):
+    import imageio.v2 as imageio
+
+    env = box2d_driving.make("intersection-v0", render_mode="rgb_array", render_size=(256, 256))
+    rec = record(env, LightRulePolicy(env), episodes=2, video=tmp_path / "v.mp4",
+                 frames_dir=tmp_path / "frames", seed=3)
+    reader = imageio.get_reader(tmp_path / "v.mp4")
+    decoded = sum(1 for _ in reader)
+    assert decoded == rec.frames
+    assert len(list((tmp_path / "frames").glob("*.png"))) == rec.frames
+    assert rec.frames > 2 * 2
+    first = imageio.imread(tmp_path / "frames" / "frame_00000.png")
+    assert first.shape == (256, 256, 3)
+    with pytest.raises(FileExistsError):
+        record(env, LightRulePolicy(env), video=tmp_path / "v.mp4")
+
+
+def test_gif_output(tmp_path):
+    env = box2d_driving.make("crosswalk-v0", render_mode="rgb_array", render_size=(128, 128),
+                             horizon=4)
+    rec = record(env, RandomPolicy(env, seed=0), video=tmp_path / "c.gif")
+    assert (tmp_path / "c.gif").stat().st_size > 0 and rec.frames == 5
+
+
+def test_cli_render_random_policy_writes_a_file(tmp_path, capsys):
+    out = tmp_path / "run.mp4"
+    code = cli(["render", "highway-v0", "--policy", "random", "--episodes", "1", "--out", str(out),
+                "--set", "num_cars=3", "--set", "horizon=5", "--set", "render_size=(256, 256)",
+                "--lidar"])
+    assert code == 0 and out.stat().st_size > 0
+    assert "wrote 6 frames" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["render", "nope-v0", "--out", "x.mp4"], "unknown env id"),
+    (["render", "highway-v0", "--policy", "fancy", "--out", "{tmp}/x.mp4"], "unknown policy"),
+    (["render", "highway-v0"], "nothing to write"),
+    (["render", "highway-v0", "--out", "{tmp}/x.avi"], "must end in"),
+    (["render", "highway-v0", "--out", "{tmp}/x.mp4", "--set", "num_cars=-2"], "num_cars"),
+    (["render", "highway-v0", "--episodes", "many"], "invalid int"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_cli_bad_arguments_give_one_clear_line(tmp_path, capsys, argv, needle):
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    try:
+        code = cli(argv)
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert needle in err and len(err.splitlines()) == 1
+
+
+def test_cli_list(capsys):
+    assert cli(["list"]) == 0
+    assert "intersection-v0" in capsys.readouterr().out
