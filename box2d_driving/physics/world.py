@@ -229,5 +229,7 @@ class DrivingWorld:
 
     @property
     def present(self) -> np.ndarray:
-        """Cars whose bodies are in the world (active or halted, not arrived or removed)."""
-        return np.array([b.active for b in self.car_bodies], dtype=bool)
+        """Cars whose bodies are in the world (driving or halted; not arrived or removed)."""
+        if self.config.remove_collided:
+            return self.status == ACTIVE
+        return self.status != ARRIVED
