@@ -295,7 +295,13 @@ class DrivingEnv(ParallelEnv, EzPickle):
         inside = self.layout.in_junction(pos).tolist()
         offsets = [float(self._lane_axes[i].offset(pos[j])) if self._lane_axes[i] is not None
                    else float("nan") for j, i in enumerate(cars.tolist())]
-        return list(zip(inside, offsets))
+        stop = np.full(len(cars), np.nan)
+        lights, li = self.layout.lights, self._light_index[cars]
+        if lights is not None and (li >= 0).any():
+            has = li >= 0
+            stop[has] = np.einsum("ij,ij->i", lights.stop_points[li[has]] - pos[has],
+                                  lights.directions[li[has]])
+        return list(zip(inside, offsets, stop.tolist()))
 
     def _info(self, i: int, facts: tuple) -> dict[str, Any]:
         w = self.world
@@ -307,6 +313,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
             "light": float(self._seen[i]),
             "in_junction": facts[0],
             "lane_offset": facts[1],
+            "stop_line_distance": facts[2],
             "distance_to_goal": float(w.s_end[i] - w.s[i]),
             "arrived": bool(w.status[i] == ARRIVED),
             "collided": bool(w.status[i] == COLLIDED),

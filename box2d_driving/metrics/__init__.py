@@ -1,0 +1,1 @@
+"""Metrics that measure each road rule from recorded rollouts (SPEC 6)."""

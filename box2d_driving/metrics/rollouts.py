@@ -1,0 +1,72 @@
+"""Recording rollouts: one row per car per decision, from the env's ``infos``.
+
+A rollout table is a dict of equal-length NumPy columns (see :data:`COLUMNS`), saved as ``.npz``.
+Row ``decision == 0`` is the state at reset (no action taken yet); a car's rows end on the
+decision its trajectory ends.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+COLUMNS = ("episode", "car", "decision", "x", "y", "heading", "speed", "acceleration", "light",
+           "in_junction", "lane_offset", "distance_to_goal", "arrived", "collided", "reward",
+           "approach", "rating", "stop_line_distance")
+COLLIDED_WITH = ("", "car", "edge", "pedestrian")
+
+
+class RolloutRecorder:
+    """Collects rows from ``reset``/``step`` infos; :meth:`table` returns the columns."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple] = []
+        self.collided_with: list[int] = []
+
+    def add(self, episode: int, infos: dict[str, dict[str, Any]],
+            rewards: Optional[dict[str, float]] = None) -> None:
+        for agent, info in infos.items():
+            car = int(agent.rsplit("_", 1)[1])
+            x, y = info["position"]
+            self.rows.append((
+                episode, car, info["decision"], x, y, info["heading"], info["speed"],
+                info["acceleration"], info["light"], info["in_junction"], info["lane_offset"],
+                info["distance_to_goal"], info["arrived"], info["collided"],
+                0.0 if rewards is None else rewards[agent], info.get("approach", -1),
+                info.get("rating", 1.0), info.get("stop_line_distance", float("nan")),
+            ))
+            self.collided_with.append(COLLIDED_WITH.index(info["collided_with"] or ""))
+
+    def table(self) -> dict[str, np.ndarray]:
+        cols = list(zip(*self.rows)) if self.rows else [[] for _ in COLUMNS]
+        out = {name: np.asarray(col) for name, col in zip(COLUMNS, cols)}
+        for name in ("episode", "car", "decision", "approach"):
+            out[name] = out[name].astype(np.int64)
+        for name in ("in_junction", "arrived", "collided"):
+            out[name] = out[name].astype(bool)
+        out["collided_with"] = np.asarray(self.collided_with, dtype=np.int64)
+        return out
+
+
+def save_table(table: dict[str, np.ndarray], path: Path) -> None:
+    np.savez_compressed(path, **table)
+
+
+def load_table(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path) as data:
+        return {k: data[k] for k in data.files}
+
+
+def run_episodes(env: Any, policy: Any, episodes: int, seed: int = 0,
+                 recorder: Optional[RolloutRecorder] = None) -> dict[str, np.ndarray]:
+    """Run ``episodes`` episodes with ``policy.act`` and return the rollout table."""
+    recorder = recorder or RolloutRecorder()
+    for ep in range(episodes):
+        obs, infos = env.reset(seed=seed + ep)
+        recorder.add(ep, infos)
+        while env.agents:
+            obs, rewards, _, _, infos = env.step(policy.act(obs))
+            recorder.add(ep, infos, rewards)
+    return recorder.table()

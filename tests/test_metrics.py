@@ -1,0 +1,76 @@
+"""Metric functions on hand-built trajectories, and on scripted policies."""
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from box2d_driving.metrics.lights import junction_entries, outcome_rates, traffic_light_metrics, violation_rate
+from box2d_driving.metrics.rollouts import COLUMNS, RolloutRecorder, load_table, run_episodes, save_table
+from box2d_driving.policies import LightRulePolicy, RandomPolicy
+
+
+def _table(rows):
+    """rows: (episode, car, decision, light, in_junction, arrived, collided)."""
+    n = len(rows)
+    t = {c: np.zeros(n) for c in COLUMNS}
+    ep, car, dec, light, inside, arrived, collided = map(np.array, zip(*rows))
+    t.update(episode=ep.astype(int), car=car.astype(int), decision=dec.astype(int), light=light,
+             in_junction=inside.astype(bool), arrived=arrived.astype(bool),
+             collided=collided.astype(bool))
+    return t
+
+
+def test_entry_light_is_the_one_seen_before_entering():
+    rows = [
+        # car 0 sees 1.0 then 0.0 and enters on 0.0 at decision 3
+        (0, 0, 0, 0.75, 0, 0, 0), (0, 0, 1, 1.0, 0, 0, 0), (0, 0, 2, 0.0, 0, 0, 0),
+        (0, 0, 3, 0.75, 1, 0, 0), (0, 0, 4, 0.75, 0, 1, 0),
+        # car 1 enters on 1.0 (a violation if 1.0 is stop)
+        (0, 1, 0, 1.0, 0, 0, 0), (0, 1, 1, 1.0, 1, 0, 0), (0, 1, 2, 0.75, 1, 0, 1),
+        # car 2 never enters
+        (0, 2, 0, 1.0, 0, 0, 0), (0, 2, 1, 1.0, 0, 0, 0),
+    ]
+    t = _table(rows[::-1])  # order must not matter
+    e = junction_entries(t)
+    got = sorted(zip(e["car"].tolist(), e["light"].tolist(), e["decision"].tolist()))
+    assert got == [(0, 0.0, 3), (1, 1.0, 1)]
+
+
+def test_violation_rate_adopts_the_rarer_value_as_stop():
+    v = violation_rate(np.array([0.0] * 9 + [1.0] * 1 + [0.5] * 2))
+    assert v.stop_value == 1.0 and v.rate == pytest.approx(1 / 12) and v.entries == 12
+    v = violation_rate(np.array([1.0] * 8 + [0.0] * 2))
+    assert v.stop_value == 0.0 and v.rate == pytest.approx(0.2)
+    assert np.isnan(violation_rate(np.array([])).rate)
+
+
+def test_outcome_rates_use_each_cars_last_row():
+    rows = [(0, 0, 0, 0, 0, 0, 0), (0, 0, 5, 0, 0, 1, 0), (0, 1, 0, 0, 0, 0, 0),
+            (0, 1, 2, 0, 0, 0, 1), (1, 0, 0, 0, 0, 0, 0), (1, 0, 9, 0, 0, 0, 0)]
+    r = outcome_rates(_table(rows))
+    assert r["cars"] == 3
+    assert r["success_rate"] == pytest.approx(1 / 3) and r["collision_rate"] == pytest.approx(1 / 3)
+    assert r["mean_time_to_goal"] == 5
+
+
+def test_hand_rule_obeys_lights_and_random_does_not(tmp_path):
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    rule = traffic_light_metrics(run_episodes(env, LightRulePolicy(env), 30, seed=0))
+    rand_table = run_episodes(env, RandomPolicy(env, seed=0), 30, seed=0)
+    rand = traffic_light_metrics(rand_table)
+    assert rule["red_light_violation_rate"] < 0.1 and rule["stop_value"] == 1.0
+    assert rule["success_rate"] > 0.85 and rule["collision_rate"] < 0.1
+    assert 0.3 < rand["red_light_violation_rate"] < 0.6
+    save_table(rand_table, tmp_path / "r.npz")
+    back = load_table(tmp_path / "r.npz")
+    assert set(COLUMNS) <= set(back) and len(back["x"]) == len(rand_table["x"])
+
+
+def test_recorder_rows_match_decisions():
+    env = box2d_driving.make("intersection-v0", num_cars=2, horizon=5)
+    rec = RolloutRecorder()
+    table = run_episodes(env, RandomPolicy(env, seed=1), 2, recorder=rec)
+    for ep in (0, 1):
+        for car in (0, 1):
+            d = table["decision"][(table["episode"] == ep) & (table["car"] == car)]
+            assert d[0] == 0 and np.all(np.diff(d) == 1)

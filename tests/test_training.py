@@ -1,0 +1,222 @@
+"""Training stack: slot VecEnv semantics, masked buffer, CTDE policy, trainer, inference."""
+
+import json
+
+import numpy as np
+import pytest
+
+th = pytest.importorskip("torch")
+pytest.importorskip("stable_baselines3")
+
+import box2d_driving  # noqa: E402
+from training.buffer import MaskedRolloutBuffer  # noqa: E402
+from training.inference import load_policy  # noqa: E402
+from training.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
+from training.trainer import RunError, TrainConfig, build_model, train  # noqa: E402
+from training.vec_env import SlotVecEnv  # noqa: E402
+from tests.helpers import hand_env, level_index, straight_car  # noqa: E402
+
+
+def _two_car_env():
+    # car_0 reaches its goal (5 m) on decision 3; car_1 drives on until the horizon (6)
+    return hand_env([straight_car((0, 0), (5, 0)), straight_car((0, -20), (300, -20))], horizon=6)
+
+
+def test_slot_done_on_the_right_step_then_padding_until_reset():
+    venv = SlotVecEnv([_two_car_env])
+    lay = venv.layout
+    up = level_index(venv.envs[0], 1.5)
+    obs = venv.reset()
+    assert obs.shape == (2, lay.size) and np.all(obs[:, lay.self_alive] == 1)
+    for step in range(1, 7):
+        obs, rew, dones, infos = venv.step(np.array([up, up]))
+        assert infos[0] is not infos[1]
+        if step < 3:
+            assert not dones.any()
+        if step == 3:
+            assert dones.tolist() == [True, False]
+            assert infos[0]["arrived"] and infos[0]["TimeLimit.truncated"] is False
+            term = infos[0]["terminal_observation"]
+            assert term[lay.self_alive] == 1 and term[lay.alive].tolist() == [1, 1]
+            assert rew[0] > 0.9  # goal reward
+            assert obs[0, lay.self_alive] == 0 and np.all(obs[0, : lay.obs_dim] == 0)
+            assert obs[1, lay.alive].tolist() == [0, 1]
+        if step in (4, 5):
+            assert dones.tolist() == [False, False]
+            assert infos[0] == {} and rew[0] == 0.0 and obs[0, lay.self_alive] == 0
+        if step == 6:
+            assert dones.tolist() == [False, True]
+            assert infos[1]["TimeLimit.truncated"] is True
+            # the instance reset: both slots carry the new episode's first observation
+            assert np.all(obs[:, lay.self_alive] == 1)
+
+
+def test_team_block_and_own_observation_agree():
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)])
+    obs = venv.reset()
+    lay = venv.layout
+    team = obs[0, lay.team].reshape(4, lay.obs_dim)
+    for i in range(4):
+        np.testing.assert_array_equal(obs[i, lay.own], team[i])
+        np.testing.assert_array_equal(obs[i, lay.team], obs[0, lay.team])
+
+
+def test_vec_env_seeding_is_deterministic_and_attrs_work():
+    def make():
+        v = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2)] * 2)
+        v.seed(5)
+        return v
+    a, b = make(), make()
+    np.testing.assert_array_equal(a.reset(), b.reset())
+    assert a.get_attr("decision") == [0, 0, 0, 0]
+    assert len(a.env_method("state")) == 4
+    a.close()
+
+
+def test_masked_buffer_yields_only_live_transitions():
+    from gymnasium import spaces
+
+    obs_space = spaces.Box(-1, 1, (3,), np.float32)
+    buf = MaskedRolloutBuffer(4, obs_space, spaces.Discrete(2), n_envs=3, alive_index=2,
+                              gae_lambda=0.9, gamma=0.9)
+    alive = np.array([[1, 0, 1], [1, 1, 0], [0, 1, 1], [1, 1, 1]], dtype=np.float32)
+    for t in range(4):
+        obs = np.zeros((3, 3), np.float32)
+        obs[:, 2] = alive[t]
+        obs[:, 0] = t * 10 + np.arange(3)  # identifies the transition
+        buf.add(obs, np.zeros((3, 1)), np.ones(3), np.zeros(3), th.zeros(3), th.zeros(3))
+    buf.compute_returns_and_advantage(th.zeros(3), np.zeros(3))
+    seen = np.concatenate([b.observations[:, 0].numpy() for b in buf.get(batch_size=2)])
+    expected = [t * 10 + e for t in range(4) for e in range(3) if alive[t, e]]
+    assert sorted(seen.tolist()) == sorted(expected)
+    assert buf.n_valid == int(alive.sum())
+
+
+def _network(critic="mean"):
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    kw = policy_kwargs_for(env, critic)
+    return CTDENetwork(**kw), SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)])
+
+
+@pytest.mark.parametrize("critic", ["mean", "own+mean"])
+def test_value_is_invariant_to_teammate_order_and_dead_slot_garbage(critic):
+    th.manual_seed(0)
+    net, venv = _network(critic)
+    lay = venv.layout
+    x = th.as_tensor(venv.reset())
+    # make the cars distinct so the test can fail
+    x[:, lay.team] += th.rand(lay.n_cars * lay.obs_dim)
+    v = net.forward_critic(x)
+    perm = [2, 0, 3, 1]
+    team = x[:, lay.team].reshape(-1, 4, lay.obs_dim)
+    xp = x.clone()
+    xp[:, lay.team] = team[:, perm].reshape(x.shape[0], -1)
+    xp[:, lay.alive] = x[:, lay.alive][:, perm]
+    assert th.allclose(net.forward_critic(xp), v, atol=1e-5)
+    # car 3 dead: garbage in its slot must not matter
+    xd = x.clone()
+    xd[:, lay.alive.start + 3] = 0
+    v_dead = net.forward_critic(xd)
+    team = xd[:, lay.team].reshape(-1, 4, lay.obs_dim)
+    team[:, 3] = th.randn_like(team[:, 3]) * 1e6
+    xd[:, lay.team] = team.reshape(xd.shape[0], -1)
+    assert th.allclose(net.forward_critic(xd), v_dead, atol=1e-5)
+    assert not th.allclose(v_dead, v, atol=1e-5)  # the mask does matter
+
+
+def test_actor_is_blind_to_the_team_block():
+    th.manual_seed(0)
+    net, venv = _network()
+    lay = venv.layout
+    x = th.as_tensor(venv.reset())
+    a = net.forward_actor(x)
+    y = x.clone()
+    y[:, lay.own.stop:] = th.randn_like(y[:, lay.own.stop:]) * 100
+    assert th.equal(net.forward_actor(y), a)
+    z = x.clone()
+    z[:, lay.own] += 0.5
+    assert not th.allclose(net.forward_actor(z), a)
+
+
+def test_model_save_load_round_trip(tmp_path):
+    from stable_baselines3 import PPO
+
+    cfg = TrainConfig(env_overrides={"num_cars": 2}, n_envs=1, batch_decisions=64, minibatch=32)
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2)])
+    model = build_model(cfg, venv)
+    obs = th.as_tensor(venv.reset())
+    model.save(tmp_path / "m.zip")
+    back = PPO.load(tmp_path / "m.zip", device="cpu")
+    assert isinstance(back.policy, CTDEPolicy)
+    with th.no_grad():
+        d1 = model.policy.get_distribution(obs).distribution.logits
+        d2 = back.policy.get_distribution(obs).distribution.logits
+        assert th.allclose(d1, d2)
+        assert th.allclose(model.policy.predict_values(obs), back.policy.predict_values(obs))
+
+
+def _tiny(**kw):
+    base = dict(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=320, n_envs=2,
+                batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=2, threads=1)
+    base.update(kw)
+    return TrainConfig(**base)
+
+
+def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
+    out = tmp_path / "run"
+    stats = train(_tiny(), out)
+    assert (out / "model.zip").exists() and (out / "config.json").exists()
+    assert list((out / "checkpoints").glob("model_*.zip"))
+    assert "rollout/success_rate" in stats
+    state = json.loads((out / "state.json").read_text())
+    assert state["decisions"] == 320 and state["agent_steps"] > 0
+    with pytest.raises(RunError, match="not empty"):
+        train(_tiny(), out)
+    train(_tiny(timesteps=480), out, resume=True)
+    assert json.loads((out / "state.json").read_text())["decisions"] == 480
+    with pytest.raises(RunError, match="env_overrides differs"):
+        train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=640), out, resume=True)
+    with pytest.raises(RunError, match="no checkpoint"):
+        train(_tiny(), tmp_path / "missing", resume=True)
+
+    policy = load_policy(out)
+    env = policy.make_env()
+    obs, _ = env.reset(seed=0)
+    actions = policy.act(obs)
+    assert set(actions) == set(obs) and all(0 <= a < 13 for a in actions.values())
+    assert policy.act(obs) == actions  # deterministic by default
+    while env.agents:
+        obs, *_ = env.step(policy.act(obs))
+    with pytest.raises(ValueError, match="observation size"):
+        policy.act({"car_0": np.zeros(7, np.float32)})
+
+
+def test_load_policy_rejects_bad_checkpoints(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        load_policy(tmp_path / "nothing.zip")
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "model.zip").write_bytes(b"not a zip")
+    (bad / "config.json").write_text("{}")
+    with pytest.raises(ValueError, match="cannot load checkpoint"):
+        load_policy(bad)
+
+
+def test_scripts_quick_train_and_evaluate(tmp_path):
+    from training import evaluate, traffic_lights
+
+    out = tmp_path / "q"
+    argv = ["--out", str(out), "--timesteps", "320", "--n-envs", "2", "--batch-decisions", "80",
+            "--num-cars", "2", "--threads", "1", "--epochs", "1"]
+    assert traffic_lights.main(argv) == 0
+    assert traffic_lights.main(argv) == 2  # refuses to overwrite
+    ev = tmp_path / "ev"
+    assert evaluate.main(["--checkpoint", str(out), "--episodes", "3", "--out", str(ev),
+                          "--video", "1"]) == 0
+    metrics = json.loads((ev / "metrics.json").read_text())
+    for key in ("success_rate", "collision_rate", "red_light_violation_rate", "mean_time_to_goal"):
+        assert key in metrics
+    for name in ("rollouts.npz", "learning_curves.png", "acceleration_by_light.png",
+                 "junction_light.png", "episodes.mp4"):
+        assert (ev / name).stat().st_size > 0
+    assert evaluate.main(["--checkpoint", str(out), "--episodes", "3", "--out", str(ev)]) == 2

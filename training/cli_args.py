@@ -1,0 +1,56 @@
+"""A dataclass of arguments is the CLI (CleanRL style): ``--field-name value`` per field."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import typing
+from typing import Any, Optional, Sequence, TypeVar
+
+T = TypeVar("T")
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, no usage dump
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str = "") -> T:
+    """Parse ``argv`` into an instance of the dataclass ``cls``. Field docs come from the class
+    docstring's ``name: text`` lines."""
+    docs = _field_docs(cls.__doc__ or "")
+    parser = _Parser(prog=sys.argv[0].rsplit("/", 1)[-1], description=description)
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        flag = "--" + f.name.replace("_", "-")
+        kind = hints[f.name]
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        help_text = f"{docs.get(f.name, '')} (default: {default})"
+        if kind is bool:
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default, help=help_text)
+        else:
+            parser.add_argument(flag, type=_caster(kind), default=default, help=help_text)
+    ns = parser.parse_args(argv)
+    return cls(**vars(ns))
+
+
+def _caster(kind: Any):
+    args = typing.get_args(kind)
+    if type(None) in args:  # Optional[X]
+        inner = next(a for a in args if a is not type(None))
+
+        def cast(text: str):
+            return None if text.lower() == "none" else inner(text)
+        return cast
+    return kind
+
+
+def _field_docs(doc: str) -> dict[str, str]:
+    out = {}
+    for line in doc.splitlines():
+        line = line.strip()
+        if ":" in line and line.split(":", 1)[0].isidentifier():
+            name, text = line.split(":", 1)
+            out[name] = text.strip()
+    return out

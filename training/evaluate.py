@@ -1,0 +1,125 @@
+"""Evaluate a checkpoint (or a scripted policy): rollouts, SPEC 6.1 metrics, plots, a video.
+
+    python training/evaluate.py --checkpoint runs/lights4 --episodes 200 --out runs/lights4/eval
+    python training/evaluate.py --checkpoint rule --episodes 200 --out runs/rule_eval
+
+Writes ``OUT/rollouts.npz`` (one row per car per decision), ``OUT/metrics.json`` (success_rate,
+collision_rate, red_light_violation_rate with the adopted stop value, mean_time_to_goal ...) and
+plots: ``learning_curves.png`` (from the run's logs), ``acceleration_by_light.png``,
+``junction_light.png``; ``--video N`` also records N episodes to ``OUT/episodes.mp4``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+if __package__ in (None, ""):
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import box2d_driving  # noqa: E402
+from box2d_driving.metrics.lights import GO_STOP, junction_entries, traffic_light_metrics  # noqa: E402
+from box2d_driving.metrics.rollouts import run_episodes, save_table  # noqa: E402
+from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
+from training import plots  # noqa: E402
+from training.cli_args import parse  # noqa: E402
+
+
+@dataclass
+class Args:
+    """Evaluate a policy.
+
+    checkpoint: run folder or model.zip, or a scripted policy name (rule, random)
+    episodes: evaluation episodes
+    out: output folder (must not exist unless --overwrite)
+    seed: seed of the first episode
+    num_cars: cars (default: as trained; scripted: 4)
+    lidar_noise: LiDAR noise (default: as trained; scripted: 0)
+    stochastic: sample actions instead of taking the most likely one
+    video: episodes to record to OUT/episodes.mp4 (0 = none)
+    overwrite: allow writing into an existing output folder
+    """
+
+    checkpoint: str = "rule"
+    episodes: int = 200
+    out: str = "runs/eval"
+    seed: int = 10_000
+    num_cars: Optional[int] = None
+    lidar_noise: Optional[float] = None
+    stochastic: bool = False
+    video: int = 0
+    overwrite: bool = False
+
+
+def evaluate(args: Args) -> dict:
+    out = Path(args.out)
+    if out.exists() and any(out.iterdir()) and not args.overwrite:
+        raise FileExistsError(f"{out} exists and is not empty; choose another --out or pass --overwrite")
+    if args.episodes < 1:
+        raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
+    extra = {k: v for k, v in (("num_cars", args.num_cars), ("lidar_noise", args.lidar_noise))
+             if v is not None}
+    run_dir, env_id = None, "intersection-v0"
+    if args.checkpoint in SCRIPTED:
+        env = box2d_driving.make(env_id, **extra)
+        policy = make_policy(args.checkpoint, env, seed=args.seed)
+        source = {"policy": args.checkpoint}
+    else:
+        from training.inference import load_policy
+
+        policy = load_policy(args.checkpoint, deterministic=not args.stochastic)
+        env = policy.make_env(**extra)
+        env_id = policy.env_id
+        path = Path(args.checkpoint)
+        run_dir = path if path.is_dir() else path.parent
+        source = {"checkpoint": str(path), "trained_on": policy.config["env_overrides"]}
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    table = run_episodes(env, policy, args.episodes, seed=args.seed)
+    seconds = time.perf_counter() - t0
+    save_table(table, out / "rollouts.npz")
+    metrics = traffic_light_metrics(table)
+    metrics.update(source)
+    metrics.update(episodes=args.episodes, seed=args.seed, deterministic=not args.stochastic,
+                   env_id=env_id, env_config={
+                       "num_cars": env.config.num_cars, "lidar_noise": env.config.lidar_noise},
+                   eval_seconds=round(seconds, 2))
+    if run_dir is not None and (run_dir / "state.json").exists():
+        metrics["training"] = json.loads((run_dir / "state.json").read_text())
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+
+    progress = plots.read_progress(run_dir) if run_dir is not None else None
+    if progress is not None:
+        plots.learning_curves(progress, out / "learning_curves.png")
+    plots.acceleration_by_light(table, out / "acceleration_by_light.png")
+    go = GO_STOP[1] if metrics["stop_value"] == GO_STOP[0] else GO_STOP[0]
+    plots.junction_light_histogram(table, junction_entries(table), go, out / "junction_light.png")
+    if args.video > 0:
+        from box2d_driving.render.video import record
+
+        video_env = box2d_driving.make(env_id, render_mode="rgb_array", num_cars=env.config.num_cars,
+                                       lidar_noise=env.config.lidar_noise)
+        record(video_env, policy, episodes=args.video, video=out / "episodes.mp4", seed=args.seed)
+    return metrics
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    args = parse(Args, argv, description=__doc__.split("\n\n")[0])
+    try:
+        metrics = evaluate(args)
+    except (FileExistsError, FileNotFoundError, ValueError) as exc:
+        print(f"evaluate: error: {exc}", file=sys.stderr)
+        return 2
+    keys = ("success_rate", "collision_rate", "red_light_violation_rate", "stop_value",
+            "mean_time_to_goal", "junction_entries")
+    print(json.dumps({k: metrics[k] for k in keys}, indent=2))
+    print(f"report: {Path(args.out) / 'metrics.json'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

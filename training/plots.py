@@ -1,0 +1,131 @@
+"""Plots for evaluation reports (matplotlib, headless)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+LIGHT_NAMES = {0.0: "0.0", 0.5: "0.5", 0.75: "none (0.75)", 1.0: "1.0"}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def read_progress(run_dir: Path) -> Optional[dict[str, np.ndarray]]:
+    """Training curves from ``progress.csv`` (and ``progress.resumed.csv``) of a run folder."""
+    rows = []
+    for name in ("progress.csv", "progress.resumed.csv"):
+        path = run_dir / name
+        if path.exists():
+            with open(path) as f:
+                rows += list(csv.DictReader(f))
+    if not rows:
+        return None
+    keys = ["time/agent_steps", "time/wall_s", "rollout/success_rate", "rollout/collision_rate",
+            "rollout/red_light_violation_rate"]
+    out = {}
+    for k in keys:
+        out[k] = np.array([float(r[k]) if r.get(k) not in (None, "") else np.nan for r in rows])
+    return out
+
+
+def learning_curves(progress: dict[str, np.ndarray], path: Path) -> None:
+    plt = _plt()
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    x = progress["time/agent_steps"] / 1e6
+    for key, label in (("rollout/success_rate", "success"), ("rollout/collision_rate", "collision"),
+                       ("rollout/red_light_violation_rate", "red-light violation")):
+        ax[0].plot(x, progress[key], label=label)
+    ax[0].axhline(0.45, color="grey", ls=":", lw=1, label="light-blind (~0.45)")
+    ax[0].set_xlabel("agent-steps (millions)")
+    ax[0].set_ylabel("rate")
+    ax[0].set_ylim(0, 1)
+    ax[0].legend(fontsize=8)
+    ax[0].set_title("training curves")
+    hours = progress["time/wall_s"] / 3600
+    ax[1].plot(hours, progress["rollout/red_light_violation_rate"], label="violation")
+    ax[1].plot(hours, progress["rollout/success_rate"], label="success")
+    ax[1].set_xlabel("wall-clock hours")
+    ax[1].set_ylim(0, 1)
+    ax[1].legend(fontsize=8)
+    ax[1].set_title("against training time")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def acceleration_by_light(table: dict[str, np.ndarray], path: Path, bins=(0, 10, 20, 30, 50)) -> None:
+    """Box plots of the acceleration chosen against distance to the stop line, per light seen."""
+    plt = _plt()
+    # the action at decision t responds to the observation at t-1: pair them per car
+    order = np.lexsort((table["decision"], table["car"], table["episode"]))
+    ep, car = table["episode"][order], table["car"][order]
+    same = (ep[1:] == ep[:-1]) & (car[1:] == car[:-1])
+    light = table["light"][order][:-1][same]
+    dist = table["stop_line_distance"][order][:-1][same]
+    accel = table["acceleration"][order][1:][same]
+    fig, ax = plt.subplots(figsize=(9, 4))
+    values = [v for v in (0.0, 0.5, 1.0) if np.any(np.isclose(light, v))]
+    width = 0.8 / max(len(values), 1)
+    colours = {0.0: "tab:green", 0.5: "tab:orange", 1.0: "tab:red"}
+    for j, v in enumerate(values):
+        data, pos = [], []
+        for b in range(len(bins) - 1):
+            m = np.isclose(light, v) & (dist > bins[b]) & (dist <= bins[b + 1])
+            data.append(accel[m] if m.any() else np.array([np.nan]))
+            pos.append(b + (j - (len(values) - 1) / 2) * width)
+        bp = ax.boxplot(data, positions=pos, widths=width * 0.9, patch_artist=True, showfliers=False,
+                        medianprops={"color": "black"})
+        for patch in bp["boxes"]:
+            patch.set_facecolor(colours[v])
+            patch.set_alpha(0.6)
+        ax.plot([], [], color=colours[v], lw=6, alpha=0.6, label=f"light {LIGHT_NAMES[v]}")
+    ax.set_xticks(range(len(bins) - 1))
+    ax.set_xticklabels([f"{bins[b]}-{bins[b + 1]} m" for b in range(len(bins) - 1)])
+    ax.set_xlabel("distance to the stop line")
+    ax.set_ylabel("acceleration (m/s²)")
+    ax.legend(fontsize=8)
+    ax.set_title("acceleration by light seen and distance to the junction")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def junction_light_histogram(table: dict[str, np.ndarray], entries: dict[str, np.ndarray],
+                             go_value: float, path: Path, bins: int = 24) -> None:
+    """Inside the junction: share of car positions whose entry light was the 'go' value."""
+    plt = _plt()
+    key = {(e, c): light for e, c, light in zip(entries["episode"], entries["car"], entries["light"])}
+    inside = np.flatnonzero(table["in_junction"])
+    pts, go = [], []
+    for i in inside:
+        k = (table["episode"][i], table["car"][i])
+        if k in key:
+            pts.append((table["x"][i], table["y"][i]))
+            go.append(np.isclose(key[k], go_value))
+    fig, ax = plt.subplots(figsize=(5, 4.5))
+    if pts:
+        pts = np.array(pts)
+        go = np.array(go, dtype=float)
+        lim = np.abs(pts).max()
+        edges = np.linspace(-lim, lim, bins + 1)
+        total, _, _ = np.histogram2d(pts[:, 0], pts[:, 1], bins=[edges, edges])
+        good, _, _ = np.histogram2d(pts[:, 0], pts[:, 1], bins=[edges, edges], weights=go)
+        share = np.where(total > 0, good / np.maximum(total, 1), np.nan)
+        im = ax.imshow(share.T, origin="lower", extent=[-lim, lim, -lim, lim], cmap="RdYlGn",
+                       vmin=0, vmax=1)
+        fig.colorbar(im, ax=ax, label=f"share entered on 'go' ({go_value})")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title("light seen before entering, by position")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,122 @@
+"""The paper's actor and centralised critic as an SB3 policy (SPEC 5).
+
+* Actor: LiDAR history ``(H, n_rays)`` -> two circular 1-D convolutions -> average pool to 25
+  features; concatenated with the sat-nav history; MLP [256, 256] tanh -> action logits. It reads
+  only the slot's own observation: :meth:`CTDENetwork.forward_actor` never touches the team block.
+* Critic: the same encoder architecture (own weights) on every car of the env instance in the
+  team block -> linear 256 tanh -> mean over live cars (masked: dead slots contribute nothing, so
+  any number of cars and any order give the same value) -> MLP 256 tanh -> value. Variant
+  ``own+mean`` also concatenates the slot's own 256-d encoding before the MLP.
+
+Extension goes through SB3's documented hook (``_build_mlp_extractor``); features are the raw
+slot observation (``FlattenExtractor``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch as th
+from stable_baselines3.common.policies import ActorCriticPolicy
+from torch import nn
+
+CRITICS = ("mean", "own+mean")
+
+
+class CircularConv1d(nn.Conv1d):
+    """1-D convolution with wrap-around padding (the LiDAR is a ring). Pads by concatenation,
+    which is about twice as fast on CPU as ``padding_mode="circular"``."""
+
+    def __init__(self, in_channels: int, out_channels: int, kernel: int) -> None:
+        super().__init__(in_channels, out_channels, kernel)
+        self.pad = kernel // 2
+
+    def forward(self, x: th.Tensor) -> th.Tensor:
+        p = self.pad
+        if p:
+            x = th.cat([x[..., -p:], x, x[..., :p]], dim=-1)
+        return super().forward(x)
+
+
+class LidarEncoder(nn.Module):
+    """Circular conv encoder of the LiDAR history, concatenated with the sat-nav history."""
+
+    def __init__(self, history: int, n_rays: int, n_satnav: int, channels: int = 8,
+                 kernel: int = 5, pooled: int = 25) -> None:
+        super().__init__()
+        self.history, self.n_rays = history, n_rays
+        self.conv = nn.Sequential(
+            CircularConv1d(history, channels, kernel), nn.ReLU(),
+            CircularConv1d(channels, 1, kernel), nn.ReLU(),
+            nn.AdaptiveAvgPool1d(pooled),
+        )
+        self.out_dim = pooled + history * n_satnav
+
+    def forward(self, obs: th.Tensor) -> th.Tensor:
+        n_lidar = self.history * self.n_rays
+        lidar = obs[:, :n_lidar].reshape(-1, self.history, self.n_rays)
+        return th.cat([self.conv(lidar).flatten(1), obs[:, n_lidar:]], dim=1)
+
+
+class CTDENetwork(nn.Module):
+    """``forward_actor``: own observation only; ``forward_critic``: the team block."""
+
+    def __init__(self, obs_dim: int, n_cars: int, history: int, n_rays: int, n_satnav: int,
+                 critic: str = "mean", hidden: int = 256) -> None:
+        super().__init__()
+        if critic not in CRITICS:
+            raise ValueError(f"critic must be one of {CRITICS}, got {critic!r}")
+        self.obs_dim, self.n_cars, self.critic = obs_dim, n_cars, critic
+        self.latent_dim_pi = hidden
+        self.latent_dim_vf = hidden
+        self.actor_encoder = LidarEncoder(history, n_rays, n_satnav)
+        self.actor_mlp = nn.Sequential(nn.Linear(self.actor_encoder.out_dim, hidden), nn.Tanh(),
+                                       nn.Linear(hidden, hidden), nn.Tanh())
+        self.critic_encoder = LidarEncoder(history, n_rays, n_satnav)
+        self.critic_proj = nn.Sequential(nn.Linear(self.critic_encoder.out_dim, hidden), nn.Tanh())
+        width = hidden * (2 if critic == "own+mean" else 1)
+        self.critic_mlp = nn.Sequential(nn.Linear(width, hidden), nn.Tanh())
+
+    def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        return self.forward_actor(features), self.forward_critic(features)
+
+    def forward_actor(self, features: th.Tensor) -> th.Tensor:
+        return self.actor_mlp(self.actor_encoder(features[:, : self.obs_dim]))
+
+    def forward_critic(self, features: th.Tensor) -> th.Tensor:
+        d, n = self.obs_dim, self.n_cars
+        b = features.shape[0]
+        team = features[:, d: d * (1 + n)].reshape(b * n, d)
+        alive = features[:, d * (1 + n): d * (1 + n) + n] > 0.5
+        z = self.critic_proj(self.critic_encoder(team)).reshape(b, n, -1)
+        z = th.where(alive[..., None], z, th.zeros((), dtype=z.dtype))
+        mean = z.sum(dim=1) / alive.sum(dim=1, keepdim=True).clamp(min=1)
+        if self.critic == "own+mean":
+            own = self.critic_proj(self.critic_encoder(features[:, :d]))
+            mean = th.cat([own, mean], dim=1)
+        return self.critic_mlp(mean)
+
+
+class CTDEPolicy(ActorCriticPolicy):
+    """Decentralised actor, centralised mean-latent critic (SB3 ``ActorCriticPolicy``)."""
+
+    def __init__(self, *args: Any, obs_dim: int, n_cars: int, history: int, n_rays: int,
+                 n_satnav: int, critic: str = "mean", **kwargs: Any) -> None:
+        self.ctde_kwargs = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
+                                n_satnav=n_satnav, critic=critic)
+        super().__init__(*args, **kwargs)
+
+    def _build_mlp_extractor(self) -> None:
+        self.mlp_extractor = CTDENetwork(**self.ctde_kwargs)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(self.ctde_kwargs)
+        return data
+
+
+def policy_kwargs_for(env: Any, critic: str = "mean") -> dict[str, Any]:
+    """``policy_kwargs`` for :class:`CTDEPolicy` from a driving env (its observation layout)."""
+    lay = env.observation_layout
+    return dict(obs_dim=lay.size, n_cars=len(env.possible_agents), history=lay.history,
+                n_rays=lay.n_rays, n_satnav=lay.n_satnav, critic=critic)

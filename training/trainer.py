@@ -1,0 +1,255 @@
+"""PPO with the centralised critic on a :class:`SlotVecEnv`: building, logging, checkpoints,
+resuming. Scripts (``training/traffic_lights.py`` ...) only fill in a :class:`TrainConfig`.
+
+Output folder::
+
+    OUT/config.json          full config (trainer + env), written once
+    OUT/model.zip            latest checkpoint (what load_policy / evaluate / --resume read)
+    OUT/checkpoints/         model_<decisions>.zip every ``checkpoint_every`` updates
+    OUT/progress.csv         one row per update: rollout metrics and PPO diagnostics
+    OUT/tb/                  TensorBoard logs
+    OUT/state.json           wall-clock seconds and agent-steps so far (kept across --resume)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+import torch as th
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import configure
+
+import box2d_driving
+from box2d_driving.metrics.lights import violation_rate
+from training.buffer import MaskedRolloutBuffer
+from training.policy import CTDEPolicy, policy_kwargs_for
+from training.vec_env import SlotVecEnv
+
+
+@dataclass
+class TrainConfig:
+    """Everything one training run needs (saved to ``config.json``).
+
+    Attributes:
+        env_id: registered env id.
+        env_overrides: env config overrides (``num_cars``, ``lidar_noise`` ...).
+        timesteps: total slot-decisions to train for (one per car slot per env step, padding
+            included; agent-steps, which exclude padding, are logged too).
+        seed: seeds PPO and the envs.
+        n_envs: env instances stepped in one process.
+        batch_decisions: slot-decisions collected per PPO update (the paper: 32,000).
+        minibatch: minibatch size (real transitions).
+        epochs: PPO epochs per update.
+        learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
+        ent_coef: entropy bonus.
+        critic: ``mean`` (one team value, the paper) or ``own+mean``.
+        checkpoint_every: updates between checkpoints.
+        threads: torch CPU threads.
+    """
+
+    env_id: str = "intersection-v0"
+    env_overrides: dict = field(default_factory=dict)
+    timesteps: int = 2_000_000
+    seed: int = 0
+    n_envs: int = 16
+    batch_decisions: int = 32_000
+    minibatch: int = 4_000
+    epochs: int = 4
+    learning_rate: float = 1e-3
+    gamma: float = 0.99
+    gae_lambda: float = 0.97
+    clip_range: float = 0.2
+    target_kl: Optional[float] = 0.2
+    ent_coef: float = 0.01
+    critic: str = "mean"
+    checkpoint_every: int = 10
+    threads: int = 2
+
+    def n_steps(self, n_cars: int) -> int:
+        return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
+
+
+class RunError(RuntimeError):
+    """A run folder cannot be used as asked (exists, missing, incompatible)."""
+
+
+def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
+    """Create ``out`` for a new run, or check it for ``--resume``; never overwrite silently."""
+    if resume:
+        if not (out / "model.zip").exists() or not (out / "config.json").exists():
+            raise RunError(f"--resume: no checkpoint in {out} (model.zip and config.json needed)")
+        saved = json.loads((out / "config.json").read_text())
+        for key in ("env_id", "env_overrides", "critic"):
+            if saved[key] != json.loads(json.dumps(getattr(config, key))):
+                raise RunError(f"--resume: {key} differs from the checkpoint's "
+                               f"({saved[key]!r} vs {getattr(config, key)!r})")
+        return
+    if out.exists() and any(out.iterdir()):
+        raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2))
+
+
+def make_vec_env(config: TrainConfig) -> SlotVecEnv:
+    def factory():
+        return box2d_driving.make(config.env_id, **config.env_overrides)
+    return SlotVecEnv([factory for _ in range(config.n_envs)])
+
+
+def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
+    probe = venv.envs[0]
+    n_cars = len(probe.possible_agents)
+    n_steps = config.n_steps(n_cars)
+    return PPO(
+        CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
+        n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
+        gae_lambda=config.gae_lambda, clip_range=config.clip_range, ent_coef=config.ent_coef,
+        target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
+        rollout_buffer_class=MaskedRolloutBuffer,
+        rollout_buffer_kwargs={"alive_index": venv.layout.self_alive},
+        seed=config.seed, device="cpu", verbose=0,
+    )
+
+
+class RolloutMetrics(BaseCallback):
+    """Per update: success, collision and red-light violation rates of the episodes that ended,
+    agent-steps (padding excluded), throughput; logged to CSV/TensorBoard; progress bar."""
+
+    def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
+                 checkpoint_every: int) -> None:
+        super().__init__()
+        self.out, self.total = out, total
+        self.wall_offset, self.agent_steps = wall_offset, agent_steps_offset
+        self.checkpoint_every = checkpoint_every
+        self.updates = 0
+        self.bar = None
+
+    def _on_training_start(self) -> None:
+        from tqdm import tqdm
+
+        n = self.training_env.num_envs
+        self.prev_light = np.full(n, 0.75)
+        self.prev_inside = np.zeros(n, dtype=bool)
+        self.t0 = time.perf_counter()
+        import sys
+
+        self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
+                        dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0)
+        self._reset_stats()
+
+    def _reset_stats(self) -> None:
+        self.done_cars = self.arrived = self.collided = 0
+        self.entry_lights: list[float] = []
+        self.rollout_t0 = time.perf_counter()
+        self.rollout_agent_steps = 0
+
+    def _on_step(self) -> bool:
+        infos, dones = self.locals["infos"], self.locals["dones"]
+        for slot, info in enumerate(infos):
+            if not info:
+                continue
+            self.rollout_agent_steps += 1
+            inside = info["in_junction"]
+            if inside and not self.prev_inside[slot]:
+                self.entry_lights.append(self.prev_light[slot])
+            self.prev_light[slot], self.prev_inside[slot] = info["light"], inside
+            if dones[slot]:
+                self.done_cars += 1
+                self.arrived += info["arrived"]
+                self.collided += info["collided"]
+                self.prev_light[slot], self.prev_inside[slot] = 0.75, False
+        self.bar.update(self.training_env.num_envs)
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.agent_steps += self.rollout_agent_steps
+        v = violation_rate(np.array(self.entry_lights))
+        cars = max(self.done_cars, 1)
+        stats = {
+            "rollout/success_rate": self.arrived / cars,
+            "rollout/collision_rate": self.collided / cars,
+            "rollout/red_light_violation_rate": v.rate,
+            "rollout/stop_value": v.stop_value,
+            "rollout/junction_entries": v.entries,
+            "rollout/cars_done": self.done_cars,
+            "time/agent_steps": self.agent_steps,
+            "time/wall_s": self.wall_offset + time.perf_counter() - self.t0,
+            "time/agent_steps_per_s": self.rollout_agent_steps / max(time.perf_counter() - self.rollout_t0, 1e-9),
+        }
+        for k, val in stats.items():
+            self.logger.record(k, val)
+        self.bar.set_postfix(success=f"{stats['rollout/success_rate']:.2f}",
+                             crash=f"{stats['rollout/collision_rate']:.2f}",
+                             viol=f"{v.rate:.2f}", refresh=False)
+        self.updates += 1
+        self.last_stats = stats
+        self._reset_stats()
+
+    def _on_rollout_start(self) -> None:
+        if self.updates and self.updates % self.checkpoint_every == 0:
+            save_checkpoint(self.model, self.out, self.wall_offset + time.perf_counter() - self.t0,
+                            self.agent_steps)
+        self.rollout_t0 = time.perf_counter()
+
+    def _on_training_end(self) -> None:
+        self.bar.close()
+
+    @property
+    def wall(self) -> float:
+        return self.wall_offset + time.perf_counter() - self.t0
+
+
+def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> Path:
+    """Write ``checkpoints/model_<decisions>.zip``, refresh ``model.zip`` and ``state.json``."""
+    ckpt_dir = out / "checkpoints"
+    ckpt_dir.mkdir(exist_ok=True)
+    path = ckpt_dir / f"model_{model.num_timesteps}.zip"
+    model.save(path)
+    tmp = out / "model.partial.zip"
+    shutil.copyfile(path, tmp)
+    tmp.replace(out / "model.zip")
+    (out / "state.json").write_text(json.dumps(
+        {"decisions": model.num_timesteps, "agent_steps": agent_steps, "wall_s": wall_s}, indent=2))
+    return path
+
+
+def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
+    """Train (or continue) a run in ``out``; returns the last rollout statistics."""
+    out = Path(out)
+    prepare_run_dir(out, resume, config)
+    th.set_num_threads(config.threads)
+    venv = make_vec_env(config)
+    wall, agent_steps = 0.0, 0
+    if resume:
+        model = PPO.load(out / "model.zip", env=venv, device="cpu")
+        state = json.loads((out / "state.json").read_text())
+        wall, agent_steps = state["wall_s"], state["agent_steps"]
+    else:
+        model = build_model(config, venv)
+        venv.seed(config.seed)
+    model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
+                     _append_logger(out))
+    remaining = config.timesteps - model.num_timesteps
+    callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every)
+    if remaining > 0:
+        model.learn(remaining, callback=callback, reset_num_timesteps=False)
+        save_checkpoint(model, out, callback.wall, callback.agent_steps)
+    venv.close()
+    return getattr(callback, "last_stats", {})
+
+
+def _append_logger(out: Path):
+    """On resume, keep appending to the same CSV and TensorBoard folder."""
+    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
+
+    csv = CSVOutputFormat(str(out / "progress.resumed.csv"))
+    return Logger(str(out), [csv, TensorBoardOutputFormat(str(out))])
