@@ -294,14 +294,15 @@ class DrivingEnv(ParallelEnv, EzPickle):
         pos = w.positions[cars]
         inside = self.layout.in_junction(pos).tolist()
         offsets = [float(self._lane_axes[i].offset(pos[j])) if self._lane_axes[i] is not None
-                   else float("nan") for j, i in enumerate(cars.tolist())]
+                   else None for j, i in enumerate(cars.tolist())]
         stop = np.full(len(cars), np.nan)
         lights, li = self.layout.lights, self._light_index[cars]
         if lights is not None and (li >= 0).any():
             has = li >= 0
             stop[has] = np.einsum("ij,ij->i", lights.stop_points[li[has]] - pos[has],
                                   lights.directions[li[has]])
-        return list(zip(inside, offsets, stop.tolist()))
+        stop = [None if np.isnan(d) else d for d in stop.tolist()]  # None: no light (NaN != NaN)
+        return list(zip(inside, offsets, stop))
 
     def _info(self, i: int, facts: tuple) -> dict[str, Any]:
         w = self.world

@@ -32,10 +32,10 @@ class RolloutRecorder:
             x, y = info["position"]
             self.rows.append((
                 episode, car, info["decision"], x, y, info["heading"], info["speed"],
-                info["acceleration"], info["light"], info["in_junction"], info["lane_offset"],
+                info["acceleration"], info["light"], info["in_junction"], _num(info["lane_offset"]),
                 info["distance_to_goal"], info["arrived"], info["collided"],
                 0.0 if rewards is None else rewards[agent], info.get("approach", -1),
-                info.get("rating", 1.0), info.get("stop_line_distance", float("nan")),
+                info.get("rating", 1.0), _num(info.get("stop_line_distance")),
             ))
             self.collided_with.append(COLLIDED_WITH.index(info["collided_with"] or ""))
 
@@ -48,6 +48,10 @@ class RolloutRecorder:
             out[name] = out[name].astype(bool)
         out["collided_with"] = np.asarray(self.collided_with, dtype=np.int64)
         return out
+
+
+def _num(value: Optional[float]) -> float:
+    return float("nan") if value is None else float(value)
 
 
 def save_table(table: dict[str, np.ndarray], path: Path) -> None:
