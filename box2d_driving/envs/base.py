@@ -189,9 +189,9 @@ class DrivingEnv(ParallelEnv, EzPickle):
                 self._remaining() / self._initial, (w.status == ACTIVE).astype(float),
                 (w.status == ARRIVED).astype(float), (w.status == COLLIDED).astype(float),
                 w.ratings]
-        lights = (self.layout.lights.values(self.time) if self.layout.lights is not None
-                  else np.zeros(0))
-        lights = np.resize(lights, self.n_lights) if self.n_lights else np.zeros(0)
+        lights = np.zeros(self.n_lights)
+        if self.layout.lights is not None:
+            lights[: len(self.layout.lights)] = self.layout.lights.values(self.time)
         return np.concatenate([np.stack(cols, axis=1).ravel(), lights,
                                [self.decision / self.config.horizon]]).astype(np.float32)
 
