@@ -44,6 +44,8 @@ class DrivingConfig:
             ``round(lidar_noise * n_rays)`` of them.
         lidar_encoding: ``"inverse"`` (1 / distance, 0 = no return, the paper's) or
             ``"proximity"`` (1 - distance / range, 0 = no return).
+        lidar_sees_pedestrians: whether LiDAR rays hit pedestrians (False makes them invisible,
+            still solid: a control for behaviour that comes from perception).
         lidar_backend: ``"numba"`` (batched, default through ``"auto"``) or ``"box2d"``
             (``world.RayCast`` callbacks); they agree within 1e-3 m.
         communication: each car also sends one bit per decision (action space doubles).
@@ -77,6 +79,7 @@ class DrivingConfig:
     lidar_noise: float = 0.0
     lidar_encoding: str = "inverse"
     lidar_backend: str = "auto"
+    lidar_sees_pedestrians: bool = True
     communication: bool = False
     comm_range: float = 30.0
     comm_half_angle: float = math.pi / 6

@@ -220,3 +220,20 @@ def test_scripts_quick_train_and_evaluate(tmp_path):
                  "junction_light.png", "episodes.mp4"):
         assert (ev / name).stat().st_size > 0
     assert evaluate.main(["--checkpoint", str(out), "--episodes", "3", "--out", str(ev)]) == 2
+
+
+def test_crosswalk_script_and_evaluation_with_invisible_control(tmp_path):
+    from training import crosswalk, evaluate
+
+    out = tmp_path / "cw"
+    assert crosswalk.main(["--out", str(out), "--timesteps", "320", "--n-envs", "2",
+                           "--batch-decisions", "80", "--num-cars", "2", "--threads", "1",
+                           "--epochs", "1"]) == 0
+    ev = tmp_path / "ev"
+    assert evaluate.main(["--checkpoint", str(out), "--episodes", "2", "--out", str(ev)]) == 0
+    metrics = json.loads((ev / "metrics.json").read_text())
+    assert "safe_stopping_share" in metrics and "pedestrian_collision_rate" in metrics
+    assert "pedestrian_collision_rate" in metrics["invisible_pedestrians"]
+    for name in ("pedestrian_distance.png", "speed_vs_pedestrian_distance.png",
+                 "speed_vs_crosswalk_distance.png"):
+        assert (ev / name).stat().st_size > 0

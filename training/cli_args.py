@@ -19,7 +19,9 @@ class _Parser(argparse.ArgumentParser):
 def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str = "") -> T:
     """Parse ``argv`` into an instance of the dataclass ``cls``. Field docs come from the class
     docstring's ``name: text`` lines."""
-    docs = _field_docs(cls.__doc__ or "")
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):  # subclasses document their own fields
+        docs.update(_field_docs(klass.__doc__ or ""))
     parser = _Parser(prog=sys.argv[0].rsplit("/", 1)[-1], description=description)
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):

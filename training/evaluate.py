@@ -3,10 +3,12 @@
     python training/evaluate.py --checkpoint runs/lights4 --episodes 200 --out runs/lights4/eval
     python training/evaluate.py --checkpoint rule --episodes 200 --out runs/rule_eval
 
-Writes ``OUT/rollouts.npz`` (one row per car per decision), ``OUT/metrics.json`` (success_rate,
-collision_rate, red_light_violation_rate with the adopted stop value, mean_time_to_goal ...) and
-plots: ``learning_curves.png`` (from the run's logs), ``acceleration_by_light.png``,
-``junction_light.png``; ``--video N`` also records N episodes to ``OUT/episodes.mp4``.
+Writes ``OUT/rollouts.npz`` (one row per car per decision), ``OUT/metrics.json`` and plots:
+``learning_curves.png`` (from the run's logs) and the scenario's report (``training/reports.py``):
+intersection: success_rate, collision_rate, red_light_violation_rate with the adopted stop value,
+mean_time_to_goal, ``acceleration_by_light.png``, ``junction_light.png``; crosswalk: safe-stopping
+share, pedestrian collision rate (also with pedestrians invisible to the LiDAR), distance KDE and
+speed/distance plots. ``--video N`` also records N episodes to ``OUT/episodes.mp4``.
 """
 
 from __future__ import annotations
@@ -22,10 +24,11 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import box2d_driving  # noqa: E402
-from box2d_driving.metrics.lights import GO_STOP, junction_entries, traffic_light_metrics  # noqa: E402
+from box2d_driving.metrics.lights import outcome_rates  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes, save_table  # noqa: E402
 from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
 from training import plots  # noqa: E402
+from training.reports import REPORTS  # noqa: E402
 from training.cli_args import parse  # noqa: E402
 
 
@@ -34,6 +37,7 @@ class Args:
     """Evaluate a policy.
 
     checkpoint: run folder or model.zip, or a scripted policy name (rule, random)
+    env_id: env for scripted policies (trained ones use the env they were trained on)
     episodes: evaluation episodes
     out: output folder (must not exist unless --overwrite)
     seed: seed of the first episode
@@ -45,6 +49,7 @@ class Args:
     """
 
     checkpoint: str = "rule"
+    env_id: str = "intersection-v0"
     episodes: int = 200
     out: str = "runs/eval"
     seed: int = 10_000
@@ -63,7 +68,7 @@ def evaluate(args: Args) -> dict:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
     extra = {k: v for k, v in (("num_cars", args.num_cars), ("lidar_noise", args.lidar_noise))
              if v is not None}
-    run_dir, env_id = None, "intersection-v0"
+    run_dir, env_id = None, args.env_id
     if args.checkpoint in SCRIPTED:
         env = box2d_driving.make(env_id, **extra)
         policy = make_policy(args.checkpoint, env, seed=args.seed)
@@ -82,7 +87,8 @@ def evaluate(args: Args) -> dict:
     table = run_episodes(env, policy, args.episodes, seed=args.seed)
     seconds = time.perf_counter() - t0
     save_table(table, out / "rollouts.npz")
-    metrics = traffic_light_metrics(table)
+    report = REPORTS.get(env_id)
+    metrics = report(table, env, policy, out, args.episodes, args.seed) if report else outcome_rates(table)
     metrics.update(source)
     metrics.update(episodes=args.episodes, seed=args.seed, deterministic=not args.stochastic,
                    env_id=env_id, env_config={
@@ -95,9 +101,6 @@ def evaluate(args: Args) -> dict:
     progress = plots.read_progress(run_dir) if run_dir is not None else None
     if progress is not None:
         plots.learning_curves(progress, out / "learning_curves.png")
-    plots.acceleration_by_light(table, out / "acceleration_by_light.png")
-    go = GO_STOP[1] if metrics["stop_value"] == GO_STOP[0] else GO_STOP[0]
-    plots.junction_light_histogram(table, junction_entries(table), go, out / "junction_light.png")
     if args.video > 0:
         from box2d_driving.render.video import record
 
@@ -114,9 +117,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
         print(f"evaluate: error: {exc}", file=sys.stderr)
         return 2
-    keys = ("success_rate", "collision_rate", "red_light_violation_rate", "stop_value",
-            "mean_time_to_goal", "junction_entries")
-    print(json.dumps({k: metrics[k] for k in keys}, indent=2))
+    print(json.dumps({k: v for k, v in metrics.items() if not isinstance(v, dict)}, indent=2))
     print(f"report: {Path(args.out) / 'metrics.json'}")
     return 0
 

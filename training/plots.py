@@ -129,3 +129,48 @@ def junction_light_histogram(table: dict[str, np.ndarray], entries: dict[str, np
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def pedestrian_distance_kde(distances: np.ndarray, path: Path, control: Optional[np.ndarray] = None) -> None:
+    """Kernel density of the distance to the nearest pedestrian ahead, with the mean and the
+    central 95 % band (and the invisible-pedestrian control, if given)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for d, label, colour in ((distances, "policy", "tab:blue"), (control, "pedestrians invisible", "tab:red")):
+        if d is None or len(d) < 2:
+            continue
+        grid = np.linspace(0, max(60.0, float(np.max(d))), 400)
+        bw = 1.06 * max(np.std(d), 1e-3) * len(d) ** (-1 / 5)
+        dens = np.exp(-0.5 * ((grid[:, None] - d[None, :]) / bw) ** 2).sum(1) / (len(d) * bw * np.sqrt(2 * np.pi))
+        ax.plot(grid, dens, color=colour, label=f"{label} (n={len(d)})")
+        lo, hi = np.percentile(d, [2.5, 97.5])
+        ax.axvspan(lo, hi, color=colour, alpha=0.08)
+        ax.axvline(np.mean(d), color=colour, ls="--", lw=1)
+    ax.axvline(6.0, color="grey", ls=":", lw=1, label="6 m")
+    ax.set_xlabel("distance to the nearest pedestrian ahead (m)")
+    ax.set_ylabel("density")
+    ax.legend(fontsize=8)
+    ax.set_title("pedestrian distance (dashed: mean, band: central 95 %)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def speed_vs_distance(distance: np.ndarray, speed: np.ndarray, a_max: float, path: Path,
+                      xlabel: str = "distance to the nearest pedestrian ahead (m)") -> None:
+    """Scatter of speed against distance with the safe-stopping region ``d >= v^2/(2 a_max)``."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    v_max = max(float(np.max(speed)) if len(speed) else 1.0, 1.0) * 1.05
+    v = np.linspace(0, v_max, 200)
+    d_max = max(float(np.max(distance)) if len(distance) else 10.0, v_max**2 / (2 * a_max)) * 1.05
+    ax.fill_betweenx(v, v**2 / (2 * a_max), d_max, color="tab:green", alpha=0.15, label="safe: d >= v²/2a")
+    ax.scatter(distance, speed, s=4, alpha=0.4)
+    ax.set_xlim(0, d_max)
+    ax.set_ylim(0, v_max)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("speed (m/s)")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

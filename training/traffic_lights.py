@@ -17,70 +17,20 @@ from typing import Optional
 if __package__ in (None, ""):  # run as a script: make the repository importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from training.cli_args import parse  # noqa: E402
-from training.trainer import RunError, TrainConfig, train  # noqa: E402
+from training.scripts import ScriptArgs, run_script  # noqa: E402
 
 
 @dataclass
-class Args:
-    """Train the traffic-light rule.
-
-    num_cars: cars per junction
-    lidar_noise: share of LiDAR rays dropped each decision
-    timesteps: slot-decisions to train for in total
-    seed: random seed
-    quick: a real but short run (about a minute of training here)
-    out: output folder (must not exist unless --resume)
-    resume: continue the run in --out from its last checkpoint
-    ent_coef: entropy bonus (default: 0.01)
-    critic: mean (the paper) or own+mean
-    n_envs: junctions simulated side by side
-    batch_decisions: slot-decisions per PPO update
-    epochs: PPO epochs per update
-    threads: torch CPU threads
-    """
+class Args(ScriptArgs):
+    """Train the traffic-light rule on intersection-v0."""
 
     num_cars: int = 4
-    lidar_noise: float = 0.0
     timesteps: int = 3_000_000
-    seed: int = 0
-    quick: bool = False
     out: str = "runs/traffic_lights"
-    resume: bool = False
-    ent_coef: Optional[float] = None
-    critic: str = "mean"
-    n_envs: int = 16
-    batch_decisions: int = 32_000
-    epochs: int = 4
-    threads: int = 2
-
-
-def config_from(args: Args) -> TrainConfig:
-    overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
-    cfg = TrainConfig(
-        env_id="intersection-v0", env_overrides=overrides, timesteps=args.timesteps,
-        seed=args.seed, n_envs=args.n_envs, batch_decisions=args.batch_decisions,
-        epochs=args.epochs, critic=args.critic, threads=args.threads,
-        ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
-    )
-    if args.quick:  # same algorithm, smaller numbers
-        cfg.n_envs, cfg.batch_decisions, cfg.minibatch = 8, 8_000, 2_000
-        cfg.timesteps = min(args.timesteps, 48_000)
-        cfg.checkpoint_every = 2
-    return cfg
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    args = parse(Args, argv, description=__doc__.split("\n\n")[0])
-    try:
-        stats = train(config_from(args), Path(args.out), resume=args.resume)
-    except (RunError, ValueError) as exc:
-        print(f"traffic_lights: error: {exc}", file=sys.stderr)
-        return 2
-    print("last update:", {k.split("/")[-1]: round(v, 4) if isinstance(v, float) else v
-                           for k, v in stats.items()})
-    print(f"checkpoint: {Path(args.out) / 'model.zip'}")
-    return 0
+    return run_script("intersection-v0", Args, argv, __doc__)
 
 
 if __name__ == "__main__":

@@ -147,7 +147,7 @@ class RolloutMetrics(BaseCallback):
         self._reset_stats()
 
     def _reset_stats(self) -> None:
-        self.done_cars = self.arrived = self.collided = 0
+        self.done_cars = self.arrived = self.collided = self.ped_hits = 0
         self.entry_lights: list[float] = []
         self.rollout_t0 = time.perf_counter()
         self.rollout_agent_steps = 0
@@ -166,6 +166,7 @@ class RolloutMetrics(BaseCallback):
                 self.done_cars += 1
                 self.arrived += info["arrived"]
                 self.collided += info["collided"]
+                self.ped_hits += info["collided_with"] == "pedestrian"
                 self.prev_light[slot], self.prev_inside[slot] = 0.75, False
         self.bar.update(self.training_env.num_envs)
         return True
@@ -177,6 +178,7 @@ class RolloutMetrics(BaseCallback):
         stats = {
             "rollout/success_rate": self.arrived / cars,
             "rollout/collision_rate": self.collided / cars,
+            "rollout/pedestrian_collision_rate": self.ped_hits / cars,
             "rollout/red_light_violation_rate": v.rate,
             "rollout/stop_value": v.stop_value,
             "rollout/junction_entries": v.entries,

@@ -101,6 +101,10 @@ class DrivingEnv(ParallelEnv, EzPickle):
         """``(N, len(satnav_extras))`` scenario-specific sat-nav values."""
         return np.zeros((self.config.num_cars, 0))
 
+    def scenario_info(self, cars: np.ndarray) -> list[dict[str, Any]]:
+        """Scenario-specific per-car facts added to ``infos`` (one dict per car in ``cars``)."""
+        return [{} for _ in cars]
+
     # -- API ----------------------------------------------------------------------------------
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         if seed is not None or self.np_random is None:
@@ -126,7 +130,9 @@ class DrivingEnv(ParallelEnv, EzPickle):
         obs = self.history.observations(cars)
         observations = {a: obs[i] for i, a in enumerate(self.agents)}
         facts = self._facts(cars)
-        infos = {a: self._info(i, facts[j]) for j, (i, a) in enumerate(zip(cars, self.agents))}
+        extra = self.scenario_info(cars)
+        infos = {a: {**self._info(i, facts[j]), **extra[j]}
+                 for j, (i, a) in enumerate(zip(cars, self.agents))}
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
@@ -171,6 +177,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         truncated = self.decision >= cfg.horizon
         observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
         facts = self._facts(acting)
+        extra = self.scenario_info(acting)
         for j, i in enumerate(acting.tolist()):
             agent = self.possible_agents[i]
             observations[agent] = obs[j]
@@ -178,6 +185,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
             terminations[agent] = bool(done[j])
             truncations[agent] = bool(truncated and not done[j])
             infos[agent] = self._info(i, facts[j])
+            infos[agent].update(extra[j])
             infos[agent]["reward_terms"] = {t: float(terms[t][j]) for t in TERMS}
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
         return observations, rewards, terminations, truncations, infos
@@ -262,10 +270,11 @@ class DrivingEnv(ParallelEnv, EzPickle):
         if self._backend == "box2d":
             return lidar.cast_rays_box2d(w.world, [w.car_bodies[i] for i in cars],
                                          w.positions[cars], w.headings[cars], cfg.n_rays,
-                                         cfg.lidar_range)
+                                         cfg.lidar_range, cfg.lidar_sees_pedestrians)
+        peds = slice(None) if cfg.lidar_sees_pedestrians else slice(0, 0)
         segs, owner, one_sided = lidar.scene_segments(
             w.positions, w.headings, w.present, cfg.car_length, cfg.car_width,
-            w.ped_positions, w.ped_sizes, w.edge_segments)
+            w.ped_positions[peds], w.ped_sizes[peds], w.edge_segments)
         out = np.empty((len(cars), cfg.n_rays))
         lidar.cast_rays(w.positions[cars], w.headings[cars], cars, cfg.n_rays,
                         float(cfg.lidar_range), segs, owner, one_sided, out)

@@ -10,6 +10,7 @@ sees them; hitting one is a collision.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +33,7 @@ class CrosswalkConfig(HighwayConfig):
         pedestrians_range: the number of pedestrians is uniform in ``[low, high]``.
         pedestrian_speed_range: walking speed range ``[low, high)`` (m/s).
         pedestrian_size: pedestrian square side (m).
+        ahead_half_angle: a pedestrian within this angle of a car's heading is "ahead" (rad).
     """
 
     num_cars: int = 4
@@ -47,6 +49,7 @@ class CrosswalkConfig(HighwayConfig):
     pedestrians_range: tuple[int, int] = (1, 10)
     pedestrian_speed_range: tuple[float, float] = (1.0, 2.0)
     pedestrian_size: float = 0.8
+    ahead_half_angle: float = math.pi / 6
 
     def _validate(self) -> None:
         super()._validate()
@@ -101,3 +104,24 @@ class CrosswalkEnv(HighwayEnv):
 
     def satnav_extra_values(self) -> np.ndarray:
         return np.zeros((self.config.num_cars, 0))
+
+    def scenario_info(self, cars: np.ndarray) -> list[dict]:
+        """``pedestrian_distance``: centre distance (m) to the nearest pedestrian within
+        ``ahead_half_angle`` of the heading (None if none); ``crosswalk_distance``: from the car's
+        front to the near edge of the crosswalk (m, negative once the front is past it)."""
+        cfg, w = self.config, self.world
+        pos, head = w.positions[cars], w.headings[cars]
+        front = pos[:, 0] + 0.5 * cfg.car_length * np.cos(head)
+        out = [{"crosswalk_distance": float(cfg.crosswalk_x[0] - f), "pedestrian_distance": None}
+               for f in front]
+        if len(w.ped_positions):
+            rel = w.ped_positions[None, :, :] - pos[:, None, :]
+            dist = np.linalg.norm(rel, axis=2)
+            bearing = np.arctan2(rel[..., 1], rel[..., 0]) - head[:, None]
+            bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
+            dist = np.where(np.abs(bearing) <= cfg.ahead_half_angle, dist, np.inf)
+            nearest = dist.min(axis=1)
+            for j, d in enumerate(nearest):
+                if np.isfinite(d):
+                    out[j]["pedestrian_distance"] = float(d)
+        return out

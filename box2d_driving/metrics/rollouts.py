@@ -15,6 +15,8 @@ import numpy as np
 COLUMNS = ("episode", "car", "decision", "x", "y", "heading", "speed", "acceleration", "light",
            "in_junction", "lane_offset", "distance_to_goal", "arrived", "collided", "reward",
            "approach", "rating", "stop_line_distance")
+# Scenario-specific numeric facts recorded when present (NaN otherwise).
+OPTIONAL_COLUMNS = ("pedestrian_distance", "crosswalk_distance")
 COLLIDED_WITH = ("", "car", "edge", "pedestrian")
 
 
@@ -36,12 +38,15 @@ class RolloutRecorder:
                 info["distance_to_goal"], info["arrived"], info["collided"],
                 0.0 if rewards is None else rewards[agent], info.get("approach", -1),
                 info.get("rating", 1.0), _num(info.get("stop_line_distance")),
+                *(_num(info.get(k)) for k in OPTIONAL_COLUMNS),
             ))
             self.collided_with.append(COLLIDED_WITH.index(info["collided_with"] or ""))
 
     def table(self) -> dict[str, np.ndarray]:
-        cols = list(zip(*self.rows)) if self.rows else [[] for _ in COLUMNS]
-        out = {name: np.asarray(col) for name, col in zip(COLUMNS, cols)}
+        names = COLUMNS + OPTIONAL_COLUMNS
+        cols = list(zip(*self.rows)) if self.rows else [[] for _ in names]
+        out = {name: np.asarray(col, dtype=float if name in OPTIONAL_COLUMNS else None)
+               for name, col in zip(names, cols)}
         for name in ("episode", "car", "decision", "approach"):
             out[name] = out[name].astype(np.int64)
         for name in ("in_junction", "arrived", "collided"):

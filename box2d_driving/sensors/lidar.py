@@ -20,6 +20,8 @@ import numpy as np
 from Box2D import b2RayCastCallback
 from numba import njit
 
+from box2d_driving.physics.contacts import PEDESTRIAN
+
 
 OWNER_EDGE = -1
 OWNER_PEDESTRIAN = -2
@@ -141,8 +143,9 @@ def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_s
 class _ClosestHit(b2RayCastCallback):
     """Closest fixture along a ray, ignoring one body."""
 
-    def __init__(self) -> None:
+    def __init__(self, see_pedestrians: bool = True) -> None:
         super().__init__()
+        self.see_pedestrians = see_pedestrians
         self.ignore = None
         self.fraction = 1.0
         self.hit = False
@@ -150,16 +153,19 @@ class _ClosestHit(b2RayCastCallback):
     def ReportFixture(self, fixture, point, normal, fraction):  # noqa: N802 (Box2D's name)
         if fixture.body is self.ignore:
             return -1.0
+        if not self.see_pedestrians and fixture.userData[0] == PEDESTRIAN:
+            return -1.0
         self.hit = True
         self.fraction = fraction
         return fraction
 
 
-def cast_rays_box2d(world, bodies, origins, headings, n_rays: int, max_range: float) -> np.ndarray:
+def cast_rays_box2d(world, bodies, origins, headings, n_rays: int, max_range: float,
+                    see_pedestrians: bool = True) -> np.ndarray:
     """The same distances as :func:`cast_rays`, through ``world.RayCast``. ``bodies[c]`` is
     observer ``c``'s own body (excluded)."""
     out = np.full((len(origins), n_rays), np.inf)
-    cb = _ClosestHit()
+    cb = _ClosestHit(see_pedestrians)
     angles = np.arange(n_rays) * (2.0 * math.pi / n_rays)
     for c in range(len(origins)):
         ox, oy = float(origins[c, 0]), float(origins[c, 1])

@@ -1,0 +1,69 @@
+"""Crosswalk: pedestrian facts in infos, invisible-pedestrian control, SPEC 6.7 metrics."""
+
+import math
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from box2d_driving.metrics.pedestrians import crosswalk_metrics, stopping_distance
+from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLUMNS, OPTIONAL_COLUMNS
+
+
+def test_pedestrian_facts_in_infos():
+    env = box2d_driving.make("crosswalk-v0", num_cars=2, pedestrians_range=(3, 3))
+    _, infos = env.reset(seed=2)
+    cfg = env.config
+    for i, info in infos.items():
+        k = int(i.split("_")[1])
+        front = env.world.positions[k, 0] + cfg.car_length / 2
+        assert info["crosswalk_distance"] == pytest.approx(cfg.crosswalk_x[0] - front)
+        rel = env.world.ped_positions - env.world.positions[k]
+        ahead = np.abs(np.arctan2(rel[:, 1], rel[:, 0])) <= math.pi / 6
+        d = np.linalg.norm(rel, axis=1)[ahead]
+        expected = d.min() if len(d) else None
+        assert info["pedestrian_distance"] == (pytest.approx(expected) if expected else None)
+
+
+@pytest.mark.parametrize("backend", ["numba", "box2d"])
+def test_invisible_pedestrians_are_not_seen_but_still_solid(backend):
+    seen = box2d_driving.make("crosswalk-v0", num_cars=1, lidar_backend=backend)
+    blind = box2d_driving.make("crosswalk-v0", num_cars=1, lidar_backend=backend,
+                               lidar_sees_pedestrians=False)
+    seen.reset(seed=0)
+    blind.reset(seed=0)
+    a = seen._lidar_distances(np.array([0]))
+    b = blind._lidar_distances(np.array([0]))
+    assert np.sum(np.isfinite(a)) > np.sum(np.isfinite(b))  # some rays hit pedestrians
+    assert np.all(b[np.isfinite(b)] >= a[np.isfinite(b)] - 1e-9)
+
+
+def _table(samples):
+    """samples: (episode, car, decision, speed, ped_distance, arrived, collided, with)."""
+    n = len(samples)
+    t = {c: np.zeros(n) for c in COLUMNS + OPTIONAL_COLUMNS}
+    ep, car, dec, v, d, arr, col, wth = map(np.array, zip(*samples))
+    t.update(episode=ep.astype(int), car=car.astype(int), decision=dec.astype(int), speed=v,
+             pedestrian_distance=d.astype(float), arrived=arr.astype(bool), collided=col.astype(bool),
+             collided_with=np.array([COLLIDED_WITH.index(w) for w in wth]),
+             crosswalk_distance=np.full(n, 5.0))
+    return t
+
+
+def test_crosswalk_metrics_on_hand_built_samples():
+    a = 3.0
+    rows = [
+        (0, 0, 0, 0.0, 30.0, 0, 0, ""),        # decision 0: not a sample
+        (0, 0, 1, 6.0, 6.0, 0, 0, ""),         # 6 m/s needs 6 m: safe (boundary)
+        (0, 0, 2, 6.0, 5.9, 0, 0, ""),         # unsafe
+        (0, 0, 3, 2.0, np.nan, 1, 0, ""),      # arrived, no pedestrian ahead
+        (0, 1, 1, 10.0, 20.0, 0, 0, ""),       # safe (16.7 m needed)
+        (0, 1, 2, 10.0, 1.0, 0, 1, "pedestrian"),  # collided row: not a sample
+    ]
+    m = crosswalk_metrics(_table(rows), a)
+    assert stopping_distance(6.0, a) == pytest.approx(6.0)
+    assert m["samples_with_pedestrian_ahead"] == 3
+    assert m["safe_stopping_share"] == pytest.approx(2 / 3)
+    assert m["pedestrian_collision_rate"] == pytest.approx(0.5)
+    assert m["success_rate"] == pytest.approx(0.5)
+    assert m["pedestrian_distance_mean"] == pytest.approx((6.0 + 5.9 + 20.0) / 3)

@@ -1,0 +1,53 @@
+"""Per-scenario evaluation reports: metrics dict + plots written into an output folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from box2d_driving.metrics.lights import GO_STOP, junction_entries, traffic_light_metrics
+from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
+from box2d_driving.metrics.rollouts import run_episodes
+from training import plots
+
+
+def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int) -> dict:
+    metrics = traffic_light_metrics(table)
+    plots.acceleration_by_light(table, out / "acceleration_by_light.png")
+    go = GO_STOP[1] if metrics["stop_value"] == GO_STOP[0] else GO_STOP[0]
+    plots.junction_light_histogram(table, junction_entries(table), go, out / "junction_light.png")
+    return metrics
+
+
+def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int) -> dict:
+    a_max = env.config.a_max
+    metrics = crosswalk_metrics(table, a_max)
+    # control: the same policy with pedestrians invisible to the LiDAR (still solid)
+    import box2d_driving
+
+    blind_env = box2d_driving.make("crosswalk-v0", **{**_env_fields(env), "lidar_sees_pedestrians": False})
+    blind = run_episodes(blind_env, policy, episodes, seed=seed)
+    blind_metrics = crosswalk_metrics(blind, a_max)
+    metrics["invisible_pedestrians"] = {k: blind_metrics[k] for k in (
+        "pedestrian_collision_rate", "collision_rate", "success_rate", "safe_stopping_share")}
+    s, sb = pedestrian_samples(table), pedestrian_samples(blind)
+    plots.pedestrian_distance_kde(s["distance"], out / "pedestrian_distance.png", sb["distance"])
+    plots.speed_vs_distance(s["distance"], s["speed"], a_max, out / "speed_vs_pedestrian_distance.png")
+    cw = np.isfinite(table["crosswalk_distance"]) & (table["decision"] > 0)
+    plots.speed_vs_distance(np.clip(table["crosswalk_distance"][cw], 0, None), table["speed"][cw],
+                            a_max, out / "speed_vs_crosswalk_distance.png",
+                            xlabel="distance from the car's front to the crosswalk (m)")
+    return metrics
+
+
+def _env_fields(env: Any) -> dict:
+    cfg = env.config
+    return {"num_cars": cfg.num_cars, "lidar_noise": cfg.lidar_noise}
+
+
+REPORTS: dict[str, Callable[..., dict]] = {
+    "intersection-v0": lights_report,
+    "crosswalk-v0": crosswalk_report,
+}
