@@ -8,7 +8,6 @@ from typing import Optional
 
 import numpy as np
 
-LIGHT_NAMES = {0.0: "0.0", 0.5: "0.5", 0.75: "none (0.75)", 1.0: "1.0"}
 
 
 def _plt():
@@ -62,8 +61,10 @@ def learning_curves(progress: dict[str, np.ndarray], path: Path) -> None:
     plt.close(fig)
 
 
-def acceleration_by_light(table: dict[str, np.ndarray], path: Path, bins=(0, 10, 20, 30, 50)) -> None:
-    """Box plots of the acceleration chosen against distance to the stop line, per light seen."""
+def acceleration_by_light(table: dict[str, np.ndarray], path: Path, stop_value: float = 1.0,
+                          bins=(0, 10, 20, 30, 50)) -> None:
+    """Box plots of the acceleration chosen against distance to the stop line, per light seen.
+    Colours follow the policy's adopted convention: its stop value red, the other green."""
     plt = _plt()
     # the action at decision t responds to the observation at t-1: pair them per car
     order = np.lexsort((table["decision"], table["car"], table["episode"]))
@@ -75,7 +76,9 @@ def acceleration_by_light(table: dict[str, np.ndarray], path: Path, bins=(0, 10,
     fig, ax = plt.subplots(figsize=(9, 4))
     values = [v for v in (0.0, 0.5, 1.0) if np.any(np.isclose(light, v))]
     width = 0.8 / max(len(values), 1)
-    colours = {0.0: "tab:green", 0.5: "tab:orange", 1.0: "tab:red"}
+    go_value = 1.0 - stop_value
+    colours = {stop_value: "tab:red", go_value: "tab:green", 0.5: "tab:orange"}
+    names = {stop_value: f"{stop_value} (stop)", go_value: f"{go_value} (go)", 0.5: "0.5"}
     for j, v in enumerate(values):
         data, pos = [], []
         for b in range(len(bins) - 1):
@@ -87,7 +90,7 @@ def acceleration_by_light(table: dict[str, np.ndarray], path: Path, bins=(0, 10,
         for patch in bp["boxes"]:
             patch.set_facecolor(colours[v])
             patch.set_alpha(0.6)
-        ax.plot([], [], color=colours[v], lw=6, alpha=0.6, label=f"light {LIGHT_NAMES[v]}")
+        ax.plot([], [], color=colours[v], lw=6, alpha=0.6, label=f"light {names[v]}")
     ax.set_xticks(range(len(bins) - 1))
     ax.set_xticklabels([f"{bins[b]}-{bins[b + 1]} m" for b in range(len(bins) - 1)])
     ax.set_xlabel("distance to the stop line")

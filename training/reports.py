@@ -15,7 +15,7 @@ from training import plots
 
 def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int) -> dict:
     metrics = traffic_light_metrics(table)
-    plots.acceleration_by_light(table, out / "acceleration_by_light.png")
+    plots.acceleration_by_light(table, out / "acceleration_by_light.png", metrics["stop_value"])
     go = GO_STOP[1] if metrics["stop_value"] == GO_STOP[0] else GO_STOP[0]
     plots.junction_light_histogram(table, junction_entries(table), go, out / "junction_light.png")
     return metrics
