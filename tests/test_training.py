@@ -176,6 +176,9 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     assert json.loads((out / "state.json").read_text())["decisions"] == 480
     with pytest.raises(RunError, match="env_overrides differs"):
         train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=640), out, resume=True)
+    # a wall-clock budget already spent: nothing more is trained
+    train(_tiny(timesteps=10_000, max_minutes=0.0), out, resume=True)
+    assert json.loads((out / "state.json").read_text())["decisions"] == 480
     with pytest.raises(RunError, match="no checkpoint"):
         train(_tiny(), tmp_path / "missing", resume=True)
 
@@ -237,3 +240,10 @@ def test_crosswalk_script_and_evaluation_with_invisible_control(tmp_path):
     for name in ("pedestrian_distance.png", "speed_vs_pedestrian_distance.png",
                  "speed_vs_crosswalk_distance.png"):
         assert (ev / name).stat().st_size > 0
+
+
+def test_wall_clock_budget_stops_a_run(tmp_path):
+    train(_tiny(timesteps=1_000_000, max_minutes=0.05), tmp_path / "budget")
+    state = json.loads((tmp_path / "budget" / "state.json").read_text())
+    assert 0 < state["decisions"] < 1_000_000
+    assert state["wall_s"] >= 3.0

@@ -28,6 +28,7 @@ class ScriptArgs:
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update
     threads: torch CPU threads
+    max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     """
 
     num_cars: int = 4
@@ -43,6 +44,7 @@ class ScriptArgs:
     batch_decisions: int = 32_000
     epochs: int = 4
     threads: int = 2
+    max_minutes: Optional[float] = None
 
 
 def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
@@ -50,7 +52,7 @@ def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
     cfg = TrainConfig(
         env_id=env_id, env_overrides=overrides, timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
-        critic=args.critic, threads=args.threads,
+        critic=args.critic, threads=args.threads, max_minutes=args.max_minutes,
         ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
     )
     if args.quick:  # same algorithm, smaller numbers

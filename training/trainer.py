@@ -54,6 +54,8 @@ class TrainConfig:
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
         checkpoint_every: updates between checkpoints.
         threads: torch CPU threads.
+        max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
+            ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
     """
 
     env_id: str = "intersection-v0"
@@ -73,6 +75,7 @@ class TrainConfig:
     critic: str = "mean"
     checkpoint_every: int = 10
     threads: int = 2
+    max_minutes: Optional[float] = None
 
     def n_steps(self, n_cars: int) -> int:
         return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
@@ -125,8 +128,9 @@ class RolloutMetrics(BaseCallback):
     agent-steps (padding excluded), throughput; logged to CSV/TensorBoard; progress bar."""
 
     def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
-                 checkpoint_every: int) -> None:
+                 checkpoint_every: int, max_seconds: float = math.inf) -> None:
         super().__init__()
+        self.max_seconds = max_seconds
         self.out, self.total = out, total
         self.wall_offset, self.agent_steps = wall_offset, agent_steps_offset
         self.checkpoint_every = checkpoint_every
@@ -169,7 +173,7 @@ class RolloutMetrics(BaseCallback):
                 self.ped_hits += info["collided_with"] == "pedestrian"
                 self.prev_light[slot], self.prev_inside[slot] = 0.75, False
         self.bar.update(self.training_env.num_envs)
-        return True
+        return self.wall < self.max_seconds
 
     def _on_rollout_end(self) -> None:
         self.agent_steps += self.rollout_agent_steps
@@ -241,8 +245,10 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
                      _append_logger(out))
     remaining = config.timesteps - model.num_timesteps
-    callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every)
-    if remaining > 0:
+    max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
+    callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
+                              max_seconds)
+    if remaining > 0 and wall < max_seconds:
         model.learn(remaining, callback=callback, reset_num_timesteps=False)
         save_checkpoint(model, out, callback.wall, callback.agent_steps)
     venv.close()
