@@ -74,7 +74,11 @@ def evaluate(args: Args) -> dict:
         policy = make_policy(args.checkpoint, env, seed=args.seed)
         source = {"policy": args.checkpoint}
     else:
+        import torch
+
         from training.inference import load_policy
+
+        torch.set_num_threads(1)  # batches of a few cars: one thread is fastest
 
         policy = load_policy(args.checkpoint, deterministic=not args.stochastic)
         env = policy.make_env(**extra)
