@@ -124,6 +124,16 @@ def test_value_is_invariant_to_teammate_order_and_dead_slot_garbage(critic):
     assert not th.allclose(v_dead, v, atol=1e-5)  # the mask does matter
 
 
+def test_own_critic_ignores_the_team():
+    th.manual_seed(0)
+    net, venv = _network("own")
+    lay = venv.layout
+    x = th.as_tensor(venv.reset())
+    y = x.clone()
+    y[:, lay.own.stop:] = th.randn_like(y[:, lay.own.stop:])
+    assert th.equal(net.forward_critic(y), net.forward_critic(x))
+
+
 def test_actor_is_blind_to_the_team_block():
     th.manual_seed(0)
     net, venv = _network()

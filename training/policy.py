@@ -6,7 +6,8 @@
 * Critic: the same encoder architecture (own weights) on every car of the env instance in the
   team block -> linear 256 tanh -> mean over live cars (masked: dead slots contribute nothing, so
   any number of cars and any order give the same value) -> MLP 256 tanh -> value. Variant
-  ``own+mean`` also concatenates the slot's own 256-d encoding before the MLP.
+  ``own+mean`` also concatenates the slot's own 256-d encoding before the MLP; ``own`` is the
+  decentralised baseline (plain PPO: the critic sees only the slot's own observation).
 
 Extension goes through SB3's documented hook (``_build_mlp_extractor``); features are the raw
 slot observation (``FlattenExtractor``).
@@ -20,7 +21,7 @@ import torch as th
 from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
-CRITICS = ("mean", "own+mean")
+CRITICS = ("mean", "own+mean", "own")
 
 
 class CircularConv1d(nn.Conv1d):
@@ -86,6 +87,8 @@ class CTDENetwork(nn.Module):
     def forward_critic(self, features: th.Tensor) -> th.Tensor:
         d, n = self.obs_dim, self.n_cars
         b = features.shape[0]
+        if self.critic == "own":
+            return self.critic_mlp(self.critic_proj(self.critic_encoder(features[:, :d])))
         team = features[:, d: d * (1 + n)].reshape(b * n, d)
         alive = features[:, d * (1 + n): d * (1 + n) + n] > 0.5
         z = self.critic_proj(self.critic_encoder(team)).reshape(b, n, -1)

@@ -23,7 +23,7 @@ class ScriptArgs:
     out: output folder (must not exist unless --resume)
     resume: continue the run in --out from its last checkpoint
     ent_coef: entropy bonus (default: 0.01)
-    critic: mean (the paper) or own+mean
+    critic: mean (the paper), own+mean, or own (decentralised baseline)
     n_envs: env instances simulated side by side
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update

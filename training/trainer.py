@@ -27,6 +27,7 @@ import torch as th
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import configure
+from stable_baselines3.common.utils import explained_variance
 
 import box2d_driving
 from box2d_driving.metrics.lights import violation_rate
@@ -191,6 +192,11 @@ class RolloutMetrics(BaseCallback):
             "time/wall_s": self.wall_offset + time.perf_counter() - self.t0,
             "time/agent_steps_per_s": self.rollout_agent_steps / max(time.perf_counter() - self.rollout_t0, 1e-9),
         }
+        buf = self.model.rollout_buffer
+        if isinstance(buf, MaskedRolloutBuffer):  # SB3's own figure includes the padding
+            live = buf.mask
+            stats["rollout/explained_variance_live"] = float(
+                explained_variance(buf.values[live], buf.returns[live]))
         for k, val in stats.items():
             self.logger.record(k, val)
         self.bar.set_postfix(success=f"{stats['rollout/success_rate']:.2f}",
