@@ -104,7 +104,8 @@ def evaluate(args: Args) -> dict:
 
     progress = plots.read_progress(run_dir) if run_dir is not None else None
     if progress is not None:
-        plots.learning_curves(progress, out / "learning_curves.png")
+        mark = metrics.get("training", {}).get("agent_steps")
+        plots.learning_curves(progress, out / "learning_curves.png", mark)
     if args.video > 0:
         from box2d_driving.render.video import record
 

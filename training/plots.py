@@ -36,25 +36,31 @@ def read_progress(run_dir: Path) -> Optional[dict[str, np.ndarray]]:
     return out
 
 
-def learning_curves(progress: dict[str, np.ndarray], path: Path) -> None:
+CURVES = (("rollout/success_rate", "success", "tab:blue"),
+          ("rollout/collision_rate", "collision", "tab:orange"),
+          ("rollout/red_light_violation_rate", "red-light violation", "tab:green"))
+
+
+def learning_curves(progress: dict[str, np.ndarray], path: Path,
+                    mark_agent_steps: Optional[float] = None) -> None:
+    """Rates over agent-steps and over wall-clock hours; ``mark_agent_steps`` draws a line where
+    the evaluated checkpoint was taken."""
     plt = _plt()
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-    x = progress["time/agent_steps"] / 1e6
-    for key, label in (("rollout/success_rate", "success"), ("rollout/collision_rate", "collision"),
-                       ("rollout/red_light_violation_rate", "red-light violation")):
-        ax[0].plot(x, progress[key], label=label)
-    ax[0].axhline(0.45, color="grey", ls=":", lw=1, label="light-blind (~0.45)")
-    ax[0].set_xlabel("agent-steps (millions)")
-    ax[0].set_ylabel("rate")
-    ax[0].set_ylim(0, 1)
+    for axis, x, xlabel in ((ax[0], progress["time/agent_steps"] / 1e6, "agent-steps (millions)"),
+                            (ax[1], progress["time/wall_s"] / 3600, "wall-clock hours")):
+        for key, label, colour in CURVES:
+            if np.isfinite(progress[key]).any():
+                axis.plot(x, progress[key], label=label, color=colour)
+        axis.set_xlabel(xlabel)
+        axis.set_ylim(0, 1)
+    if np.isfinite(progress["rollout/red_light_violation_rate"]).any():
+        ax[0].axhline(0.45, color="grey", ls=":", lw=1, label="light-blind (~0.45)")
+    if mark_agent_steps is not None:
+        ax[0].axvline(mark_agent_steps / 1e6, color="black", lw=1, ls="--", label="this checkpoint")
+    ax[0].set_ylabel("rate (stochastic training rollouts)")
     ax[0].legend(fontsize=8)
     ax[0].set_title("training curves")
-    hours = progress["time/wall_s"] / 3600
-    ax[1].plot(hours, progress["rollout/red_light_violation_rate"], label="violation")
-    ax[1].plot(hours, progress["rollout/success_rate"], label="success")
-    ax[1].set_xlabel("wall-clock hours")
-    ax[1].set_ylim(0, 1)
-    ax[1].legend(fontsize=8)
     ax[1].set_title("against training time")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
