@@ -257,3 +257,18 @@ def test_wall_clock_budget_stops_a_run(tmp_path):
     state = json.loads((tmp_path / "budget" / "state.json").read_text())
     assert 0 < state["decisions"] < 1_000_000
     assert state["wall_s"] >= 3.0
+
+
+def test_main_job_demo_runs_end_to_end(tmp_path):
+    """The README's main job: quick training, its report, the shipped policy's report + video."""
+    from training import demo
+
+    out = tmp_path / "demo"
+    assert demo.main(["--out", str(out), "--episodes", "5"]) == 0
+    quick = json.loads((out / "quick" / "eval" / "metrics.json").read_text())
+    shipped = json.loads((out / "shipped" / "metrics.json").read_text())
+    assert quick["training"]["decisions"] == 48_000
+    assert (out / "quick" / "eval" / "learning_curves.png").exists()
+    assert (out / "shipped" / "episodes.mp4").stat().st_size > 0
+    assert shipped["success_rate"] > 0.8  # the shipped policy drives
+    assert demo.main(["--out", str(out)]) == 2  # never overwrites
