@@ -272,3 +272,28 @@ def test_main_job_demo_runs_end_to_end(tmp_path):
     assert (out / "shipped" / "episodes.mp4").stat().st_size > 0
     assert shipped["success_rate"] > 0.8  # the shipped policy drives
     assert demo.main(["--out", str(out)]) == 2  # never overwrites
+
+
+def test_init_from_copies_weights_across_car_counts(tmp_path):
+    from stable_baselines3 import PPO
+
+    train(_tiny(), tmp_path / "four")
+    out = tmp_path / "eight"
+    cfg = _tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=80,
+                init_from=str(tmp_path / "four"))
+    cfg.batch_decisions, cfg.n_envs = 3, 1  # one decision per update: weights barely move
+    # check the copy itself, before any update
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=3, horizon=8)])
+    from training.trainer import load_weights
+    model = build_model(cfg, venv)
+    load_weights(model, tmp_path / "four")
+    src = PPO.load(tmp_path / "four" / "model.zip", device="cpu")
+    for k, v in src.policy.state_dict().items():
+        assert th.equal(model.policy.state_dict()[k], v)
+    train(cfg, out)
+    assert (out / "model.zip").exists()
+    bad = _tiny(env_overrides={"num_cars": 2, "history": 3}, init_from=str(tmp_path / "four"))
+    with pytest.raises(RunError, match="observation layout"):
+        train(bad, tmp_path / "bad")
+    with pytest.raises(RunError, match="no checkpoint"):
+        train(_tiny(init_from=str(tmp_path / "nope")), tmp_path / "bad2")

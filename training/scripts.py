@@ -29,6 +29,7 @@ class ScriptArgs:
     epochs: PPO epochs per update
     threads: torch CPU threads
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
+    init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     """
 
     num_cars: int = 4
@@ -45,6 +46,7 @@ class ScriptArgs:
     epochs: int = 4
     threads: int = 2
     max_minutes: Optional[float] = None
+    init_from: Optional[str] = None
 
 
 def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
@@ -53,6 +55,7 @@ def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
         env_id=env_id, env_overrides=overrides, timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
         critic=args.critic, threads=args.threads, max_minutes=args.max_minutes,
+        init_from=args.init_from,
         ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
     )
     if args.quick:  # same algorithm, smaller numbers

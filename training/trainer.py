@@ -57,6 +57,8 @@ class TrainConfig:
         threads: torch CPU threads.
         max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
             ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
+        init_from: start from the weights of this checkpoint (e.g. a 4-car policy fine-tuned
+            with 8 cars, as the paper does); observation layout and critic must match.
     """
 
     env_id: str = "intersection-v0"
@@ -77,6 +79,7 @@ class TrainConfig:
     checkpoint_every: int = 10
     threads: int = 2
     max_minutes: Optional[float] = None
+    init_from: Optional[str] = None
 
     def n_steps(self, n_cars: int) -> int:
         return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
@@ -247,6 +250,8 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         wall, agent_steps = state["wall_s"], state["agent_steps"]
     else:
         model = build_model(config, venv)
+        if config.init_from:
+            load_weights(model, Path(config.init_from))
         venv.seed(config.seed)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
                      _append_logger(out))
@@ -259,6 +264,22 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         save_checkpoint(model, out, callback.wall, callback.agent_steps)
     venv.close()
     return getattr(callback, "last_stats", {})
+
+
+def load_weights(model: PPO, checkpoint: Path) -> None:
+    """Copy the policy weights (actor, critic) of ``checkpoint`` into ``model``."""
+    path = checkpoint / "model.zip" if checkpoint.is_dir() else checkpoint
+    if not path.exists():
+        raise RunError(f"--init-from: no checkpoint at {path}")
+    source = PPO.load(path, device="cpu")
+    mine, theirs = model.policy.state_dict(), source.policy.state_dict()
+    if mine.keys() != theirs.keys():
+        raise RunError(f"--init-from: {path} has a different network (critic variant?)")
+    bad = [k for k in mine if mine[k].shape != theirs[k].shape]
+    if bad:
+        raise RunError(f"--init-from: {path} does not fit this env's observation layout "
+                       f"(e.g. {bad[0]}: {tuple(theirs[bad[0]].shape)} vs {tuple(mine[bad[0]].shape)})")
+    model.policy.load_state_dict(theirs)
 
 
 def _append_logger(out: Path):
