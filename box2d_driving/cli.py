@@ -1,7 +1,8 @@
 """The ``box2d-driving`` command.
 
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
-world speed benchmark). Bad arguments print one line and exit with status 2.
+world speed benchmark), ``train lights|crosswalk`` and ``evaluate`` (the training scripts). Bad
+arguments print one line and exit with status 2.
 """
 
 from __future__ import annotations
@@ -54,10 +55,20 @@ def _render(args: argparse.Namespace) -> int:
     if args.out is None and args.frames is None:
         raise ValueError("nothing to write: give --out FILE.mp4 and/or --frames DIR")
     check_outputs(args.out, args.frames, args.overwrite)
-    env = box2d_driving.make(args.env_id, **overrides)
-    if args.policy not in SCRIPTED:
-        raise ValueError(f"unknown policy {args.policy!r}; available: {', '.join(SCRIPTED)}")
-    policy = make_policy(args.policy, env, seed=args.seed)
+    if args.policy in SCRIPTED:
+        env = box2d_driving.make(args.env_id, **overrides)
+        policy = make_policy(args.policy, env, seed=args.seed)
+    elif Path(args.policy).exists():
+        try:
+            from training import load_policy
+        except ImportError as exc:
+            raise ValueError(f"loading {args.policy} needs the train extra ({exc})") from exc
+        policy = load_policy(args.policy)
+        if policy.env_id != args.env_id:
+            raise ValueError(f"{args.policy} was trained on {policy.env_id}, not {args.env_id}")
+        env = policy.make_env(**overrides)
+    else:
+        raise ValueError(f"unknown policy {args.policy!r}: use {', '.join(SCRIPTED)} or a checkpoint path")
     rec = record(env, policy, episodes=args.episodes, video=args.out, frames_dir=args.frames,
                  seed=args.seed, overwrite=args.overwrite)
     where = " and ".join(str(p) for p in (rec.video, rec.frames_dir) if p is not None)
@@ -74,7 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("render", help="record episodes as a video and/or PNG frames")
     r.add_argument("env_id", help="a scenario id (see `box2d-driving list`)")
-    r.add_argument("--policy", default="random", help="random (default) or rule (brake on 0.5/1.0 lights)")
+    r.add_argument("--policy", default="random",
+                   help="random (default), rule (brake on 0.5/1.0 lights) or a checkpoint (run folder or model.zip)")
     r.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
     r.add_argument("--out", type=Path, help="video file, .mp4 or .gif")
     r.add_argument("--frames", type=Path, help="also write PNG frames into this folder")
@@ -88,7 +100,34 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
                    add_help=False)
+    sub.add_parser("train", help="train: `train lights|crosswalk [options]` (`train lights --help`)",
+                   add_help=False)
+    sub.add_parser("evaluate", help="evaluate a checkpoint or scripted policy (`evaluate --help`)",
+                   add_help=False)
     return parser
+
+
+TRAINERS = {"lights": "training.traffic_lights", "crosswalk": "training.crosswalk"}
+
+
+def _delegate(argv: list[str]) -> int:
+    """``train`` and ``evaluate`` run the training scripts (they need the train extra)."""
+    import importlib
+
+    if argv[0] == "evaluate":
+        module, rest = "training.evaluate", argv[1:]
+    else:
+        if len(argv) < 2 or argv[1] not in TRAINERS:
+            print(f"box2d-driving: error: train needs a scenario: {', '.join(TRAINERS)}", file=sys.stderr)
+            return 2
+        module, rest = TRAINERS[argv[1]], argv[2:]
+    try:
+        script = importlib.import_module(module)
+    except ImportError as exc:
+        print(f"box2d-driving: error: {argv[0]} needs the train extra "
+              f"(pip install -c constraints-cpu.txt -e \".[train]\"): {exc}", file=sys.stderr)
+        return 2
+    return script.main(rest)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -96,6 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "bench":
         from box2d_driving import bench
         return bench.main(argv[1:])
+    if argv and argv[0] in ("train", "evaluate"):
+        return _delegate(argv)
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

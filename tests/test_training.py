@@ -297,3 +297,18 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
         train(bad, tmp_path / "bad")
     with pytest.raises(RunError, match="no checkpoint"):
         train(_tiny(init_from=str(tmp_path / "nope")), tmp_path / "bad2")
+
+
+def test_cli_renders_a_trained_policy_and_delegates_train(tmp_path, capsys):
+    from box2d_driving.cli import main as cli
+
+    out = tmp_path / "t"
+    assert cli(["train", "lights", "--out", str(out), "--timesteps", "160", "--n-envs", "2",
+                "--batch-decisions", "80", "--num-cars", "2", "--threads", "1", "--epochs", "1"]) == 0
+    video = tmp_path / "v.mp4"
+    assert cli(["render", "intersection-v0", "--policy", str(out), "--out", str(video),
+                "--set", "render_size=(128, 128)"]) == 0
+    assert video.stat().st_size > 0
+    assert cli(["render", "highway-v0", "--policy", str(out), "--out", str(tmp_path / "w.mp4")]) == 2
+    assert cli(["train", "nope"]) == 2
+    assert "trained on intersection-v0" in capsys.readouterr().err
