@@ -184,11 +184,17 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
         train(_tiny(), out)
     train(_tiny(timesteps=480), out, resume=True)
     assert json.loads((out / "state.json").read_text())["decisions"] == 480
+    train(_tiny(timesteps=640), out, resume=True)
+    logs = sorted(p.name for p in out.glob("progress*.csv"))
+    assert logs == ["progress.csv", "progress.resumed_000000000320.csv",
+                    "progress.resumed_000000000480.csv"]
+    from training.plots import read_progress
+    assert len(read_progress(out)["time/agent_steps"]) == 8  # 4 + 2 + 2 updates, none lost
     with pytest.raises(RunError, match="env_overrides differs"):
-        train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=640), out, resume=True)
+        train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=800), out, resume=True)
     # a wall-clock budget already spent: nothing more is trained
     train(_tiny(timesteps=10_000, max_minutes=0.0), out, resume=True)
-    assert json.loads((out / "state.json").read_text())["decisions"] == 480
+    assert json.loads((out / "state.json").read_text())["decisions"] == 640
     with pytest.raises(RunError, match="no checkpoint"):
         train(_tiny(), tmp_path / "missing", resume=True)
 

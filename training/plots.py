@@ -19,10 +19,10 @@ def _plt():
 
 
 def read_progress(run_dir: Path) -> Optional[dict[str, np.ndarray]]:
-    """Training curves from ``progress.csv`` (and ``progress.resumed.csv``) of a run folder."""
+    """Training curves from ``progress.csv`` (and the ``progress.resumed_*.csv`` of each
+    ``--resume``, in order) of a run folder."""
     rows = []
-    for name in ("progress.csv", "progress.resumed.csv"):
-        path = run_dir / name
+    for path in [run_dir / "progress.csv"] + sorted(run_dir.glob("progress.resumed_*.csv")):
         if path.exists():
             with open(path) as f:
                 rows += list(csv.DictReader(f))

@@ -7,6 +7,7 @@ Output folder::
     OUT/model.zip            latest checkpoint (what load_policy / evaluate / --resume read)
     OUT/checkpoints/         model_<decisions>.zip every ``checkpoint_every`` updates
     OUT/progress.csv         one row per update: rollout metrics and PPO diagnostics
+                             (each --resume adds progress.resumed_<decisions>.csv)
     OUT/tb/                  TensorBoard logs
     OUT/state.json           wall-clock seconds and agent-steps so far (kept across --resume)
 """
@@ -17,6 +18,7 @@ import dataclasses
 import json
 import math
 import shutil
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -148,8 +150,6 @@ class RolloutMetrics(BaseCallback):
         self.prev_light = np.full(n, 0.75)
         self.prev_inside = np.zeros(n, dtype=bool)
         self.t0 = time.perf_counter()
-        import sys
-
         self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
                         dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0)
         self._reset_stats()
@@ -192,7 +192,7 @@ class RolloutMetrics(BaseCallback):
             "rollout/junction_entries": v.entries,
             "rollout/cars_done": self.done_cars,
             "time/agent_steps": self.agent_steps,
-            "time/wall_s": self.wall_offset + time.perf_counter() - self.t0,
+            "time/wall_s": self.wall,
             "time/agent_steps_per_s": self.rollout_agent_steps / max(time.perf_counter() - self.rollout_t0, 1e-9),
         }
         buf = self.model.rollout_buffer
@@ -211,8 +211,7 @@ class RolloutMetrics(BaseCallback):
 
     def _on_rollout_start(self) -> None:
         if self.updates and self.updates % self.checkpoint_every == 0:
-            save_checkpoint(self.model, self.out, self.wall_offset + time.perf_counter() - self.t0,
-                            self.agent_steps)
+            save_checkpoint(self.model, self.out, self.wall, self.agent_steps)
         self.rollout_t0 = time.perf_counter()
 
     def _on_training_end(self) -> None:
@@ -248,13 +247,14 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         model = PPO.load(out / "model.zip", env=venv, device="cpu")
         state = json.loads((out / "state.json").read_text())
         wall, agent_steps = state["wall_s"], state["agent_steps"]
+        venv.seed(config.seed + model.num_timesteps)  # reproducible continuation
     else:
         model = build_model(config, venv)
         if config.init_from:
             load_weights(model, Path(config.init_from))
         venv.seed(config.seed)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
-                     _append_logger(out))
+                     _append_logger(out, model.num_timesteps))
     remaining = config.timesteps - model.num_timesteps
     max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
@@ -282,9 +282,10 @@ def load_weights(model: PPO, checkpoint: Path) -> None:
     model.policy.load_state_dict(theirs)
 
 
-def _append_logger(out: Path):
-    """On resume, keep appending to the same CSV and TensorBoard folder."""
+def _append_logger(out: Path, decisions: int):
+    """On resume, log to a new CSV named after the decision it resumes from (earlier logs are
+    kept) and to the same TensorBoard folder."""
     from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
 
-    csv = CSVOutputFormat(str(out / "progress.resumed.csv"))
+    csv = CSVOutputFormat(str(out / f"progress.resumed_{decisions:012d}.csv"))
     return Logger(str(out), [csv, TensorBoardOutputFormat(str(out))])
