@@ -4,7 +4,8 @@
 
 1. trains the traffic-light scenario for a short run (``traffic_lights.py --quick``);
 2. evaluates that checkpoint (``OUT/quick/eval``: metrics.json, learning curves, plots);
-3. evaluates the shipped policy ``assets/policies/traffic_lights_4cars`` and records a video of it
+3. evaluates the shipped policy ``assets/policies/traffic_lights_4cars_noise05`` and records a
+   video of it
    (``OUT/shipped/``), so the rule a longer run learns is visible at once.
 """
 
@@ -22,7 +23,7 @@ if __package__ in (None, ""):
 from training import evaluate, traffic_lights  # noqa: E402
 from training.cli_args import parse  # noqa: E402
 
-SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars"
+SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars_noise05"
 
 
 @dataclass
@@ -58,7 +59,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     quick = json.loads((out / "quick" / "eval" / "metrics.json").read_text())
     shipped = json.loads((out / "shipped" / "metrics.json").read_text())
     print("\n| policy | success | collision | red-light violation |\n|---|---:|---:|---:|")
-    for name, m in (("short run (this machine, ~1 min)", quick), ("shipped (15 min)", shipped)):
+    for name, m in (("short run (this machine, ~1 min)", quick), ("shipped (10 min, LiDAR noise 0.5)", shipped)):
         print(f"| {name} | {m['success_rate']:.3f} | {m['collision_rate']:.3f} | "
               f"{m['red_light_violation_rate']:.3f} |")
     print(f"\nreports and plots: {out / 'quick' / 'eval'}, {out / 'shipped'}; "
