@@ -30,6 +30,7 @@ class ScriptArgs:
     threads: torch CPU threads
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
+    horizon: episode horizon in decisions (default: the scenario's)
     """
 
     num_cars: int = 4
@@ -47,10 +48,13 @@ class ScriptArgs:
     threads: int = 2
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
+    horizon: Optional[int] = None
 
 
 def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
     overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
+    if args.horizon is not None:
+        overrides["horizon"] = args.horizon
     cfg = TrainConfig(
         env_id=env_id, env_overrides=overrides, timesteps=args.timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
