@@ -70,7 +70,9 @@ def evaluate(args: Args) -> dict:
              if v is not None}
     run_dir, env_id = None, args.env_id
     if args.checkpoint in SCRIPTED:
-        env = box2d_driving.make(env_id, **extra)
+        def make_env(**kw):
+            return box2d_driving.make(env_id, **extra, **kw)
+        env = make_env()
         policy = make_policy(args.checkpoint, env, seed=args.seed)
         source = {"policy": args.checkpoint}
     else:
@@ -79,9 +81,11 @@ def evaluate(args: Args) -> dict:
         from training.inference import load_policy
 
         torch.set_num_threads(1)  # batches of a few cars: one thread is fastest
-
         policy = load_policy(args.checkpoint, deterministic=not args.stochastic)
-        env = policy.make_env(**extra)
+
+        def make_env(**kw):
+            return policy.make_env(**extra, **kw)
+        env = make_env()
         env_id = policy.env_id
         path = Path(args.checkpoint)
         run_dir = path if path.is_dir() else path.parent
@@ -92,7 +96,8 @@ def evaluate(args: Args) -> dict:
     seconds = time.perf_counter() - t0
     save_table(table, out / "rollouts.npz")
     report = REPORTS.get(env_id)
-    metrics = report(table, env, policy, out, args.episodes, args.seed) if report else outcome_rates(table)
+    metrics = (report(table, env, policy, out, args.episodes, args.seed, make_env) if report
+               else outcome_rates(table))
     metrics.update(source)
     metrics.update(episodes=args.episodes, seed=args.seed, deterministic=not args.stochastic,
                    env_id=env_id, env_config={
@@ -109,8 +114,7 @@ def evaluate(args: Args) -> dict:
     if args.video > 0:
         from box2d_driving.render.video import record
 
-        video_env = box2d_driving.make(env_id, render_mode="rgb_array", num_cars=env.config.num_cars,
-                                       lidar_noise=env.config.lidar_noise)
+        video_env = make_env(render_mode="rgb_array")  # the evaluated settings, drawn
         record(video_env, policy, episodes=args.video, video=out / "episodes.mp4", seed=args.seed)
     return metrics
 

@@ -1,4 +1,7 @@
-"""Per-scenario evaluation reports: metrics dict + plots written into an output folder."""
+"""Per-scenario evaluation reports: metrics dict + plots written into an output folder.
+
+A report gets the rollout table, the env and policy evaluated, the output folder, the episode
+count and first seed, and ``make_env(**overrides)`` for control runs with the same settings."""
 
 from __future__ import annotations
 
@@ -13,7 +16,8 @@ from box2d_driving.metrics.rollouts import run_episodes
 from training import plots
 
 
-def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int) -> dict:
+def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
+                  make_env: Callable[..., Any]) -> dict:
     metrics = traffic_light_metrics(table)
     plots.acceleration_by_light(table, out / "acceleration_by_light.png", metrics["stop_value"])
     go = GO_STOP[1] if metrics["stop_value"] == GO_STOP[0] else GO_STOP[0]
@@ -21,14 +25,12 @@ def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, 
     return metrics
 
 
-def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int) -> dict:
+def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
+                     make_env: Callable[..., Any]) -> dict:
     a_max = env.config.a_max
     metrics = crosswalk_metrics(table, a_max)
-    # control: the same policy with pedestrians invisible to the LiDAR (still solid)
-    import box2d_driving
-
-    blind_env = box2d_driving.make("crosswalk-v0", **{**_env_fields(env), "lidar_sees_pedestrians": False})
-    blind = run_episodes(blind_env, policy, episodes, seed=seed)
+    # control: the same policy and settings with pedestrians invisible to the LiDAR (still solid)
+    blind = run_episodes(make_env(lidar_sees_pedestrians=False), policy, episodes, seed=seed)
     blind_metrics = crosswalk_metrics(blind, a_max)
     metrics["invisible_pedestrians"] = {k: blind_metrics[k] for k in (
         "pedestrian_collision_rate", "collision_rate", "success_rate", "safe_stopping_share")}
@@ -40,11 +42,6 @@ def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: in
                             a_max, out / "speed_vs_crosswalk_distance.png",
                             xlabel="distance from the car's front to the crosswalk (m)")
     return metrics
-
-
-def _env_fields(env: Any) -> dict:
-    cfg = env.config
-    return {"num_cars": cfg.num_cars, "lidar_noise": cfg.lidar_noise}
 
 
 REPORTS: dict[str, Callable[..., dict]] = {
