@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Equal-budget comparison for the traffic-light rule (issue: cars 1/4/8 at noise 0, 4 cars at
-# noise 0.25/0.5, the own+mean critic, and the decentralised 'own' critic), MINUTES of training each, then 200-episode
+# noise 0.25/0.5, the own+mean critic, the decentralised 'own' critic, and the paper's horizon 25), MINUTES of training each, then 200-episode
 # deterministic evaluations and a markdown table.
 #   bash training/experiments/lights_table.sh [MINUTES] [OUT]
 set -euo pipefail
@@ -25,5 +25,6 @@ run cars4_noise025 --num-cars 4 --lidar-noise 0.25
 run cars4_noise05 --num-cars 4 --lidar-noise 0.5
 run cars4_own_mean --num-cars 4 --critic own+mean
 run cars4_own_critic --num-cars 4 --critic own
+run cars4_horizon25 --num-cars 4 --horizon 25
 python training/experiments/table.py "$OUT"/*/eval/metrics.json > "$OUT/table.md"
 cat "$OUT/table.md"
