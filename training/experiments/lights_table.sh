@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Equal-budget comparison for the traffic-light rule (issue: cars 1/4/8 at noise 0, 4 cars at
-# noise 0.25/0.5, the own+mean critic, the decentralised 'own' critic, and the paper's horizon 25), MINUTES of training each, then 200-episode
-# deterministic evaluations and a markdown table.
+# Equal-budget comparison for the traffic-light rule: cars 1/4/8 at noise 0, 4 cars at noise
+# 0.25/0.5, the own+mean critic, the decentralised 'own' critic and the paper's horizon 25;
+# MINUTES of training each, then 200-episode deterministic evaluations and a markdown table.
 #   bash training/experiments/lights_table.sh [MINUTES] [OUT]
 set -euo pipefail
 MINUTES=${1:-10}
