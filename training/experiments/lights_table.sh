@@ -26,5 +26,6 @@ run cars4_noise05 --num-cars 4 --lidar-noise 0.5
 run cars4_own_mean --num-cars 4 --critic own+mean
 run cars4_own_critic --num-cars 4 --critic own
 run cars4_horizon25 --num-cars 4 --horizon 25
+run cars8_from4 --num-cars 8 --init-from assets/policies/traffic_lights_4cars
 python training/experiments/table.py "$OUT"/*/eval/metrics.json > "$OUT/table.md"
 cat "$OUT/table.md"
