@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from box2d_driving.metrics.rollouts import last_rows
+
 GO_STOP = (0.0, 1.0)
 
 
@@ -55,10 +57,7 @@ def violation_rate(entry_lights: np.ndarray) -> Violations:
 
 def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
     """Success and collision rates over cars, and mean time to goal (decisions) of arrivals."""
-    last = {}
-    for i in np.lexsort((table["decision"], table["car"], table["episode"])):
-        last[(table["episode"][i], table["car"][i])] = i
-    idx = np.array(list(last.values()), dtype=np.int64)
+    idx = last_rows(table)
     arrived = table["arrived"][idx]
     collided = table["collided"][idx]
     times = table["decision"][idx][arrived]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from box2d_driving.metrics.lights import outcome_rates
-from box2d_driving.metrics.rollouts import COLLIDED_WITH
+from box2d_driving.metrics.rollouts import COLLIDED_WITH, last_rows
 
 
 def stopping_distance(speed: np.ndarray, a_max: float) -> np.ndarray:
@@ -32,10 +32,7 @@ def crosswalk_metrics(table: dict[str, np.ndarray], a_max: float) -> dict:
     s = pedestrian_samples(table)
     safe = s["distance"] >= stopping_distance(s["speed"], a_max)
     rates = outcome_rates(table)
-    last = {}
-    for i in np.lexsort((table["decision"], table["car"], table["episode"])):
-        last[(table["episode"][i], table["car"][i])] = i
-    idx = np.array(list(last.values()), dtype=np.int64)
+    idx = last_rows(table)
     ped_hits = table["collided_with"][idx] == COLLIDED_WITH.index("pedestrian")
     d = s["distance"]
     return {

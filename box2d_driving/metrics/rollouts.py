@@ -55,6 +55,15 @@ class RolloutRecorder:
         return out
 
 
+def last_rows(table: dict[str, np.ndarray]) -> np.ndarray:
+    """Index of each car's last row (its final decision) in every episode."""
+    order = np.lexsort((table["decision"], table["car"], table["episode"]))
+    ep, car = table["episode"][order], table["car"][order]
+    is_last = np.ones(len(order), dtype=bool)
+    is_last[:-1] = (ep[1:] != ep[:-1]) | (car[1:] != car[:-1])
+    return order[is_last]
+
+
 def _num(value: Optional[float]) -> float:
     return float("nan") if value is None else float(value)
 
