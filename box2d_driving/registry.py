@@ -27,6 +27,10 @@ _SPECS = {
                 "one-way highway, cars of different acceleration ratings (safe distance)"),
         EnvSpec("crosswalk-v0", "box2d_driving.envs.crosswalk_v0",
                 "highway with a crosswalk and crossing pedestrians (slow down for pedestrians)"),
+        EnvSpec("intersection-spline-v0", "box2d_driving.envs.intersection_spline_v0",
+                "signalled junction; each car picks its own spline path first (lanes emerge)"),
+        EnvSpec("highway-spline-v0", "box2d_driving.envs.highway_spline_v0",
+                "one-way highway; each car picks its own lateral target first (fast lanes emerge)"),
     )
 }
 

@@ -67,3 +67,29 @@ def test_crosswalk_metrics_on_hand_built_samples():
     assert m["pedestrian_collision_rate"] == pytest.approx(0.5)
     assert m["success_rate"] == pytest.approx(0.5)
     assert m["pedestrian_distance_mean"] == pytest.approx((6.0 + 5.9 + 20.0) / 3)
+
+
+@pytest.mark.parametrize("turn_back", [False, True])
+def test_pedestrians_cross_once_or_walk_back(turn_back):
+    """Crossing once: a pedestrian walks at its speed until past the far walkway (checked once
+    per decision), then stands there; with turn_back it reverses instead."""
+    env = box2d_driving.make("crosswalk-v0", num_cars=1, pedestrians_range=(1, 1),
+                             pedestrians_turn_back=turn_back, horizon=30)
+    env.reset(seed=3)
+    w, cfg = env.world, env.config
+    y_max = cfg.road_width / 2 + cfg.walkway
+    vy = w.ped_velocity[0, 1]
+    y0 = w.ped_positions[0, 1]
+    far = y_max if vy > 0 else -y_max
+    t_cross = (far - y0) / vy  # seconds until it leaves its bounds
+    decisions = int(math.ceil(t_cross / cfg.decision_time)) + 2
+    for _ in range(decisions):
+        w.advance(np.zeros(1))  # hold the car still; only the pedestrian matters here
+    y = w.ped_positions[0, 1]
+    if turn_back:
+        assert w.ped_velocity[0, 1] == pytest.approx(-vy)
+        assert abs(y) <= y_max + abs(vy) * cfg.decision_time
+    else:
+        assert w.ped_velocity[0, 1] == 0.0
+        assert y_max <= abs(y) <= y_max + abs(vy) * cfg.decision_time
+        assert np.sign(y) == np.sign(vy)

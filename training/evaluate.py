@@ -107,7 +107,9 @@ def evaluate(args: Args) -> dict:
         metrics["training"] = json.loads((run_dir / "state.json").read_text())
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
 
-    progress = plots.read_progress(run_dir) if run_dir is not None else None
+    progress = None
+    if run_dir is not None:  # a bilevel run keeps the acceleration stage's logs in accel/
+        progress = plots.read_progress(run_dir) or plots.read_progress(run_dir / "accel")
     if progress is not None:
         mark = metrics.get("training", {}).get("agent_steps")
         plots.learning_curves(progress, out / "learning_curves.png", mark)

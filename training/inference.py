@@ -21,6 +21,17 @@ class TrainedPolicy:
         self.deterministic = deterministic
         self.policy = model.policy
         self.obs_dim = self.policy.mlp_extractor.obs_dim
+        self.spline_model: Any = None
+
+    def attach_spline(self, spline_model: Any) -> None:
+        """Use ``spline_model`` (a bilevel run's stage-0 PPO) to pick each car's path; envs from
+        :meth:`make_env` call it at every reset."""
+        self.spline_model = spline_model
+
+    def choose_paths(self, obs0: np.ndarray) -> np.ndarray:
+        """Stage-0 actions ``(N, ...)`` for stage-0 observations ``(N, D0)``."""
+        return self.spline_model.policy.predict(np.asarray(obs0, dtype=np.float32),
+                                                deterministic=self.deterministic)[0]
 
     @property
     def env_id(self) -> str:
@@ -34,7 +45,10 @@ class TrainedPolicy:
         """A fresh env with the settings the policy was trained on (``extra`` overrides them)."""
         import box2d_driving
 
-        return box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
+        env = box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
+        if self.spline_model is not None:
+            env.spline_policy = self.choose_paths
+        return env
 
     @th.no_grad()
     def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
@@ -45,18 +59,32 @@ class TrainedPolicy:
         if obs.shape[1] != self.obs_dim:
             raise ValueError(f"observation size {obs.shape[1]} does not match the policy's "
                              f"{self.obs_dim}: wrong env settings for this checkpoint?")
-        x = th.as_tensor(obs)
-        latent = self.policy.mlp_extractor.forward_actor(x)
-        dist = self.policy.action_dist.proba_distribution(action_logits=self.policy.action_net(latent))
-        actions = dist.mode() if self.deterministic else dist.sample()
-        return dict(zip(agents, actions.cpu().numpy().astype(int).tolist()))
+        return dict(zip(agents, actor_actions(self.policy, obs, self.deterministic).tolist()))
+
+
+@th.no_grad()
+def actor_actions(policy: Any, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+    """Actions ``(M,)`` of a CTDE policy's actor for own observations ``(M, D)`` (no team block)."""
+    latent = policy.mlp_extractor.forward_actor(th.as_tensor(np.asarray(obs, dtype=np.float32)))
+    dist = policy.action_dist.proba_distribution(action_logits=policy.action_net(latent))
+    actions = dist.mode() if deterministic else dist.sample()
+    return actions.cpu().numpy().astype(np.int64)
 
 
 def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPolicy:
-    """Load a checkpoint (``model.zip`` or a run folder containing it, with its ``config.json``)."""
+    """Load a checkpoint (``model.zip`` or a run folder containing it, with its ``config.json``;
+    or a bilevel run folder with ``accel/`` and ``spline/``, whose envs then pick their paths with
+    the spline policy)."""
     from stable_baselines3 import PPO
 
     path = Path(path)
+    if path.is_dir() and (path / "spline" / "model.zip").exists() and (path / "accel").is_dir():
+        policy = load_policy(path / "accel", deterministic)
+        try:
+            policy.attach_spline(PPO.load(path / "spline" / "model.zip", device="cpu"))
+        except Exception as exc:
+            raise ValueError(f"cannot load spline checkpoint {path / 'spline' / 'model.zip'}: {exc}") from exc
+        return policy
     model_path = path / "model.zip" if path.is_dir() else path
     if not model_path.exists():
         raise FileNotFoundError(f"no checkpoint at {model_path}")

@@ -183,3 +183,56 @@ def speed_vs_distance(distance: np.ndarray, speed: np.ndarray, a_max: float, pat
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def lane_histogram(samples: dict[str, np.ndarray], path: Path, bins: int = 24) -> None:
+    """Histograms of normalised lane position through the junction (+ = right of the direction
+    of travel), one per labelled sample set (e.g. per run or noise level)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    edges = np.linspace(-1, 1, bins + 1)
+    for label, s in samples.items():
+        if len(s):
+            ax.hist(np.clip(s, -1, 1), bins=edges, density=True, histtype="step", lw=2, label=f"{label} (n={len(s)})")
+    ax.axvline(0, color="grey", lw=1, ls=":")
+    ax.set_xlabel("normalised lane position in the junction (-1 left edge, +1 right edge)")
+    ax.set_ylabel("density")
+    ax.legend(fontsize=8)
+    ax.set_title("where cars cross the junction")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def lateral_over_time(table: dict[str, np.ndarray], road_width: float, path: Path,
+                      episodes: int = 3) -> None:
+    """Lateral position ``2y/W`` of every car over the first ``episodes`` episodes, coloured by
+    acceleration rating (the paper's fast-lane figure), next to rating vs final position."""
+    plt = _plt()
+    from box2d_driving.metrics.lanes import final_lateral_positions
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5), gridspec_kw={"width_ratios": [2, 1]})
+    cmap = plt.get_cmap("viridis")
+    lo, hi = float(np.min(table["rating"])), float(np.max(table["rating"]))
+    norm = plt.Normalize(lo, hi if hi > lo else lo + 1e-6)
+    offset = 0
+    for ep in np.unique(table["episode"])[:episodes]:
+        rows = table["episode"] == ep
+        for car in np.unique(table["car"][rows]):
+            r = rows & (table["car"] == car)
+            order = np.argsort(table["decision"][r])
+            t = table["decision"][r][order] + offset
+            ax[0].plot(t, 2 * table["y"][r][order] / road_width, color=cmap(norm(table["rating"][r][0])), lw=1.2)
+        offset += int(table["decision"][rows].max()) + 3
+    ax[0].set_xlabel("decision (episodes side by side)")
+    ax[0].set_ylabel("lateral position 2y/W (+ = left)")
+    ax[0].set_ylim(-1, 1)
+    rating, lateral = final_lateral_positions(table, road_width)
+    ax[1].scatter(rating, lateral, c=rating, cmap=cmap, norm=norm, s=10)
+    ax[1].set_xlabel("acceleration rating")
+    ax[1].set_ylabel("final lateral position 2y/W")
+    ax[1].set_ylim(-1, 1)
+    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax[1], label="rating")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -10,7 +10,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from box2d_driving.metrics.lights import GO_STOP, junction_entries, traffic_light_metrics
+from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics
+from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
 from box2d_driving.metrics.rollouts import run_episodes
 from training import plots
@@ -44,7 +45,25 @@ def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: in
     return metrics
 
 
+def lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
+                 make_env: Callable[..., Any]) -> dict:
+    metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
+    metrics["lanes"] = lane_metrics(table)
+    plots.lane_histogram({"policy": junction_lane_samples(table)}, out / "lane_histogram.png")
+    return metrics
+
+
+def fast_lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
+                      make_env: Callable[..., Any]) -> dict:
+    metrics = outcome_rates(table)
+    metrics["fast_lanes"] = fast_lane_metrics(table, env.config.road_width)
+    plots.lateral_over_time(table, env.config.road_width, out / "lateral_by_rating.png")
+    return metrics
+
+
 REPORTS: dict[str, Callable[..., dict]] = {
     "intersection-v0": lights_report,
     "crosswalk-v0": crosswalk_report,
+    "intersection-spline-v0": lanes_report,
+    "highway-spline-v0": fast_lanes_report,
 }

@@ -12,12 +12,11 @@ from training.trainer import RunError, TrainConfig, train
 
 
 @dataclass
-class ScriptArgs:
+class CommonArgs:
     """Arguments every training script takes.
 
     num_cars: cars per episode
     lidar_noise: share of LiDAR rays dropped each decision
-    timesteps: slot-decisions to train for in total
     seed: random seed
     quick: a real but short run (about a minute of training here)
     out: output folder (must not exist unless --resume)
@@ -35,7 +34,6 @@ class ScriptArgs:
 
     num_cars: int = 4
     lidar_noise: float = 0.0
-    timesteps: int = 3_000_000
     seed: int = 0
     quick: bool = False
     out: str = "runs/run"
@@ -51,12 +49,20 @@ class ScriptArgs:
     horizon: Optional[int] = None
 
 
-def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
+@dataclass
+class ScriptArgs(CommonArgs):
+    """timesteps: slot-decisions to train for in total"""
+
+    timesteps: int = 3_000_000
+
+
+def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
     overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
     if args.horizon is not None:
         overrides["horizon"] = args.horizon
     cfg = TrainConfig(
-        env_id=env_id, env_overrides=overrides, timesteps=args.timesteps, seed=args.seed,
+        env_id=env_id, env_overrides=overrides,
+        timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
         critic=args.critic, threads=args.threads, max_minutes=args.max_minutes,
         init_from=args.init_from,
@@ -64,7 +70,7 @@ def config_from(env_id: str, args: ScriptArgs) -> TrainConfig:
     )
     if args.quick:  # same algorithm, smaller numbers
         cfg.n_envs, cfg.batch_decisions, cfg.minibatch = 8, 8_000, 2_000
-        cfg.timesteps = min(args.timesteps, 48_000)
+        cfg.timesteps = min(cfg.timesteps, 48_000)
         cfg.checkpoint_every = 2
     return cfg
 
@@ -81,4 +87,59 @@ def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: st
     print("last update:", {k.split("/")[-1]: round(v, 4) if isinstance(v, float) else v
                            for k, v in stats.items()})
     print(f"checkpoint: {Path(args.out) / 'model.zip'}")
+    return 0
+
+
+@dataclass
+class BilevelArgs(CommonArgs):
+    """Arguments of the bilevel (spline + acceleration) scripts.
+
+    rounds: alternation rounds (spline update, then acceleration updates)
+    spline_samples: car samples per spline update (K1)
+    accel_updates_per_round: acceleration PPO updates per round (K2 = this x batch_decisions)
+    spline_learning_rate: learning rate of the spline policy
+    spline_ent_coef: entropy bonus of the spline policy
+    spline_init_from: start the spline policy from this bilevel run folder
+    checkpoint_every: rounds between kept checkpoints
+    """
+
+    rounds: int = 40
+    spline_samples: int = 2048
+    accel_updates_per_round: int = 1
+    spline_learning_rate: float = 1e-3
+    spline_ent_coef: float = 0.0
+    spline_init_from: Optional[str] = None
+    checkpoint_every: int = 10
+
+
+def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
+    from training.bilevel import BilevelConfig
+
+    accel = config_from(env_id, args, timesteps=0)
+    cfg = BilevelConfig(
+        accel=accel, rounds=args.rounds, spline_samples=args.spline_samples,
+        accel_updates_per_round=args.accel_updates_per_round,
+        spline_learning_rate=args.spline_learning_rate, spline_ent_coef=args.spline_ent_coef,
+        checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
+        spline_init_from=args.spline_init_from, spline_n_envs=accel.n_envs,
+    )
+    if args.quick:  # same algorithm, smaller numbers
+        cfg.rounds, cfg.spline_samples, cfg.spline_minibatch = min(args.rounds, 3), 256, 128
+        cfg.checkpoint_every = 1
+    return cfg
+
+
+def run_bilevel_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
+    """Parse ``argv`` into ``args_class``, run the bilevel alternation, print a summary."""
+    from training.bilevel import train_bilevel
+
+    name = Path(sys.argv[0]).stem
+    args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
+    try:
+        row = train_bilevel(bilevel_config_from(env_id, args), Path(args.out), resume=args.resume)
+    except (RunError, ValueError) as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return 2
+    print("last round:", {k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()})
+    print(f"checkpoints: {Path(args.out) / 'accel'} and {Path(args.out) / 'spline'}")
     return 0

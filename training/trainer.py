@@ -134,8 +134,9 @@ class RolloutMetrics(BaseCallback):
     agent-steps (padding excluded), throughput; logged to CSV/TensorBoard; progress bar."""
 
     def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
-                 checkpoint_every: int, max_seconds: float = math.inf) -> None:
+                 checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True) -> None:
         super().__init__()
+        self.show_bar = show_bar
         self.max_seconds = max_seconds
         self.out, self.total = out, total
         self.wall_offset, self.agent_steps = wall_offset, agent_steps_offset
@@ -151,7 +152,8 @@ class RolloutMetrics(BaseCallback):
         self.prev_inside = np.zeros(n, dtype=bool)
         self.t0 = time.perf_counter()
         self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
-                        dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0)
+                        dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0,
+                        disable=not self.show_bar)
         self._reset_stats()
 
     def _reset_stats(self) -> None:

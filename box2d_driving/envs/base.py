@@ -105,12 +105,19 @@ class DrivingEnv(ParallelEnv, EzPickle):
         """Scenario-specific per-car facts added to ``infos`` (one dict per car in ``cars``)."""
         return [{} for _ in cars]
 
-    # -- API ----------------------------------------------------------------------------------
-    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+    def _seed(self, seed: Optional[int]) -> None:
         if seed is not None or self.np_random is None:
             self.np_random, _ = seeding.np_random(seed)
+
+    def _new_layout(self, seed: Optional[int], options: dict) -> Layout:
+        """The episode's layout (the spline scenarios insert their path choice here)."""
+        self._seed(seed)
+        return self.build_layout(self.np_random)
+
+    # -- API ----------------------------------------------------------------------------------
+    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         cfg = self.config
-        self.layout = self.build_layout(self.np_random)
+        self.layout = self._new_layout(seed, options or {})
         self.world.reset(self.layout)
         n = cfg.num_cars
         self.decision = 0

@@ -3,8 +3,10 @@
 The road spans ``x in [-road_length/2, road_length/2]``; the crosswalk covers
 ``x in crosswalk_x`` across the road. Between ``pedestrians_range`` pedestrians (0.8 m squares)
 spawn at random non-overlapping points on the crosswalk, the walkway included, each walking across
-the road (+y or -y) at ``U[pedestrian_speed_range)`` and turning back past the walkway. The LiDAR
-sees them; hitting one is a collision.
+the road (+y or -y) at ``U[pedestrian_speed_range)``. By default each crosses once and stands still
+on the far walkway (the paper: "the pedestrians cross the road with a constant velocity"), so the
+crosswalk empties over the episode; ``pedestrians_turn_back=True`` makes them walk back and forth.
+The LiDAR sees them; hitting one is a collision.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ class CrosswalkConfig(HighwayConfig):
         pedestrian_speed_range: walking speed range ``[low, high)`` (m/s).
         pedestrian_size: pedestrian square side (m).
         ahead_half_angle: a pedestrian within this angle of a car's heading is "ahead" (rad).
+        pedestrians_turn_back: pedestrians walk back and forth instead of crossing once.
     """
 
     num_cars: int = 4
@@ -50,6 +53,7 @@ class CrosswalkConfig(HighwayConfig):
     pedestrian_speed_range: tuple[float, float] = (1.0, 2.0)
     pedestrian_size: float = 0.8
     ahead_half_angle: float = math.pi / 6
+    pedestrians_turn_back: bool = False
 
     def _validate(self) -> None:
         super()._validate()
@@ -97,7 +101,8 @@ class CrosswalkEnv(HighwayEnv):
             speed = float(rng.uniform(*cfg.pedestrian_speed_range))
             direction = 1.0 if rng.random() < 0.5 else -1.0
             if all(np.max(np.abs(p - q.position)) > size for q in peds):
-                peds.append(PedestrianSpawn(p, np.array([0.0, direction * speed]), (-y_max, y_max), size))
+                peds.append(PedestrianSpawn(p, np.array([0.0, direction * speed]), (-y_max, y_max), size,
+                                            cfg.pedestrians_turn_back))
         half = cfg.road_width / 2
         crosswalk = (cfg.crosswalk_x[0], -half, cfg.crosswalk_x[1], half)
         return dataclasses.replace(layout, pedestrians=peds, crosswalk=crosswalk)

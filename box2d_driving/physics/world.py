@@ -104,6 +104,7 @@ class DrivingWorld:
         self.ped_bounds = np.array([p.y_bounds for p in layout.pedestrians], dtype=float).reshape(-1, 2)
         self.ped_sizes = np.array([p.size for p in layout.pedestrians], dtype=float)
         self.ped_velocity = np.array([p.velocity for p in layout.pedestrians], dtype=float).reshape(-1, 2)
+        self.ped_turn_back = [p.turn_back for p in layout.pedestrians]
         for k, ped in enumerate(layout.pedestrians):
             body = self.world.CreateDynamicBody(position=tuple(map(float, ped.position)))
             fx = body.CreateFixture(
@@ -205,13 +206,13 @@ class DrivingWorld:
         return hit
 
     def _turn_pedestrians(self) -> None:
-        """Pedestrians that walked past the end of their crossing turn back."""
+        """Pedestrians that walked past the end of their crossing turn back or stop there."""
         for k, body in enumerate(self.ped_bodies):
             y = body.position.y
             vy = self.ped_velocity[k, 1]
             lo, hi = self.ped_bounds[k]
             if (y > hi and vy > 0) or (y < lo and vy < 0):
-                self.ped_velocity[k] *= -1.0
+                self.ped_velocity[k] *= -1.0 if self.ped_turn_back[k] else 0.0
                 body.linearVelocity = tuple(self.ped_velocity[k])
 
     # -- reading ------------------------------------------------------------------------------

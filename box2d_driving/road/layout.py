@@ -49,13 +49,14 @@ class CarSpawn:
 
 @dataclass(frozen=True)
 class PedestrianSpawn:
-    """A square pedestrian (side ``size``, m) walking at constant velocity (m/s), turning back
-    when it leaves ``y_bounds``."""
+    """A square pedestrian (side ``size``, m) walking at constant velocity (m/s) until it leaves
+    ``y_bounds``; then it turns back (``turn_back``) or stands still there."""
 
     position: np.ndarray
     velocity: np.ndarray
     y_bounds: tuple[float, float]
     size: float = 0.8
+    turn_back: bool = True
 
 
 @dataclass(frozen=True)

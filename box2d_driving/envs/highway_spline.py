@@ -1,0 +1,88 @@
+"""Highway where each car picks its own lateral position: fast lanes are not given (SPEC 4,
+"highway", spline variant; the paper's fast-lane experiment).
+
+Cars start on the road axis, spread along it. Stage 0 observes the car's acceleration rating and
+picks one continuous lateral target ``a in [-1, 1]``: the car's path is the centripetal
+Catmull-Rom spline from its spawn point through ``(x_spawn + lane_change_distance,
+a * spline_lateral_limit * W/2)`` to its goal at the same lateral position (+ = left, +y, as the
+highway's ``lateral_range``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from box2d_driving.config import ConfigError
+from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
+from box2d_driving.envs.spline import SplineStageMixin
+from box2d_driving.road.geometry import spline_path
+from box2d_driving.road.layout import Layout
+
+
+@dataclass(frozen=True)
+class HighwaySplineConfig(HighwayConfig):
+    """Spline-highway defaults.
+
+    Attributes:
+        lateral_range: cars spawn on the road axis.
+        spline_lateral_limit: the largest lateral target, as a fraction of ``W/2`` (the paper's
+            0.75).
+        lane_change_distance: distance along the road over which a car reaches its target (m).
+        spline_samples: Catmull-Rom samples per spline segment.
+    """
+
+    lateral_range: tuple[float, float] = (0.0, 0.0)
+    spline_lateral_limit: float = 0.75
+    lane_change_distance: float = 30.0
+    spline_samples: int = 32
+
+    def _validate(self) -> None:
+        super()._validate()
+        limit = 1.0 - self.car_width / self.road_width
+        if not 0.0 <= self.spline_lateral_limit <= limit:
+            raise ConfigError(f"spline_lateral_limit must lie in [0, {limit:.3f}] to keep cars on the road")
+        if self.lane_change_distance <= 0:
+            raise ConfigError("lane_change_distance must be positive")
+        goal = self.road_length - self.goal_margin
+        if self.last_slot() + self.spawn_jitter + self.lane_change_distance >= goal:
+            raise ConfigError("lane_change_distance reaches past the goal from the last spawn slot")
+        if not isinstance(self.spline_samples, int) or self.spline_samples < 4:
+            raise ConfigError("spline_samples must be an integer >= 4")
+
+
+class HighwaySplineEnv(SplineStageMixin, HighwayEnv):
+    """The highway with a stage-0 lateral target per car (see the module docstring)."""
+
+    config_class = HighwaySplineConfig
+    metadata = {**HighwayEnv.metadata, "name": "highway_spline_v0"}
+
+    def __init__(self, **overrides) -> None:
+        super().__init__(**overrides)
+        self.spline_action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self.spline_observation_space = spaces.Box(0.0, 1.0, shape=(1,), dtype=np.float32)
+
+    def spline_observation_values(self, layout: Layout) -> np.ndarray:
+        return np.array([[c.rating] for c in layout.cars])
+
+    def lateral_targets(self, actions: np.ndarray) -> np.ndarray:
+        """Lateral target ``y`` (m) of each car for stage-0 ``actions`` ``(N, 1)``."""
+        cfg: HighwaySplineConfig = self.config
+        a = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1), -1.0, 1.0)
+        return a * cfg.spline_lateral_limit * cfg.road_width / 2
+
+    def apply_spline(self, layout: Layout, actions: np.ndarray) -> Layout:
+        cfg: HighwaySplineConfig = self.config
+        targets = self.lateral_targets(actions)
+        cars = []
+        for car, y in zip(layout.cars, targets):
+            start, goal = car.path.points[0], car.path.points[-1]
+            control = np.array([start, [start[0] + cfg.lane_change_distance, y], [goal[0], y]])
+            cars.append(dataclasses.replace(car, path=spline_path(control, samples_per_segment=cfg.spline_samples)))
+        return dataclasses.replace(layout, cars=cars)
+
+    def default_spline_actions(self) -> np.ndarray:
+        return np.zeros((self.config.num_cars, 1), dtype=np.float32)  # stay on the axis

@@ -1,0 +1,124 @@
+"""Signalled junction where each car picks its own path: lanes are not given (SPEC 4,
+"intersection, spline"; the paper's lane-emergence experiment).
+
+The planned route of a car runs along the road axis through three waypoints: its spawn point,
+the junction centre and its goal. Stage 0 offsets each waypoint sideways by one of
+``spline_offsets * W/2`` to the right or to the left of the direction of travel: 6 choices per
+waypoint (zero appears once per side, as in the paper's count), ``6**3 = 216`` discrete actions.
+The car then follows the centripetal Catmull-Rom spline through the three offset points.
+
+Action ``a`` decodes waypoint ``j`` (0: spawn, 1: centre, 2: goal) from digit
+``k_j = (a // 6**j) % 6``: side = right if ``k_j < 3`` else left, size = ``spline_offsets[k_j % 3]``.
+
+Stage-0 observation (per car, metres / ``spline_obs_scale``): the three route waypoints in the
+car's frame (origin at the planned spawn, x along the direction of travel) and ``W/2``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from box2d_driving.config import ConfigError
+from box2d_driving.envs.intersection import IntersectionConfig, IntersectionEnv
+from box2d_driving.envs.spline import SplineStageMixin
+from box2d_driving.road.geometry import spline_path
+from box2d_driving.road.layout import Layout
+
+N_WAYPOINTS = 3
+
+
+@dataclass(frozen=True)
+class IntersectionSplineConfig(IntersectionConfig):
+    """Spline-junction defaults.
+
+    Attributes:
+        lane_fraction: the planned route runs on the road axis (0).
+        spline_offsets: waypoint offset sizes as fractions of ``W/2``, each offered to the right
+            and to the left.
+        spline_samples: Catmull-Rom samples per spline segment.
+        spline_obs_scale: stage-0 observations are metres divided by this.
+    """
+
+    lane_fraction: float = 0.0
+    spline_offsets: tuple[float, ...] = (0.0, 1 / 3, 2 / 3)
+    spline_samples: int = 32
+    spline_obs_scale: float = 100.0
+
+    def _validate(self) -> None:
+        super()._validate()
+        limit = 1.0 - self.car_width / self.road_width_range[0]
+        if not self.spline_offsets or min(self.spline_offsets) < 0 or max(self.spline_offsets) > limit:
+            raise ConfigError(f"spline_offsets must lie in [0, {limit:.3f}] to keep cars on the road")
+        if not isinstance(self.spline_samples, int) or self.spline_samples < 4:
+            raise ConfigError("spline_samples must be an integer >= 4")
+        if self.spline_obs_scale <= 0:
+            raise ConfigError("spline_obs_scale must be positive")
+
+    @property
+    def choices_per_waypoint(self) -> int:
+        return 2 * len(self.spline_offsets)
+
+    @property
+    def n_spline_actions(self) -> int:
+        return self.choices_per_waypoint ** N_WAYPOINTS
+
+
+class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
+    """The signalled junction with stage-0 path choice (see the module docstring)."""
+
+    config_class = IntersectionSplineConfig
+    metadata = {**IntersectionEnv.metadata, "name": "intersection_spline_v0"}
+
+    def __init__(self, **overrides) -> None:
+        super().__init__(**overrides)
+        cfg: IntersectionSplineConfig = self.config
+        self.spline_action_space = spaces.Discrete(cfg.n_spline_actions)
+        self.spline_observation_space = spaces.Box(-np.inf, np.inf, shape=(2 * N_WAYPOINTS + 1,),
+                                                   dtype=np.float32)
+
+    def decode_offsets(self, actions: np.ndarray) -> np.ndarray:
+        """``(N, 3)`` signed waypoint offsets (fractions of ``W/2``, + = right) of ``actions``."""
+        cfg: IntersectionSplineConfig = self.config
+        c, m = cfg.choices_per_waypoint, len(cfg.spline_offsets)
+        digits = (np.asarray(actions, dtype=np.int64)[:, None] // c ** np.arange(N_WAYPOINTS)) % c
+        sizes = np.asarray(cfg.spline_offsets)[digits % m]
+        return np.where(digits < m, sizes, -sizes)
+
+    def encode_offsets(self, choices: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`decode_offsets` on choice digits ``(N, 3)`` in ``[0, 6)``."""
+        c = self.config.choices_per_waypoint
+        return (np.asarray(choices, dtype=np.int64) * c ** np.arange(N_WAYPOINTS)).sum(axis=1)
+
+    def _waypoints(self, layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Route waypoints ``(N, 3, 2)``, directions and right vectors ``(N, 2)``."""
+        starts = np.array([c.path.points[0] for c in layout.cars])
+        goals = np.array([c.path.points[-1] for c in layout.cars])
+        dirs = np.array([c.lane_axis.direction for c in layout.cars])
+        rights = np.stack([dirs[:, 1], -dirs[:, 0]], axis=1)
+        centre = np.array([c.lane_axis.origin for c in layout.cars])  # the junction centre
+        return np.stack([starts, centre, goals], axis=1), dirs, rights
+
+    def spline_observation_values(self, layout: Layout) -> np.ndarray:
+        cfg: IntersectionSplineConfig = self.config
+        wps, dirs, rights = self._waypoints(layout)
+        rel = wps - wps[:, :1]
+        local = np.stack([np.einsum("nkj,nj->nk", rel, dirs), np.einsum("nkj,nj->nk", rel, -rights)], axis=2)
+        half = np.array([c.lane_axis.half_width for c in layout.cars])
+        return np.concatenate([local.reshape(len(wps), -1), half[:, None]], axis=1) / cfg.spline_obs_scale
+
+    def apply_spline(self, layout: Layout, actions: np.ndarray) -> Layout:
+        cfg: IntersectionSplineConfig = self.config
+        wps, _, rights = self._waypoints(layout)
+        offsets = self.decode_offsets(actions)
+        half = np.array([c.lane_axis.half_width for c in layout.cars])
+        control = wps + (offsets * half[:, None])[:, :, None] * rights[:, None, :]
+        cars = [dataclasses.replace(car, path=spline_path(control[i], samples_per_segment=cfg.spline_samples))
+                for i, car in enumerate(layout.cars)]
+        return dataclasses.replace(layout, cars=cars)
+
+    def default_spline_actions(self) -> np.ndarray:
+        return np.zeros(self.config.num_cars, dtype=np.int64)  # every waypoint on the axis

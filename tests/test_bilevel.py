@@ -1,0 +1,118 @@
+"""The spline bandit (one-step env) and the bilevel trainer (Algorithm 1)."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from training.bandit import SplineBanditVecEnv
+from training.bilevel import BilevelConfig, train_bilevel
+from training.inference import load_policy
+from training.trainer import RunError, TrainConfig
+
+
+def _always(action):
+    return lambda obs: np.full(len(obs), action, dtype=np.int64)
+
+
+def test_bandit_reward_is_the_inner_episode_return_and_every_slot_is_done():
+    make = lambda: box2d_driving.make("intersection-spline-v0", num_cars=4)  # noqa: E731
+    bandit = SplineBanditVecEnv([make, make], _always(12), normalise=False)
+    bandit.seed(7)
+    obs0 = bandit.reset()
+    assert obs0.shape == (8, 7)
+    actions = np.array([0, 43, 86, 129, 172, 215, 5, 100])
+    obs1, rewards, dones, infos = bandit.step(actions)
+    assert dones.all() and obs1.shape == obs0.shape
+    # replay instance 1 by hand: same seed, same paths, same acceleration policy
+    env = make()
+    env.reset(seed=7 + 4, options={"spline_actions": actions[4:]})  # slot 4 seeds instance 1
+    total = dict.fromkeys(env.possible_agents, 0.0)
+    while env.agents:
+        _, rew, *_ = env.step({a: 12 for a in env.agents})
+        for a, r in rew.items():
+            total[a] += r
+    assert np.allclose(rewards[4:], [total[a] for a in env.possible_agents])
+    assert [i["episode_return"] for i in infos[4:]] == pytest.approx(list(rewards[4:]))
+
+
+def test_bandit_normalised_rewards_are_standardised():
+    make = lambda: box2d_driving.make("highway-spline-v0", num_cars=5)  # noqa: E731
+    bandit = SplineBanditVecEnv([make, make], _always(20), normalise=True)
+    bandit.seed(0)
+    bandit.reset()
+    _, rewards, _, infos = bandit.step(np.linspace(-1, 1, 10).reshape(10, 1))
+    raw = np.array([i["episode_return"] for i in infos])
+    assert raw.std() > 0
+    assert np.allclose(rewards, (raw - raw.mean()) / (raw.std() + 1e-8), atol=1e-5)
+
+
+def test_bandit_refuses_fixed_track_envs():
+    with pytest.raises(ValueError, match="spline"):
+        SplineBanditVecEnv([lambda: box2d_driving.make("intersection-v0")], _always(0))
+
+
+def _config(env_id="intersection-spline-v0", rounds=2):
+    accel = TrainConfig(env_id=env_id, env_overrides={"num_cars": 4}, n_envs=2,
+                        batch_decisions=800, minibatch=400, threads=1)
+    return BilevelConfig(accel=accel, rounds=rounds, spline_samples=64, spline_n_envs=2,
+                         spline_minibatch=32, checkpoint_every=1)
+
+
+@pytest.mark.parametrize("env_id", ["intersection-spline-v0", "highway-spline-v0"])
+def test_bilevel_alternates_checkpoints_both_and_resumes(tmp_path, env_id):
+    out = tmp_path / "run"
+    row = train_bilevel(_config(env_id), out)
+    assert row["round"] == 2
+    state = json.loads((out / "state.json").read_text())
+    assert state["round"] == 2 and state["spline_samples"] == 2 * 64
+    assert state["accel_decisions"] == 2 * 800
+    for name in ("accel/model.zip", "spline/model.zip", "accel/config.json",
+                 "checkpoints/round_0002_spline.zip"):
+        assert (out / name).exists(), name
+    with pytest.raises(RunError, match="not empty"):
+        train_bilevel(_config(env_id), out)
+    train_bilevel(_config(env_id, rounds=3), out, resume=True)
+    rows = list(csv.DictReader((out / "rounds.csv").open()))
+    assert [int(r["round"]) for r in rows] == [1, 2, 3]
+    # the evaluated policy drives on the paths its own spline policy picks
+    policy = load_policy(out)
+    env = policy.make_env()
+    obs, _ = env.reset(seed=0)
+    expected = policy.spline_model.policy.predict(env.spline_observations, deterministic=True)[0]
+    assert np.array_equal(np.asarray(env.spline_actions).ravel(), np.asarray(expected).ravel())
+    assert set(policy.act(obs)) == set(env.agents)
+
+
+def test_bilevel_resume_refuses_missing_or_different_runs(tmp_path):
+    with pytest.raises(RunError, match="missing"):
+        train_bilevel(_config(), tmp_path / "nothing", resume=True)
+    out = tmp_path / "run"
+    train_bilevel(_config(rounds=1), out)
+    other = _config(rounds=2)
+    other.accel.env_overrides = {"num_cars": 8}
+    with pytest.raises(RunError, match="env_overrides"):
+        train_bilevel(other, out, resume=True)
+
+
+def test_bilevel_spline_policy_is_installed_live_in_the_acceleration_envs(tmp_path):
+    """After training, every acceleration-stage env uses the (greedy) spline policy object
+    that was just updated, not a copy."""
+    from training.bilevel import build_spline_model, install_spline_policy, make_bandit
+    from training.trainer import build_model, make_vec_env
+
+    cfg = _config()
+    venv = make_vec_env(cfg.accel)
+    accel = build_model(cfg.accel, venv)
+    spline = build_spline_model(cfg, make_bandit(cfg, accel))
+    install_spline_policy(venv, spline)
+    obs0 = np.random.default_rng(0).normal(size=(4, 7)).astype(np.float32)
+    before = venv.envs[0].spline_policy(obs0)
+    with __import__("torch").no_grad():
+        for p in spline.policy.action_net.parameters():
+            p.zero_()
+        spline.policy.action_net.bias[37] = 100.0  # the greedy choice becomes action 37
+    assert np.array_equal(venv.envs[1].spline_policy(obs0), np.full(4, 37))
+    assert before.shape == (4,)

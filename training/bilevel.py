@@ -1,0 +1,264 @@
+"""Bilevel PPO (the paper's Algorithm 1): alternate the spline sub-policy (one-step bandit) and
+the acceleration sub-policy (CTDE PPO) on a spline scenario.
+
+Each round: (1) collect ``spline_samples`` car samples on :class:`SplineBanditVecEnv` with the
+acceleration policy greedy, one single-step PPO update of the spline policy; (2) collect
+``accel_updates_per_round * batch_decisions`` slot-decisions on the :class:`SlotVecEnv` with the
+spline policy greedy (installed as each env's ``spline_policy``), as many PPO updates of the
+acceleration policy and its centralised critic. Both hooks call the live policy objects, so the
+frozen side is always the latest one. Learning rates and clip ranges are constants: SB3 restarts
+its progress schedule at every ``learn(reset_num_timesteps=False)`` call, which would otherwise
+reset annealed values each round. No observation normalisation is used.
+
+Output folder::
+
+    OUT/config.json       the BilevelConfig (written once)
+    OUT/accel/            acceleration policy: config.json, model.zip, progress.csv, tb/
+                          (a normal run folder: load_policy(OUT/accel) works)
+    OUT/spline/           spline policy: model.zip, progress.csv
+    OUT/rounds.csv        one row per round: bandit return, lane side shares, driving outcomes
+    OUT/state.json        rounds done, wall-clock seconds, acceleration-stage agent-steps
+    OUT/checkpoints/      round_<r>_{accel,spline}.zip every ``checkpoint_every`` rounds
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+import torch as th
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import configure
+
+import box2d_driving
+from training.bandit import SplineBanditVecEnv
+from training.inference import actor_actions
+from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
+                              load_weights, make_vec_env)
+
+
+@dataclass
+class BilevelConfig:
+    """Everything one bilevel run needs (saved to ``config.json``).
+
+    Attributes:
+        accel: the acceleration stage (env id, env overrides, PPO settings); its ``timesteps``
+            and ``checkpoint_every`` are unused (rounds decide).
+        rounds: alternation rounds N.
+        spline_samples: K1, car samples (one inner episode per car) per spline update.
+        accel_updates_per_round: acceleration PPO updates per round (K2 = this x batch_decisions).
+        spline_n_envs: env instances simulated side by side for the bandit.
+        spline_learning_rate, spline_epochs, spline_minibatch, spline_ent_coef, spline_clip_range:
+            single-step PPO settings.
+        spline_hidden: hidden layer sizes of the spline policy (and its baseline).
+        normalise_bandit_reward: standardise each step's returns (the paper's normalised reward).
+        checkpoint_every: rounds between kept checkpoints.
+        max_minutes: stop after this much wall-clock time over all sessions (None: no limit).
+        spline_init_from: start the spline policy from this bilevel run's spline weights.
+    """
+
+    accel: TrainConfig = field(default_factory=TrainConfig)
+    rounds: int = 40
+    spline_samples: int = 2048
+    accel_updates_per_round: int = 1
+    spline_n_envs: int = 16
+    spline_learning_rate: float = 3e-4
+    spline_epochs: int = 10
+    spline_minibatch: int = 256
+    spline_ent_coef: float = 0.0
+    spline_clip_range: float = 0.2
+    spline_hidden: tuple[int, ...] = (64, 64)
+    normalise_bandit_reward: bool = True
+    checkpoint_every: int = 10
+    max_minutes: Optional[float] = None
+    spline_init_from: Optional[str] = None
+
+    @staticmethod
+    def from_dict(d: dict) -> "BilevelConfig":
+        d = dict(d)
+        d["accel"] = TrainConfig(**d["accel"])
+        d["spline_hidden"] = tuple(d["spline_hidden"])
+        return BilevelConfig(**d)
+
+
+ROUND_FIELDS = ("round", "wall_s", "agent_steps", "bandit_return", "bandit_success", "bandit_collision",
+                "right_share", "left_share", "accel_success", "accel_collision", "accel_violation")
+
+
+class BanditStats(BaseCallback):
+    """Returns, outcomes and junction lane sides of the bandit samples of one spline update."""
+
+    def _on_training_start(self) -> None:
+        self.returns, self.arrived, self.collided, self.lanes = [], [], [], []
+
+    def _on_step(self) -> bool:
+        for info in self.locals["infos"]:
+            self.returns.append(info["episode_return"])
+            self.arrived.append(info["arrived"])
+            self.collided.append(info["collided"])
+            self.lanes.append(info["junction_lane_position"])
+        return True
+
+    def _on_rollout_end(self) -> None:
+        lanes = np.array(self.lanes)
+        lanes = lanes[np.isfinite(lanes)]
+        self.stats = {
+            "bandit/return_mean": float(np.mean(self.returns)),
+            "bandit/success_rate": float(np.mean(self.arrived)),
+            "bandit/collision_rate": float(np.mean(self.collided)),
+            "bandit/right_share": float(np.mean(lanes > 0)) if len(lanes) else float("nan"),
+            "bandit/left_share": float(np.mean(lanes < 0)) if len(lanes) else float("nan"),
+        }
+        for k, v in self.stats.items():
+            self.logger.record(k, v)
+
+
+def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
+    if resume:
+        for need in ("config.json", "state.json", "accel/model.zip", "spline/model.zip"):
+            if not (out / need).exists():
+                raise RunError(f"--resume: {out / need} is missing")
+        saved = BilevelConfig.from_dict(json.loads((out / "config.json").read_text()))
+        for key in ("env_id", "env_overrides", "critic"):
+            if getattr(saved.accel, key) != json.loads(json.dumps(getattr(config.accel, key))):
+                raise RunError(f"--resume: {key} differs from the checkpoint's")
+        return
+    if out.exists() and any(out.iterdir()):
+        raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+    (out / "accel").mkdir(parents=True, exist_ok=True)
+    (out / "spline").mkdir(exist_ok=True)
+    (out / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2))
+    (out / "accel" / "config.json").write_text(json.dumps(dataclasses.asdict(config.accel), indent=2))
+
+
+def make_bandit(config: BilevelConfig, accel_model: PPO) -> SplineBanditVecEnv:
+    acfg = config.accel
+
+    def factory():
+        return box2d_driving.make(acfg.env_id, **acfg.env_overrides)
+
+    def accel_policy(obs: np.ndarray) -> np.ndarray:
+        return actor_actions(accel_model.policy, obs, deterministic=True)
+
+    return SplineBanditVecEnv([factory] * config.spline_n_envs, accel_policy,
+                              normalise=config.normalise_bandit_reward)
+
+
+def build_spline_model(config: BilevelConfig, bandit: SplineBanditVecEnv) -> PPO:
+    n_steps = max(1, math.ceil(config.spline_samples / bandit.num_envs))
+    return PPO(
+        "MlpPolicy", bandit, n_steps=n_steps, batch_size=min(config.spline_minibatch, n_steps * bandit.num_envs),
+        n_epochs=config.spline_epochs, learning_rate=config.spline_learning_rate, gamma=0.0,
+        gae_lambda=0.0, clip_range=config.spline_clip_range, ent_coef=config.spline_ent_coef,
+        policy_kwargs={"net_arch": list(config.spline_hidden)}, seed=config.accel.seed + 1,
+        device="cpu", verbose=0,
+    )
+
+
+def install_spline_policy(accel_venv, spline_model: PPO) -> None:
+    """Every acceleration-stage env picks its paths with the live spline policy, greedily."""
+    def choose(obs0: np.ndarray) -> np.ndarray:
+        return spline_model.policy.predict(obs0, deterministic=True)[0]
+    accel_venv.set_attr("spline_policy", choose)
+
+
+def _save(model: PPO, path: Path) -> None:
+    tmp = path.with_name(path.stem + ".partial.zip")
+    model.save(tmp)
+    tmp.replace(path)
+
+
+def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> None:
+    _save(accel, out / "accel" / "model.zip")
+    _save(spline, out / "spline" / "model.zip")
+    (out / "state.json").write_text(json.dumps(state, indent=2))
+    if keep:
+        ck = out / "checkpoints"
+        ck.mkdir(exist_ok=True)
+        shutil.copyfile(out / "accel" / "model.zip", ck / f"round_{state['round']:04d}_accel.zip")
+        shutil.copyfile(out / "spline" / "model.zip", ck / f"round_{state['round']:04d}_spline.zip")
+
+
+def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dict[str, Any]:
+    """Run (or continue) the alternation in ``out``; returns the last round's row."""
+    from tqdm import tqdm
+
+    out = Path(out)
+    prepare_run_dir(out, resume, config)
+    acfg = config.accel
+    th.set_num_threads(acfg.threads)
+    accel_venv = make_vec_env(acfg)
+    state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}
+    if resume:
+        state = json.loads((out / "state.json").read_text())
+        accel = PPO.load(out / "accel" / "model.zip", env=accel_venv, device="cpu")
+        bandit = make_bandit(config, accel)
+        spline = PPO.load(out / "spline" / "model.zip", env=bandit, device="cpu")
+        accel.set_logger(_append_logger(out / "accel", accel.num_timesteps))
+        spline.set_logger(_append_logger(out / "spline", spline.num_timesteps))
+    else:
+        accel = build_model(acfg, accel_venv)
+        if acfg.init_from:
+            load_weights(accel, Path(acfg.init_from))
+        bandit = make_bandit(config, accel)
+        spline = build_spline_model(config, bandit)
+        if config.spline_init_from:
+            src = Path(config.spline_init_from)
+            src = src / "spline" / "model.zip" if src.is_dir() else src
+            if not src.exists():
+                raise RunError(f"--spline-init-from: no spline checkpoint at {src}")
+            spline.policy.load_state_dict(PPO.load(src, device="cpu").policy.state_dict())
+        accel.set_logger(configure(str(out / "accel"), ["csv", "tensorboard"]))
+        spline.set_logger(configure(str(out / "spline"), ["csv"]))
+    accel_venv.seed(acfg.seed + 1000 * state["round"])
+    bandit.seed(acfg.seed + 10**6 + 1000 * state["round"])
+    install_spline_policy(accel_venv, spline)
+
+    max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
+    rounds_csv = out / "rounds.csv"
+    new_file = not rounds_csv.exists()
+    row: dict[str, Any] = {}
+    bar = tqdm(total=config.rounds, initial=state["round"], unit="round", dynamic_ncols=True)
+    with rounds_csv.open("a", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=ROUND_FIELDS)
+        if new_file:
+            writer.writeheader()
+        while state["round"] < config.rounds and state["wall_s"] < max_seconds:
+            t0 = time.perf_counter()
+            stats = BanditStats()
+            spline.learn(spline.n_steps * bandit.num_envs, callback=stats, reset_num_timesteps=False)
+            metrics = RolloutMetrics(out / "accel", math.inf, state["wall_s"], state["agent_steps"],
+                                     checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False)
+            accel.learn(config.accel_updates_per_round * accel.n_steps * accel_venv.num_envs,
+                        callback=metrics, reset_num_timesteps=False)
+            state = {"round": state["round"] + 1, "wall_s": state["wall_s"] + time.perf_counter() - t0,
+                     "agent_steps": metrics.agent_steps,
+                     "accel_decisions": accel.num_timesteps, "spline_samples": spline.num_timesteps}
+            a = getattr(metrics, "last_stats", {})
+            b = stats.stats
+            row = {"round": state["round"], "wall_s": round(state["wall_s"], 1),
+                   "agent_steps": state["agent_steps"], "bandit_return": b["bandit/return_mean"],
+                   "bandit_success": b["bandit/success_rate"], "bandit_collision": b["bandit/collision_rate"],
+                   "right_share": b["bandit/right_share"], "left_share": b["bandit/left_share"],
+                   "accel_success": a.get("rollout/success_rate", float("nan")),
+                   "accel_collision": a.get("rollout/collision_rate", float("nan")),
+                   "accel_violation": a.get("rollout/red_light_violation_rate", float("nan"))}
+            writer.writerow(row)
+            fh.flush()
+            save_round(out, accel, spline, state, keep=state["round"] % config.checkpoint_every == 0)
+            bar.update(1)
+            bar.set_postfix(ret=f"{row['bandit_return']:.2f}", right=f"{row['right_share']:.2f}",
+                            success=f"{row['accel_success']:.2f}", refresh=False)
+    bar.close()
+    accel_venv.close()
+    bandit.close()
+    return row
