@@ -1,7 +1,7 @@
 """The ``box2d-driving`` command.
 
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
-world speed benchmark), ``train lights|crosswalk`` and ``evaluate`` (the training scripts). Bad
+world speed benchmark), ``train lights|crosswalk|lanes|fast-lanes`` and ``evaluate`` (the training scripts). Bad
 arguments print one line and exit with status 2.
 """
 
@@ -100,14 +100,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
                    add_help=False)
-    sub.add_parser("train", help="train: `train lights|crosswalk [options]` (`train lights --help`)",
+    sub.add_parser("train", help="train: `train lights|crosswalk|lanes|fast-lanes [options]` (`train lights --help`)",
                    add_help=False)
     sub.add_parser("evaluate", help="evaluate a checkpoint or scripted policy (`evaluate --help`)",
                    add_help=False)
     return parser
 
 
-TRAINERS = {"lights": "training.traffic_lights", "crosswalk": "training.crosswalk"}
+TRAINERS = {"lights": "training.traffic_lights", "crosswalk": "training.crosswalk",
+            "lanes": "training.lanes", "fast-lanes": "training.fast_lanes"}
 
 
 def _delegate(argv: list[str]) -> int:

@@ -116,3 +116,25 @@ def test_bilevel_spline_policy_is_installed_live_in_the_acceleration_envs(tmp_pa
         spline.policy.action_net.bias[37] = 100.0  # the greedy choice becomes action 37
     assert np.array_equal(venv.envs[1].spline_policy(obs0), np.full(4, 37))
     assert before.shape == (4,)
+
+
+@pytest.mark.parametrize("script,report", [("lanes", "lane_histogram.png"),
+                                           ("fast_lanes", "lateral_by_rating.png")])
+def test_bilevel_scripts_train_and_evaluate(tmp_path, script, report):
+    import importlib
+
+    from training import evaluate
+
+    module = importlib.import_module(f"training.{script}")
+    out = tmp_path / "run"
+    argv = ["--out", str(out), "--rounds", "1", "--spline-samples", "32", "--n-envs", "2",
+            "--batch-decisions", "80", "--num-cars", "4", "--threads", "1", "--epochs", "1"]
+    assert module.main(argv) == 0
+    assert module.main(argv) == 2  # refuses to overwrite
+    ev = tmp_path / "ev"
+    assert evaluate.main(["--checkpoint", str(out), "--episodes", "2", "--out", str(ev), "--video", "1"]) == 0
+    metrics = json.loads((ev / "metrics.json").read_text())
+    key = "lanes" if script == "lanes" else "fast_lanes"
+    assert key in metrics
+    for name in (report, "episodes.mp4", "learning_curves.png"):
+        assert (ev / name).stat().st_size > 0, name
