@@ -18,7 +18,7 @@ def _always(action):
 
 
 def test_bandit_reward_is_the_inner_episode_return_and_every_slot_is_done():
-    make = lambda: box2d_driving.make("intersection-spline-v0", num_cars=4)  # noqa: E731
+    make = lambda: box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")  # noqa: E731
     bandit = SplineBanditVecEnv([make, make], _always(12), normalise=False)
     bandit.seed(7)
     obs0 = bandit.reset()
@@ -113,9 +113,9 @@ def test_bilevel_spline_policy_is_installed_live_in_the_acceleration_envs(tmp_pa
     with __import__("torch").no_grad():
         for p in spline.policy.action_net.parameters():
             p.zero_()
-        spline.policy.action_net.bias[37] = 100.0  # the greedy choice becomes action 37
-    assert np.array_equal(venv.envs[1].spline_policy(obs0), np.full(4, 37))
-    assert before.shape == (4,)
+        spline.policy.action_net.bias[[1, 6 + 4, 12 + 2]] = 100.0  # greedy choices 1, 4, 2
+    assert np.array_equal(venv.envs[1].spline_policy(obs0), np.tile([1, 4, 2], (4, 1)))
+    assert before.shape == (4, 3)
 
 
 @pytest.mark.parametrize("script,report", [("lanes", "lane_histogram.png"),

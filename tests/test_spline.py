@@ -11,7 +11,7 @@ from box2d_driving.road.geometry import rectangle_corners, rectangles_overlap
 
 
 def test_junction_action_decoding_covers_216_distinct_offset_triples():
-    env = box2d_driving.make("intersection-spline-v0", num_cars=4)
+    env = box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")
     assert env.spline_action_space.n == 216
     offsets = env.decode_offsets(np.arange(216))
     sizes = {0.0, 1 / 3, 2 / 3}
@@ -26,10 +26,11 @@ def test_junction_action_decoding_covers_216_distinct_offset_triples():
 
 def test_junction_path_passes_through_the_offset_waypoints():
     env = box2d_driving.make("intersection-spline-v0", num_cars=4)
+    assert env.spline_action_space.nvec.tolist() == [6, 6, 6]  # per-waypoint choices (default)
     planned = env.plan(seed=5)
     base = env._planned
     choices = np.array([[1, 4, 2], [0, 0, 0], [5, 3, 1], [2, 2, 2]])  # digits per waypoint
-    env.reset(options={"use_plan": True, "spline_actions": env.encode_offsets(choices)})
+    env.reset(options={"use_plan": True, "spline_actions": choices})
     sizes = np.array([0.0, 1 / 3, 2 / 3])
     for i, car in enumerate(env.layout.cars):
         axis = base.cars[i].lane_axis
@@ -44,6 +45,11 @@ def test_junction_path_passes_through_the_offset_waypoints():
         # lane position of the spawn, as reported, is the chosen first offset
         assert axis.offset(pts[0]) == pytest.approx(signed[0] / axis.half_width)
     assert set(planned) == set(env.possible_agents)
+    # the joint encoding of the same choices builds the same paths
+    joint = box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")
+    joint.reset(seed=5, options={"spline_actions": env.encode_offsets(choices)})
+    for a, b in zip(env.layout.cars, joint.layout.cars):
+        assert np.array_equal(a.path.points, b.path.points)
 
 
 @pytest.mark.parametrize("env_id", ["intersection-spline-v0", "highway-spline-v0"])
@@ -52,8 +58,8 @@ def test_two_phase_reset_equals_one_reset_with_the_same_actions(env_id):
     b = box2d_driving.make(env_id)
     rng = np.random.default_rng(0)
     space = a.spline_action_space
-    if hasattr(space, "n"):
-        actions = rng.integers(0, space.n, size=len(a.possible_agents))
+    if hasattr(space, "nvec"):
+        actions = rng.integers(0, space.nvec, size=(len(a.possible_agents), len(space.nvec)))
     else:
         actions = rng.uniform(-1, 1, size=(len(a.possible_agents), 1)).astype(np.float32)
     obs0 = a.plan(seed=11)
@@ -70,7 +76,7 @@ def test_two_phase_reset_equals_one_reset_with_the_same_actions(env_id):
 
 
 def test_spline_policy_hook_sees_stage0_observations_and_chooses():
-    env = box2d_driving.make("intersection-spline-v0", num_cars=4)
+    env = box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")
     seen = []
 
     def policy(obs0):
@@ -88,7 +94,7 @@ def test_spline_policy_hook_sees_stage0_observations_and_chooses():
 
 
 def test_spline_reset_rejects_bad_input():
-    env = box2d_driving.make("intersection-spline-v0", num_cars=4)
+    env = box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")
     with pytest.raises(RuntimeError, match="plan"):
         env.reset(options={"use_plan": True})
     env.plan(seed=0)
@@ -98,6 +104,13 @@ def test_spline_reset_rejects_bad_input():
         env.reset(seed=1, options={"spline_actions": [0, 1, 2, 216]})
     with pytest.raises(ValueError, match="car_3"):
         env.reset(seed=1, options={"spline_actions": {"car_0": 0, "car_1": 0, "car_2": 0}})
+    per = box2d_driving.make("intersection-spline-v0", num_cars=2)
+    with pytest.raises(ValueError, match="shape"):
+        per.reset(seed=0, options={"spline_actions": [1, 2]})
+    with pytest.raises(ValueError, match="6, 6, 6"):
+        per.reset(seed=0, options={"spline_actions": [[0, 0, 6], [0, 0, 0]]})
+    with pytest.raises(box2d_driving.ConfigError, match="spline_action"):
+        box2d_driving.make("intersection-spline-v0", spline_action="both")
     hw = box2d_driving.make("highway-spline-v0", num_cars=2)
     with pytest.raises(ValueError, match="finite"):
         hw.reset(seed=0, options={"spline_actions": [[np.nan], [0.0]]})
@@ -112,7 +125,7 @@ def test_spline_spawns_never_overlap(env_id, n):
     cfg = env.config
     for seed in range(150):
         space = env.spline_action_space
-        acts = (rng.integers(0, space.n, n) if hasattr(space, "n")
+        acts = (rng.integers(0, space.nvec, (n, 3)) if hasattr(space, "nvec")
                 else rng.uniform(-1, 1, (n, 1)))
         env.reset(seed=seed, options={"spline_actions": acts})
         w = env.world
@@ -138,7 +151,8 @@ def test_highway_lateral_target_and_rating_observation():
 
 
 def test_cars_stay_on_their_spline():
-    env = box2d_driving.make("intersection-spline-v0", num_cars=4, light_period_range=(100.0, 101.0))
+    env = box2d_driving.make("intersection-spline-v0", num_cars=4, light_period_range=(100.0, 101.0),
+                             spline_action="joint")
     env.reset(seed=2, options={"spline_actions": [215, 43, 100, 7]})
     paths = [c.path for c in env.layout.cars]
     checked = 0

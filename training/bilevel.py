@@ -1,8 +1,9 @@
 """Bilevel PPO (the paper's Algorithm 1): alternate the spline sub-policy (one-step bandit) and
 the acceleration sub-policy (CTDE PPO) on a spline scenario.
 
-Each round: (1) collect ``spline_samples`` car samples on :class:`SplineBanditVecEnv` with the
-acceleration policy greedy, one single-step PPO update of the spline policy; (2) collect
+Each round: (1) ``spline_updates_per_round`` times, collect ``spline_samples`` car samples on
+:class:`SplineBanditVecEnv` with the acceleration policy greedy and make one single-step PPO
+update of the spline policy; (2) collect
 ``accel_updates_per_round * batch_decisions`` slot-decisions on the :class:`SlotVecEnv` with the
 spline policy greedy (installed as each env's ``spline_policy``), as many PPO updates of the
 acceleration policy and its centralised critic. Both hooks call the live policy objects, so the
@@ -54,7 +55,8 @@ class BilevelConfig:
         accel: the acceleration stage (env id, env overrides, PPO settings); its ``timesteps``
             and ``checkpoint_every`` are unused (rounds decide).
         rounds: alternation rounds N.
-        spline_samples: K1, car samples (one inner episode per car) per spline update.
+        spline_samples: car samples (one inner episode per car) per spline update.
+        spline_updates_per_round: spline PPO updates per round (K1 = this x spline_samples).
         accel_updates_per_round: acceleration PPO updates per round (K2 = this x batch_decisions).
         spline_n_envs: env instances simulated side by side for the bandit.
         spline_learning_rate, spline_epochs, spline_minibatch, spline_ent_coef, spline_clip_range:
@@ -69,6 +71,7 @@ class BilevelConfig:
     accel: TrainConfig = field(default_factory=TrainConfig)
     rounds: int = 40
     spline_samples: int = 2048
+    spline_updates_per_round: int = 1
     accel_updates_per_round: int = 1
     spline_n_envs: int = 16
     spline_learning_rate: float = 3e-4
@@ -97,7 +100,7 @@ ROUND_FIELDS = ("round", "wall_s", "agent_steps", "bandit_return", "bandit_succe
 class BanditStats(BaseCallback):
     """Returns, outcomes and junction lane sides of the bandit samples of one spline update."""
 
-    def _on_training_start(self) -> None:
+    def _on_rollout_start(self) -> None:
         self.returns, self.arrived, self.collided, self.lanes = [], [], [], []
 
     def _on_step(self) -> bool:
@@ -235,7 +238,8 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
         while state["round"] < config.rounds and state["wall_s"] < max_seconds:
             t0 = time.perf_counter()
             stats = BanditStats()
-            spline.learn(spline.n_steps * bandit.num_envs, callback=stats, reset_num_timesteps=False)
+            spline.learn(config.spline_updates_per_round * spline.n_steps * bandit.num_envs,
+                         callback=stats, reset_num_timesteps=False)
             metrics = RolloutMetrics(out / "accel", math.inf, state["wall_s"], state["agent_steps"],
                                      checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False)
             accel.learn(config.accel_updates_per_round * accel.n_steps * accel_venv.num_envs,

@@ -95,7 +95,8 @@ class BilevelArgs(CommonArgs):
     """Arguments of the bilevel (spline + acceleration) scripts.
 
     rounds: alternation rounds (spline update, then acceleration updates)
-    spline_samples: car samples per spline update (K1)
+    spline_samples: car samples per spline update
+    spline_updates_per_round: spline PPO updates per round (K1 = this x spline_samples)
     accel_updates_per_round: acceleration PPO updates per round (K2 = this x batch_decisions)
     spline_learning_rate: learning rate of the spline policy
     spline_ent_coef: entropy bonus of the spline policy
@@ -105,6 +106,7 @@ class BilevelArgs(CommonArgs):
 
     rounds: int = 40
     spline_samples: int = 2048
+    spline_updates_per_round: int = 1
     accel_updates_per_round: int = 1
     spline_learning_rate: float = 1e-3
     spline_ent_coef: float = 0.0
@@ -119,6 +121,7 @@ def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
     cfg = BilevelConfig(
         accel=accel, rounds=args.rounds, spline_samples=args.spline_samples,
         accel_updates_per_round=args.accel_updates_per_round,
+        spline_updates_per_round=args.spline_updates_per_round,
         spline_learning_rate=args.spline_learning_rate, spline_ent_coef=args.spline_ent_coef,
         checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
         spline_init_from=args.spline_init_from, spline_n_envs=accel.n_envs,

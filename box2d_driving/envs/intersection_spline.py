@@ -7,8 +7,12 @@ the junction centre and its goal. Stage 0 offsets each waypoint sideways by one 
 waypoint (zero appears once per side, as in the paper's count), ``6**3 = 216`` discrete actions.
 The car then follows the centripetal Catmull-Rom spline through the three offset points.
 
-Action ``a`` decodes waypoint ``j`` (0: spawn, 1: centre, 2: goal) from digit
-``k_j = (a // 6**j) % 6``: side = right if ``k_j < 3`` else left, size = ``spline_offsets[k_j % 3]``.
+The choice ``k_j`` in ``[0, 6)`` for waypoint ``j`` (0: spawn, 1: centre, 2: goal) means side =
+right if ``k_j < 3`` else left, size = ``spline_offsets[k_j % 3]``. ``spline_action="per_waypoint"``
+(default) makes the action space ``MultiDiscrete([6, 6, 6])``: the same 216 paths, with a policy
+that factorises over the waypoints (one softmax per waypoint: far fewer samples to learn a side
+than one 216-way softmax). ``spline_action="joint"`` is one ``Discrete(216)`` index
+``a = k_0 + 6 k_1 + 36 k_2``.
 
 Stage-0 observation (per car, metres / ``spline_obs_scale``): the three route waypoints in the
 car's frame (origin at the planned spawn, x along the direction of travel) and ``W/2``.
@@ -39,12 +43,14 @@ class IntersectionSplineConfig(IntersectionConfig):
         lane_fraction: the planned route runs on the road axis (0).
         spline_offsets: waypoint offset sizes as fractions of ``W/2``, each offered to the right
             and to the left.
+        spline_action: ``"per_waypoint"`` (MultiDiscrete 6 x 6 x 6) or ``"joint"`` (Discrete 216).
         spline_samples: Catmull-Rom samples per spline segment.
         spline_obs_scale: stage-0 observations are metres divided by this.
     """
 
     lane_fraction: float = 0.0
     spline_offsets: tuple[float, ...] = (0.0, 1 / 3, 2 / 3)
+    spline_action: str = "per_waypoint"
     spline_samples: int = 32
     spline_obs_scale: float = 100.0
 
@@ -53,6 +59,8 @@ class IntersectionSplineConfig(IntersectionConfig):
         limit = 1.0 - self.car_width / self.road_width_range[0]
         if not self.spline_offsets or min(self.spline_offsets) < 0 or max(self.spline_offsets) > limit:
             raise ConfigError(f"spline_offsets must lie in [0, {limit:.3f}] to keep cars on the road")
+        if self.spline_action not in ("per_waypoint", "joint"):
+            raise ConfigError(f"spline_action must be 'per_waypoint' or 'joint', got {self.spline_action!r}")
         if not isinstance(self.spline_samples, int) or self.spline_samples < 4:
             raise ConfigError("spline_samples must be an integer >= 4")
         if self.spline_obs_scale <= 0:
@@ -76,15 +84,19 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
     def __init__(self, **overrides) -> None:
         super().__init__(**overrides)
         cfg: IntersectionSplineConfig = self.config
-        self.spline_action_space = spaces.Discrete(cfg.n_spline_actions)
+        c = cfg.choices_per_waypoint
+        self.spline_action_space = (spaces.Discrete(cfg.n_spline_actions) if cfg.spline_action == "joint"
+                                    else spaces.MultiDiscrete([c] * N_WAYPOINTS))
         self.spline_observation_space = spaces.Box(-np.inf, np.inf, shape=(2 * N_WAYPOINTS + 1,),
                                                    dtype=np.float32)
 
     def decode_offsets(self, actions: np.ndarray) -> np.ndarray:
-        """``(N, 3)`` signed waypoint offsets (fractions of ``W/2``, + = right) of ``actions``."""
+        """``(N, 3)`` signed waypoint offsets (fractions of ``W/2``, + = right) of ``actions``:
+        joint indices ``(N,)`` or per-waypoint choices ``(N, 3)``."""
         cfg: IntersectionSplineConfig = self.config
         c, m = cfg.choices_per_waypoint, len(cfg.spline_offsets)
-        digits = (np.asarray(actions, dtype=np.int64)[:, None] // c ** np.arange(N_WAYPOINTS)) % c
+        actions = np.asarray(actions, dtype=np.int64)
+        digits = actions if actions.ndim == 2 else (actions[:, None] // c ** np.arange(N_WAYPOINTS)) % c
         sizes = np.asarray(cfg.spline_offsets)[digits % m]
         return np.where(digits < m, sizes, -sizes)
 
@@ -121,4 +133,5 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
         return dataclasses.replace(layout, cars=cars)
 
     def default_spline_actions(self) -> np.ndarray:
-        return np.zeros(self.config.num_cars, dtype=np.int64)  # every waypoint on the axis
+        shape = (self.config.num_cars,) + self.spline_action_space.shape
+        return np.zeros(shape, dtype=np.int64)  # every waypoint on the axis

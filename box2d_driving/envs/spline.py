@@ -89,6 +89,12 @@ class SplineStageMixin:
             actions = actions.reshape(n)
             if actions.min() < 0 or actions.max() >= space.n:
                 raise ValueError(f"spline actions must be in [0, {space.n}), got {actions.tolist()}")
+        elif isinstance(space, spaces.MultiDiscrete):
+            if actions.size != n * len(space.nvec):
+                raise ValueError(f"spline actions must have shape ({n}, {len(space.nvec)}), got {actions.shape}")
+            actions = actions.reshape((n,) + space.shape)
+            if actions.min() < 0 or np.any(actions >= space.nvec):
+                raise ValueError(f"spline actions must be in [0, {space.nvec.tolist()}), got {actions.tolist()}")
         else:
             actions = actions.reshape((n,) + space.shape)
             if not np.all(np.isfinite(actions)):
