@@ -22,14 +22,15 @@ from __future__ import annotations
 
 from typing import Any, Callable, Optional, Sequence
 
-import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+
+from training.vec_env import CarSlots
 
 AccelPolicy = Callable[[np.ndarray], np.ndarray]
 
 
-class SplineBanditVecEnv(VecEnv):
+class SplineBanditVecEnv(CarSlots, VecEnv):
     """``len(env_fns) * num_cars`` one-step slots over spline envs (one process)."""
 
     def __init__(self, env_fns: Sequence[Callable[[], Any]], accel_policy: AccelPolicy,
@@ -112,21 +113,3 @@ class SplineBanditVecEnv(VecEnv):
                 slot = k * self.n_cars + self.agents.index(a)
                 lane_sum[slot] += info["lane_offset"]
                 lane_count[slot] += 1
-
-    def close(self) -> None:
-        for e in self.envs:
-            e.close()
-
-    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        return [getattr(self.envs[i // self.n_cars], attr_name) for i in self._get_indices(indices)]
-
-    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        for k in sorted({i // self.n_cars for i in self._get_indices(indices)}):
-            setattr(self.envs[k], attr_name, value)
-
-    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
-        return [getattr(self.envs[i // self.n_cars], method_name)(*args, **kwargs)
-                for i in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]

@@ -62,7 +62,36 @@ class TeamLayout:
         return self.self_alive + 1
 
 
-class SlotVecEnv(VecEnv):
+class CarSlots:
+    """The ``VecEnv`` plumbing shared by every one-slot-per-car vector env: slot ``k * N + i`` is
+    car ``i`` of instance ``self.envs[k]`` (needs ``envs`` and ``n_cars``)."""
+
+    envs: list
+    n_cars: int
+
+    def close(self) -> None:
+        for e in self.envs:
+            e.close()
+
+    def _instances(self, indices) -> list[int]:
+        return sorted({i // self.n_cars for i in self._get_indices(indices)})
+
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        return [getattr(self.envs[i // self.n_cars], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        for k in self._instances(indices):
+            setattr(self.envs[k], attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
+        return [getattr(self.envs[i // self.n_cars], method_name)(*args, **kwargs)
+                for i in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+class SlotVecEnv(CarSlots, VecEnv):
     """``len(env_fns) * num_cars`` slots over parameter-shared driving envs (one process)."""
 
     def __init__(self, env_fns: Sequence[Callable[[], Any]]) -> None:
@@ -145,27 +174,6 @@ class SlotVecEnv(VecEnv):
             else:
                 self._write_instance(k, self._reset_instance(k, None), self._obs)
         return self._obs.copy(), rewards, dones, infos
-
-    def close(self) -> None:
-        for e in self.envs:
-            e.close()
-
-    def _instances(self, indices) -> list[int]:
-        return sorted({i // self.n_cars for i in self._get_indices(indices)})
-
-    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        return [getattr(self.envs[i // self.n_cars], attr_name) for i in self._get_indices(indices)]
-
-    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        for k in self._instances(indices):
-            setattr(self.envs[k], attr_name, value)
-
-    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
-        return [getattr(self.envs[i // self.n_cars], method_name)(*args, **kwargs)
-                for i in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]
 
 
 def make_slot_vec_env(env_id: str, n_envs: int, **overrides: Any) -> SlotVecEnv:
