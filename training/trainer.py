@@ -53,7 +53,7 @@ class TrainConfig:
         minibatch: minibatch size (real transitions).
         epochs: PPO epochs per update.
         learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
-        ent_coef: entropy bonus.
+        ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
         checkpoint_every: updates between checkpoints.
         threads: torch CPU threads.
@@ -247,6 +247,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     wall, agent_steps = 0.0, 0
     if resume:
         model = PPO.load(out / "model.zip", env=venv, device="cpu")
+        model.ent_coef = config.ent_coef  # the one setting a resumed run may change
         state = json.loads((out / "state.json").read_text())
         wall, agent_steps = state["wall_s"], state["agent_steps"]
         venv.seed(config.seed + model.num_timesteps)  # reproducible continuation
