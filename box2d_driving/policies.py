@@ -4,6 +4,10 @@
 * :class:`LightRulePolicy`: the crude hand rule for the intersection: brake hard while the light
   shows 0.5 or 1.0 (yellow or red in the default colours), otherwise accelerate fully. A reference
   for what obeying the lights achieves, and a check on the metric code.
+* :class:`PedestrianOraclePolicy`: a privileged crosswalk reference that reads every pedestrian's
+  position and velocity from the world (no LiDAR) and takes the largest acceleration whose
+  forward simulation keeps the car clear of every pedestrian: proof that the task is solvable,
+  and an upper reference for the learned policy.
 """
 
 from __future__ import annotations
@@ -41,13 +45,62 @@ class LightRulePolicy:
                 for a, o in observations.items()}
 
 
-SCRIPTED = {"random": RandomPolicy, "rule": LightRulePolicy}
+class PedestrianOraclePolicy:
+    """Privileged crosswalk reference (reads ``env.world``; the env must be the one it drives).
+
+    For every live car, tries the acceleration levels from the largest down and keeps the first
+    whose constant-acceleration forward simulation over ``lookahead`` seconds (speed clipped to
+    ``[0, v_lim * rating]``), against every pedestrian walking on at its current velocity, keeps
+    the boxes at least ``clearance`` metres apart; full braking if none does. Other cars are
+    ignored (so rear-end crashes remain).
+
+    Args:
+        lookahead: seconds simulated ahead.
+        clearance: extra gap kept around the car's and pedestrian's boxes (m).
+        samples: time samples over the lookahead.
+    """
+
+    privileged = True  # reads the world it was built with, not the observations
+
+    def __init__(self, env: Any, lookahead: float = 6.0, clearance: float = 0.5, samples: int = 61) -> None:
+        self.env = env
+        cfg = env.config
+        self._levels = np.asarray(cfg.accelerations, dtype=float)
+        self._t = np.linspace(0.0, lookahead, samples)
+        self._half = np.array([cfg.car_length / 2, cfg.car_width / 2]) + clearance
+
+    def _safe(self, i: int, accel: float) -> bool:
+        w, t = self.env.world, self._t
+        if not len(w.ped_positions):
+            return True
+        v_max = self.env.config.v_lim * w.ratings[i]
+        v = np.clip(w.speed[i] + accel * w.ratings[i] * t, 0.0, v_max)
+        s = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        heading = np.array([np.cos(w.headings[i]), np.sin(w.headings[i])])
+        car = w.positions[i] + s[:, None] * heading  # (T, 2), straight ahead
+        peds = w.ped_positions[None, :, :] + t[:, None, None] * w.ped_velocity[None, :, :]  # (T, P, 2)
+        gap = np.abs(peds - car[:, None, :])
+        reach = self._half[None, None, :] + w.ped_sizes[None, :, None] / 2
+        return not np.any(np.all(gap < reach, axis=2))
+
+    def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
+        out = {}
+        for agent in observations:
+            i = int(agent.rsplit("_", 1)[1])
+            out[agent] = next((k for k in range(len(self._levels) - 1, -1, -1)
+                               if self._safe(i, self._levels[k])), 0)
+        return out
+
+
+SCRIPTED = {"random": RandomPolicy, "rule": LightRulePolicy, "pedestrian-oracle": PedestrianOraclePolicy}
 
 
 def make_policy(name: str, env: Any, seed: int | None = None):
-    """A scripted policy by name (``random`` or ``rule``)."""
+    """A scripted policy by name (``random``, ``rule`` or ``pedestrian-oracle``)."""
     if name == "random":
         return RandomPolicy(env, seed)
     if name == "rule":
         return LightRulePolicy(env)
+    if name == "pedestrian-oracle":
+        return PedestrianOraclePolicy(env)
     raise ValueError(f"unknown policy {name!r}; scripted policies: {', '.join(SCRIPTED)}")

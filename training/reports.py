@@ -30,6 +30,11 @@ def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: in
                      make_env: Callable[..., Any]) -> dict:
     a_max = env.config.a_max
     metrics = crosswalk_metrics(table, a_max)
+    if getattr(policy, "privileged", False):  # it does not look through the LiDAR: no control
+        s = pedestrian_samples(table)
+        plots.pedestrian_distance_kde(s["distance"], out / "pedestrian_distance.png")
+        plots.speed_vs_distance(s["distance"], s["speed"], a_max, out / "speed_vs_pedestrian_distance.png")
+        return metrics
     # control: the same policy and settings with pedestrians invisible to the LiDAR (still solid)
     blind = run_episodes(make_env(lidar_sees_pedestrians=False), policy, episodes, seed=seed)
     blind_metrics = crosswalk_metrics(blind, a_max)
