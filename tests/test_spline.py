@@ -34,7 +34,7 @@ def test_junction_path_passes_through_the_offset_waypoints():
     sizes = np.array([0.0, 1 / 3, 2 / 3])
     for i, car in enumerate(env.layout.cars):
         axis = base.cars[i].lane_axis
-        right = np.array([axis.direction[1], -axis.direction[0]])
+        right = np.array([axis.direction[1], -axis.direction[0]])  # computed here, not by LaneAxis
         signed = np.where(choices[i] < 3, sizes[choices[i] % 3], -sizes[choices[i] % 3]) * axis.half_width
         expected = [base.cars[i].path.points[0] + signed[0] * right, signed[1] * right,
                     base.cars[i].path.points[-1] + signed[2] * right]

@@ -41,6 +41,7 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
             raise ValueError(f"{type(first).__name__} has no spline stage (use a *-spline-v0 env)")
         self.agents = list(first.possible_agents)
         self.n_cars = len(self.agents)
+        self._car = {a: i for i, a in enumerate(self.agents)}
         self.accel_policy = accel_policy
         self.normalise = normalise
         super().__init__(len(self.envs) * self.n_cars, first.spline_observation_space,
@@ -89,7 +90,7 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
                 obs, rew, term, trunc, infos = env.step(per_env[k])
                 obs_now[k] = obs
                 for a, r in rew.items():
-                    slot = k * n + self.agents.index(a)
+                    slot = k * n + self._car[a]
                     returns[slot] += r
                     if term[a] or trunc[a]:
                         outcome[slot] = (infos[a]["arrived"], infos[a]["collided"])
@@ -110,6 +111,6 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
     def _lane_stats(self, k: int, infos: dict, lane_sum: np.ndarray, lane_count: np.ndarray) -> None:
         for a, info in infos.items():
             if info.get("in_junction") and info.get("lane_offset") is not None:
-                slot = k * self.n_cars + self.agents.index(a)
+                slot = k * self.n_cars + self._car[a]
                 lane_sum[slot] += info["lane_offset"]
                 lane_count[slot] += 1

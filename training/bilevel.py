@@ -44,7 +44,7 @@ import box2d_driving
 from training.bandit import SplineBanditVecEnv
 from training.inference import actor_actions
 from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
-                              load_weights, make_vec_env)
+                              check_same_run, load_weights, make_vec_env)
 
 
 @dataclass
@@ -85,13 +85,6 @@ class BilevelConfig:
     max_minutes: Optional[float] = None
     spline_init_from: Optional[str] = None
 
-    @staticmethod
-    def from_dict(d: dict) -> "BilevelConfig":
-        d = dict(d)
-        d["accel"] = TrainConfig(**d["accel"])
-        d["spline_hidden"] = tuple(d["spline_hidden"])
-        return BilevelConfig(**d)
-
 
 ROUND_FIELDS = ("round", "wall_s", "agent_steps", "bandit_return", "bandit_success", "bandit_collision",
                 "right_share", "left_share", "accel_success", "accel_collision", "accel_violation")
@@ -130,10 +123,7 @@ def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
         for need in ("config.json", "state.json", "accel/model.zip", "spline/model.zip"):
             if not (out / need).exists():
                 raise RunError(f"--resume: {out / need} is missing")
-        saved = BilevelConfig.from_dict(json.loads((out / "config.json").read_text()))
-        for key in ("env_id", "env_overrides", "critic"):
-            if getattr(saved.accel, key) != json.loads(json.dumps(getattr(config.accel, key))):
-                raise RunError(f"--resume: {key} differs from the checkpoint's")
+        check_same_run(json.loads((out / "config.json").read_text())["accel"], config.accel)
         return
     if out.exists() and any(out.iterdir()):
         raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")

@@ -96,16 +96,20 @@ def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
     if resume:
         if not (out / "model.zip").exists() or not (out / "config.json").exists():
             raise RunError(f"--resume: no checkpoint in {out} (model.zip and config.json needed)")
-        saved = json.loads((out / "config.json").read_text())
-        for key in ("env_id", "env_overrides", "critic"):
-            if saved[key] != json.loads(json.dumps(getattr(config, key))):
-                raise RunError(f"--resume: {key} differs from the checkpoint's "
-                               f"({saved[key]!r} vs {getattr(config, key)!r})")
+        check_same_run(json.loads((out / "config.json").read_text()), config)
         return
     if out.exists() and any(out.iterdir()):
         raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2))
+
+
+def check_same_run(saved: dict, config: TrainConfig) -> None:
+    """Refuse to resume a checkpoint (its saved TrainConfig as a dict) under another env or critic."""
+    for key in ("env_id", "env_overrides", "critic"):
+        if saved[key] != json.loads(json.dumps(getattr(config, key))):
+            raise RunError(f"--resume: {key} differs from the checkpoint's "
+                           f"({saved[key]!r} vs {getattr(config, key)!r})")
 
 
 def make_vec_env(config: TrainConfig) -> SlotVecEnv:

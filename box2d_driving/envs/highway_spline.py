@@ -83,6 +83,3 @@ class HighwaySplineEnv(SplineStageMixin, HighwayEnv):
             control = np.array([start, [start[0] + cfg.lane_change_distance, y], [goal[0], y]])
             cars.append(dataclasses.replace(car, path=spline_path(control, samples_per_segment=cfg.spline_samples)))
         return dataclasses.replace(layout, cars=cars)
-
-    def default_spline_actions(self) -> np.ndarray:
-        return np.zeros((self.config.num_cars, 1), dtype=np.float32)  # stay on the axis

@@ -110,7 +110,7 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
         starts = np.array([c.path.points[0] for c in layout.cars])
         goals = np.array([c.path.points[-1] for c in layout.cars])
         dirs = np.array([c.lane_axis.direction for c in layout.cars])
-        rights = np.stack([dirs[:, 1], -dirs[:, 0]], axis=1)
+        rights = np.array([c.lane_axis.right for c in layout.cars])
         centre = np.array([c.lane_axis.origin for c in layout.cars])  # the junction centre
         return np.stack([starts, centre, goals], axis=1), dirs, rights
 
@@ -131,7 +131,3 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
         cars = [dataclasses.replace(car, path=spline_path(control[i], samples_per_segment=cfg.spline_samples))
                 for i, car in enumerate(layout.cars)]
         return dataclasses.replace(layout, cars=cars)
-
-    def default_spline_actions(self) -> np.ndarray:
-        shape = (self.config.num_cars,) + self.spline_action_space.shape
-        return np.zeros(shape, dtype=np.int64)  # every waypoint on the axis

@@ -29,8 +29,8 @@ SplinePolicy = Callable[[np.ndarray], np.ndarray]
 class SplineStageMixin:
     """Adds the stage-0 path choice to a :class:`~box2d_driving.envs.base.DrivingEnv`.
 
-    Scenarios implement :meth:`spline_observation_values`, :meth:`apply_spline`,
-    :meth:`default_spline_actions` and set ``spline_observation_space`` / ``spline_action_space``
+    Scenarios implement :meth:`spline_observation_values` and :meth:`apply_spline` (action 0 must
+    mean the route along the road axis) and set ``spline_observation_space`` / ``spline_action_space``
     in ``__init__`` (one object each, returned on every call).
     """
 
@@ -46,8 +46,10 @@ class SplineStageMixin:
         raise NotImplementedError
 
     def default_spline_actions(self) -> np.ndarray:
-        """Stage-0 actions used when nobody chooses: the route along the road axis."""
-        raise NotImplementedError
+        """Stage-0 actions used when nobody chooses: all zeros, which every spline scenario
+        defines as the route along the road axis."""
+        space = self.spline_action_space
+        return np.zeros((len(self.possible_agents),) + space.shape, dtype=space.dtype)
 
     # -- two-phase reset ----------------------------------------------------------------------
     def plan(self, seed: Optional[int] = None) -> dict[str, np.ndarray]:

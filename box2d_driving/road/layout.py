@@ -23,9 +23,13 @@ class LaneAxis:
     direction: np.ndarray
     half_width: float
 
+    @property
+    def right(self) -> np.ndarray:
+        """Unit vector to the right of the direction of travel."""
+        return np.array([self.direction[1], -self.direction[0]])
+
     def offset(self, positions: np.ndarray) -> np.ndarray:
-        right = np.array([self.direction[1], -self.direction[0]])
-        return (np.asarray(positions) - self.origin) @ right / self.half_width
+        return (np.asarray(positions) - self.origin) @ self.right / self.half_width
 
 
 @dataclass(frozen=True)
