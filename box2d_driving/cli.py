@@ -1,7 +1,7 @@
 """The ``box2d-driving`` command.
 
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
-world speed benchmark), ``train lights|crosswalk|lanes|fast-lanes`` and ``evaluate`` (the training scripts). Bad
+world speed benchmark), ``import-osm`` (a real junction from an OpenStreetMap file to a map JSON), ``train lights|crosswalk|lanes|fast-lanes`` and ``evaluate`` (the training scripts). Bad
 arguments print one line and exit with status 2.
 """
 
@@ -77,6 +77,36 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _import_osm(args: argparse.Namespace) -> int:
+    from box2d_driving.maps import ImportConfig
+    from box2d_driving.maps.osm import import_junction
+
+    if (args.node is None) == (args.latlon is None):
+        raise ValueError("give exactly one of --node ID or --latlon LAT,LON")
+    where = args.node
+    if args.latlon is not None:
+        try:
+            lat, lon = (float(v) for v in args.latlon.split(","))
+        except ValueError:
+            raise ValueError(f"--latlon expects LAT,LON, got {args.latlon!r}") from None
+        where = (lat, lon)
+    out = Path(args.out)
+    if out.exists() and not args.overwrite:
+        raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+    roadmap = import_junction(args.file, where, ImportConfig(size_m=args.size))
+    roadmap.save(out, overwrite=args.overwrite)
+    arms = ", ".join(f"{a.name or a.id} ({len(a.lanes_in)} in/{len(a.lanes_out)} out)" for a in roadmap.arms)
+    print(f"wrote {out}: {len(roadmap.arms)} arms [{arms}], {len(roadmap.connectors)} connectors, "
+          f"{len(roadmap.signals)} signal heads, {len(roadmap.crosswalks)} crosswalks")
+    for note in roadmap.notes:
+        print(f"  note: {note}")
+    if args.png is not None:
+        from box2d_driving.maps.plot import plot_map
+
+        print(f"wrote {plot_map(roadmap, args.png)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="box2d-driving",
                      description="Multi-agent Box2D driving worlds in which road rules emerge.")
@@ -97,6 +127,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="config override, e.g. --set num_cars=8 --set lidar_noise=0.25")
     r.add_argument("--overwrite", action="store_true", help="replace existing output files")
     r.set_defaults(func=_render)
+
+    m = sub.add_parser("import-osm", help="import a real junction from an OpenStreetMap file (.osm.pbf/.osm)")
+    m.add_argument("file", help="OSM extract (.osm.pbf or .osm XML)")
+    m.add_argument("--node", type=int, help="OSM node id of the junction")
+    m.add_argument("--latlon", help="or the junction nearest to LAT,LON")
+    m.add_argument("--size", type=float, default=100.0, help="side of the square cut out (m, default 100)")
+    m.add_argument("--out", required=True, help="map JSON to write")
+    m.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
+    m.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    m.set_defaults(func=_import_osm)
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
                    add_help=False)

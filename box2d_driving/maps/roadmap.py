@@ -1,0 +1,346 @@
+"""The project's road-map format: one real junction in a local metric frame, as JSON.
+
+A :class:`RoadMap` holds what a scenario needs to drive cars through a real junction: the arms
+(roads leaving the junction), their lanes with direction and width, connectors through the
+junction (movement type, path, conflicting connectors), stop lines, signal heads with their group
+and a phase plan, crosswalks, drivable polygons, the road edges cars collide with, and spawn
+regions. Coordinates are metres in a local east-north frame centred on the junction. The format is
+documented in ``docs/maps.md``; :func:`load_map` validates a file and names what is wrong.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+from box2d_driving.config import ConfigError
+
+FORMAT = "box2d-driving-map"
+VERSION = 1
+MOVEMENTS = ("straight", "left", "right", "uturn")
+
+
+class MapError(ConfigError):
+    """A map file or an import request is invalid; the message names the problem."""
+
+
+def _pts(value: Any, what: str, min_points: int = 2) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise MapError(f"{what}: expected a list of [x, y] points ({exc})") from None
+    if arr.ndim != 2 or arr.shape[1] != 2 or len(arr) < min_points:
+        raise MapError(f"{what}: expected at least {min_points} [x, y] points, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise MapError(f"{what}: coordinates must be finite")
+    return arr
+
+
+@dataclass
+class Arm:
+    """A road leaving the junction.
+
+    Attributes:
+        id: index in ``RoadMap.arms``.
+        name: street name (may be empty).
+        highway: road class (OSM ``highway`` value, or the source's equivalent).
+        centreline: ``(P, 2)`` road axis from the junction centre outwards (m).
+        mouth: arc length along ``centreline`` where the arm's own carriageway starts (m).
+        lanes_in / lanes_out: lane ids towards / away from the junction.
+        cut: the road was cut short (extract edge or data end), not by ``size_m``.
+        source_ids: ids of the source objects (OSM ways) the arm was built from.
+    """
+
+    id: int
+    name: str
+    highway: str
+    centreline: np.ndarray
+    mouth: float
+    lanes_in: list[int]
+    lanes_out: list[int]
+    cut: bool = False
+    source_ids: list[int] = field(default_factory=list)
+
+
+@dataclass
+class Lane:
+    """One lane of an arm, ``centreline`` in the driving direction (m).
+
+    ``index`` counts from the leftmost lane in the driving direction (0). For an inbound lane the
+    centreline ends at the arm's mouth; an outbound one starts there.
+    """
+
+    id: int
+    arm: int
+    direction: str  # "in" or "out"
+    index: int
+    width: float
+    centreline: np.ndarray
+
+
+@dataclass
+class Connector:
+    """A path through the junction from the end of ``from_lane`` to the start of ``to_lane``.
+
+    ``conflicts``: connectors from another lane whose path crosses this one or that end on the same
+    lane. ``min_radius``: smallest radius of curvature along ``path`` (m, inf if straight).
+    """
+
+    id: int
+    from_lane: int
+    to_lane: int
+    movement: str
+    path: np.ndarray
+    conflicts: list[int] = field(default_factory=list)
+    min_radius: float = float("inf")
+
+
+@dataclass
+class StopLine:
+    """Stop line across the inbound lanes of ``arm``: ``segment`` (2, 2) and its arc length
+    ``s`` from the junction centre along the arm (m)."""
+
+    arm: int
+    s: float
+    segment: np.ndarray
+
+
+@dataclass
+class SignalHead:
+    """A signal controlling the inbound lanes of ``arm``, in phase group ``group``.
+
+    ``inferred``: no signal node for this approach was found in the data (the junction is
+    signalled, so the approach got one).
+    """
+
+    id: int
+    arm: int
+    group: int
+    position: np.ndarray
+    source_id: Optional[int] = None
+    inferred: bool = False
+
+
+@dataclass
+class Crosswalk:
+    """A pedestrian crossing over ``arm``: ``polygon`` (4, 2) spanning the carriageway (m);
+    ``kind`` is the source's crossing type (``traffic_signals``, ``uncontrolled``, ``unknown``...)."""
+
+    arm: int
+    s: float
+    polygon: np.ndarray
+    kind: str = "unknown"
+    source_id: Optional[int] = None
+
+
+@dataclass
+class SpawnRegion:
+    """Cars may spawn on ``lane`` with their centre at arc length in ``s_range`` (m)."""
+
+    lane: int
+    s_range: tuple[float, float]
+
+
+@dataclass
+class RoadMap:
+    """One junction. See the module docstring and ``docs/maps.md``.
+
+    Attributes:
+        name: short identifier (e.g. ``helsinki_25345669``).
+        source: where the data came from: kind, file, ids, centre, licence, attribution.
+        size_m: side of the square the map was cut to (m).
+        phases: the signal plan: phase k makes the groups in ``phases[k]`` green.
+        drivable: drivable polygons (junction area and each arm's carriageway).
+        edges: road-edge polylines cars collide with.
+        notes: what the importer changed or assumed (cut roads, default lane counts, ...).
+    """
+
+    name: str
+    source: dict
+    size_m: float
+    arms: list[Arm]
+    lanes: list[Lane]
+    connectors: list[Connector]
+    stop_lines: list[StopLine]
+    signals: list[SignalHead]
+    phases: list[list[int]]
+    crosswalks: list[Crosswalk]
+    drivable: list[np.ndarray]
+    edges: list[np.ndarray]
+    spawn_regions: list[SpawnRegion]
+    notes: list[str] = field(default_factory=list)
+
+    # ---- queries -------------------------------------------------------------------------------
+    @property
+    def signalled(self) -> bool:
+        return bool(self.signals)
+
+    def connectors_from(self, lane: int) -> list[Connector]:
+        return [c for c in self.connectors if c.from_lane == lane]
+
+    def stop_line(self, arm: int) -> Optional[StopLine]:
+        return next((s for s in self.stop_lines if s.arm == arm), None)
+
+    def signal_for(self, arm: int) -> Optional[SignalHead]:
+        return next((h for h in self.signals if h.arm == arm), None)
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """``(xmin, ymin, xmax, ymax)`` of everything drivable (m)."""
+        pts = np.vstack(self.drivable)
+        return (float(pts[:, 0].min()), float(pts[:, 1].min()),
+                float(pts[:, 0].max()), float(pts[:, 1].max()))
+
+    # ---- JSON ----------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        def clean(obj: Any) -> Any:
+            if isinstance(obj, np.ndarray):
+                return np.round(obj, 3).tolist()
+            if isinstance(obj, dict):
+                return {k: clean(v) for k, v in obj.items()}
+            if isinstance(obj, (list, tuple)):
+                return [clean(v) for v in obj]
+            if isinstance(obj, float):
+                return obj if np.isfinite(obj) else None
+            return obj
+
+        body = {k: getattr(self, k) for k in ("name", "source", "size_m", "phases", "notes")}
+        for key in ("arms", "lanes", "connectors", "stop_lines", "signals", "crosswalks", "spawn_regions"):
+            body[key] = [asdict(x) for x in getattr(self, key)]
+        body["drivable"] = list(self.drivable)
+        body["edges"] = list(self.edges)
+        return clean({"format": FORMAT, "version": VERSION, **body})
+
+    def save(self, path: str | Path, overwrite: bool = False) -> Path:
+        """Write the map as JSON; refuses to replace an existing file unless ``overwrite``."""
+        path = Path(path)
+        if path.exists() and not overwrite:
+            raise MapError(f"{path} exists; pass overwrite=True (--overwrite) to replace it")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        tmp.write_text(json.dumps(self.to_dict(), indent=1))
+        tmp.replace(path)
+        return path
+
+    @staticmethod
+    def from_dict(data: Any, where: str = "map") -> "RoadMap":
+        return _parse(data, where)
+
+
+def load_map(path: str | Path) -> RoadMap:
+    """Read and validate a map JSON file (:class:`MapError` naming the problem if malformed)."""
+    path = Path(path)
+    if not path.is_file():
+        raise MapError(f"map file {path} does not exist")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise MapError(f"{path} is not valid JSON: {exc}") from None
+    return _parse(data, str(path))
+
+
+def _need(obj: dict, key: str, where: str) -> Any:
+    if not isinstance(obj, dict) or key not in obj:
+        raise MapError(f"{where}: missing {key!r}")
+    return obj[key]
+
+
+def _ids(values: Any, n: int, what: str) -> list[int]:
+    if not isinstance(values, list) or not all(isinstance(v, int) and 0 <= v < n for v in values):
+        raise MapError(f"{what}: expected a list of ids in [0, {n}), got {values!r}")
+    return list(values)
+
+
+def _parse(data: Any, where: str) -> RoadMap:
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise MapError(f"{where}: not a {FORMAT} file (missing or wrong 'format')")
+    if data.get("version") != VERSION:
+        raise MapError(f"{where}: unsupported map version {data.get('version')!r} (this package reads {VERSION})")
+    raw_lanes = _need(data, "lanes", where)
+    raw_arms = _need(data, "arms", where)
+    if not isinstance(raw_lanes, list) or not isinstance(raw_arms, list) or not raw_arms:
+        raise MapError(f"{where}: 'arms' and 'lanes' must be non-empty lists")
+    n_arms, n_lanes = len(raw_arms), len(raw_lanes)
+    arms = []
+    for i, a in enumerate(raw_arms):
+        w = f"{where}: arms[{i}]"
+        arms.append(Arm(id=i, name=str(a.get("name", "")), highway=str(a.get("highway", "")),
+                        centreline=_pts(_need(a, "centreline", w), f"{w}.centreline"),
+                        mouth=float(_need(a, "mouth", w)),
+                        lanes_in=_ids(_need(a, "lanes_in", w), n_lanes, f"{w}.lanes_in"),
+                        lanes_out=_ids(_need(a, "lanes_out", w), n_lanes, f"{w}.lanes_out"),
+                        cut=bool(a.get("cut", False)), source_ids=list(a.get("source_ids", []))))
+    lanes = []
+    for i, la in enumerate(raw_lanes):
+        w = f"{where}: lanes[{i}]"
+        direction = _need(la, "direction", w)
+        if direction not in ("in", "out"):
+            raise MapError(f"{w}.direction must be 'in' or 'out', got {direction!r}")
+        arm = _need(la, "arm", w)
+        if not isinstance(arm, int) or not 0 <= arm < n_arms:
+            raise MapError(f"{w}.arm: no arm {arm!r}")
+        width = float(_need(la, "width", w))
+        if not width > 0:
+            raise MapError(f"{w}.width must be positive, got {width}")
+        lanes.append(Lane(id=i, arm=arm, direction=direction, index=int(_need(la, "index", w)),
+                          width=width, centreline=_pts(_need(la, "centreline", w), f"{w}.centreline")))
+    connectors = []
+    raw_conn = data.get("connectors", [])
+    for i, c in enumerate(raw_conn):
+        w = f"{where}: connectors[{i}]"
+        fl, tl = _need(c, "from_lane", w), _need(c, "to_lane", w)
+        _ids([fl, tl], n_lanes, f"{w} lanes")
+        if lanes[fl].direction != "in" or lanes[tl].direction != "out":
+            raise MapError(f"{w}: must lead from an inbound lane to an outbound lane")
+        movement = _need(c, "movement", w)
+        if movement not in MOVEMENTS:
+            raise MapError(f"{w}.movement must be one of {MOVEMENTS}, got {movement!r}")
+        radius = c.get("min_radius")
+        connectors.append(Connector(id=i, from_lane=fl, to_lane=tl, movement=movement,
+                                    path=_pts(_need(c, "path", w), f"{w}.path"),
+                                    conflicts=_ids(c.get("conflicts", []), len(raw_conn), f"{w}.conflicts"),
+                                    min_radius=float("inf") if radius is None else float(radius)))
+    stop_lines = [StopLine(arm=_ids([_need(s, "arm", where)], n_arms, f"{where}: stop_lines[{i}].arm")[0],
+                           s=float(_need(s, "s", where)),
+                           segment=_pts(_need(s, "segment", where), f"{where}: stop_lines[{i}].segment"))
+                  for i, s in enumerate(data.get("stop_lines", []))]
+    signals = []
+    for i, h in enumerate(data.get("signals", [])):
+        w = f"{where}: signals[{i}]"
+        group = _need(h, "group", w)
+        if not isinstance(group, int) or group < 0:
+            raise MapError(f"{w}.group must be a non-negative integer")
+        signals.append(SignalHead(id=i, arm=_ids([_need(h, "arm", w)], n_arms, f"{w}.arm")[0], group=group,
+                                  position=_pts([_need(h, "position", w)], f"{w}.position", 1)[0],
+                                  source_id=h.get("source_id"), inferred=bool(h.get("inferred", False))))
+    phases = data.get("phases", [])
+    if signals:
+        groups = {h.group for h in signals}
+        if (not isinstance(phases, list) or not phases
+                or not all(isinstance(p, list) and all(g in groups for g in p) for p in phases)):
+            raise MapError(f"{where}: 'phases' must list, per phase, the signal groups that are green")
+    crosswalks = [Crosswalk(arm=_ids([_need(c, "arm", where)], n_arms, f"{where}: crosswalks[{i}].arm")[0],
+                            s=float(_need(c, "s", where)),
+                            polygon=_pts(_need(c, "polygon", where), f"{where}: crosswalks[{i}].polygon", 3),
+                            kind=str(c.get("kind", "unknown")), source_id=c.get("source_id"))
+                  for i, c in enumerate(data.get("crosswalks", []))]
+    drivable = [_pts(p, f"{where}: drivable[{i}]", 3) for i, p in enumerate(_need(data, "drivable", where))]
+    edges = [_pts(p, f"{where}: edges[{i}]") for i, p in enumerate(_need(data, "edges", where))]
+    spawns = []
+    for i, s in enumerate(data.get("spawn_regions", [])):
+        w = f"{where}: spawn_regions[{i}]"
+        lane = _ids([_need(s, "lane", w)], n_lanes, f"{w}.lane")[0]
+        lo, hi = (float(v) for v in _need(s, "s_range", w))
+        if not 0 <= lo <= hi:
+            raise MapError(f"{w}.s_range must be 0 <= low <= high, got {[lo, hi]}")
+        spawns.append(SpawnRegion(lane=lane, s_range=(lo, hi)))
+    source = data.get("source", {})
+    if not isinstance(source, dict):
+        raise MapError(f"{where}: 'source' must be an object")
+    return RoadMap(name=str(data.get("name", "")), source=source, size_m=float(data.get("size_m", 0.0)),
+                   arms=arms, lanes=lanes, connectors=connectors, stop_lines=stop_lines, signals=signals,
+                   phases=phases if signals else [], crosswalks=crosswalks, drivable=drivable, edges=edges,
+                   spawn_regions=spawns, notes=[str(n) for n in data.get("notes", [])])

@@ -1,0 +1,255 @@
+"""The map format, the OSM importer on hand-built files, and the shipped Helsinki maps."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from box2d_driving.cli import main as cli
+from box2d_driving.maps import ImportConfig, MapError, RoadMap, load_map
+from box2d_driving.maps import geometry as geo
+from box2d_driving.maps.osm import import_junction, lane_counts, turn_lanes
+from tests.osm_fixtures import divided, four_way
+
+ROOT = Path(__file__).resolve().parent.parent
+SHIPPED = sorted((ROOT / "assets" / "maps").glob("*.json"))
+PBF = ROOT / "assets" / "maps" / "source" / "Helsinki.osm.pbf"
+
+
+@pytest.fixture(scope="module")
+def junction(tmp_path_factory) -> RoadMap:
+    return import_junction(four_way(tmp_path_factory.mktemp("osm") / "four.osm"), 1)
+
+
+def arm(m: RoadMap, name: str):
+    return next(a for a in m.arms if a.name == name)
+
+
+# ---- geometry ---------------------------------------------------------------------------------
+def test_geometry_helpers_match_analytic_answers():
+    line = np.array([[0.0, 0.0], [10.0, 0.0]])
+    np.testing.assert_allclose(geo.offset(line, 2.0), [[0, -2], [10, -2]])  # right of +x is -y
+    t = np.linspace(0, math.pi / 2, 200)
+    arc = 7.0 * np.stack([np.cos(t), np.sin(t)], axis=1)
+    assert geo.min_radius(arc) == pytest.approx(7.0, rel=1e-3)
+    assert geo.min_radius(line) == math.inf
+    curve = geo.bezier(np.zeros(2), np.array([1.0, 2.0]), np.array([3.0, 2.0]), np.array([4.0, 0.0]))
+    np.testing.assert_allclose([curve[0], curve[-1]], [[0, 0], [4, 0]])
+    square = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float)
+    assert geo.points_in_polygon(np.array([[1, 1], [3, 1]], float), square).tolist() == [True, False]
+    assert geo.polylines_cross(np.array([[0, -1], [0, 1]], float), np.array([[-1, 0], [1, 0]], float))
+    assert not geo.polylines_cross(np.array([[0, 1], [0, 2]], float), np.array([[-1, 0], [1, 0]], float))
+    np.testing.assert_allclose(geo.point_at(line, 2.5), [2.5, 0])
+
+
+# ---- tags ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("tags, outward_forward, expected", [
+    ({"highway": "primary", "lanes:forward": "1", "lanes:backward": "2"}, True, (2, 1)),
+    ({"highway": "primary", "lanes:forward": "1", "lanes:backward": "2"}, False, (1, 2)),
+    ({"highway": "primary", "lanes": "3", "lanes:forward": "1"}, True, (2, 1)),
+    ({"highway": "primary", "lanes": "2", "oneway": "yes"}, True, (0, 2)),
+    ({"highway": "primary", "lanes": "2", "oneway": "yes"}, False, (2, 0)),
+    ({"highway": "secondary", "lanes": "1", "oneway": "-1"}, True, (1, 0)),
+    ({"highway": "residential"}, True, (1, 1)),
+    ({"highway": "primary", "oneway": "yes"}, False, (2, 0)),  # one-way primary default: 2 lanes
+    ({"highway": "residential", "lanes": "many"}, True, (1, 1)),
+])
+def test_lane_counts_from_tags(tags, outward_forward, expected):
+    notes: list[str] = []
+    assert lane_counts(tags, outward_forward, ImportConfig(), notes) == expected
+    if tags.get("lanes") == "many":
+        assert any("not a lane count" in n for n in notes)
+
+
+def test_turn_lanes_parse_per_direction():
+    tags = {"turn:lanes": "left;through|through;right", "turn:lanes:backward": "left|right"}
+    assert turn_lanes(tags, inbound_forward=True) == [{"left", "straight"}, {"straight", "right"}]
+    assert turn_lanes(tags, inbound_forward=False) == [{"left"}, {"right"}]
+    assert turn_lanes({}, True) is None
+
+
+# ---- the importer on a hand-built junction -------------------------------------------------------
+def test_arms_lanes_and_chained_ways(junction):
+    m = junction
+    assert sorted(a.name for a in m.arms) == ["East", "North", "South", "West"]
+    counts = {a.name: (len(a.lanes_in), len(a.lanes_out)) for a in m.arms}
+    assert counts == {"East": (1, 1), "West": (2, 0), "North": (1, 1), "South": (1, 0)}
+    east = arm(m, "East")
+    assert east.source_ids == [10, 11]  # chained across the way split at 20 m
+    assert geo.cumulative_length(east.centreline)[-1] == pytest.approx(50.0, abs=0.1)  # size_m / 2
+    assert not east.cut
+    assert any("no lane tags" in n and "13" in n for n in m.notes)
+    # arms are ordered counter-clockwise from the west
+    angles = [math.atan2(*a.centreline[-1][::-1]) for a in m.arms]
+    assert angles == sorted(angles)
+
+
+def test_lanes_sit_on_the_right_and_point_the_right_way(junction):
+    for lane in junction.lanes:
+        a = junction.arms[lane.arm]
+        out_dir = a.centreline[-1] / np.linalg.norm(a.centreline[-1])
+        travel = lane.centreline[-1] - lane.centreline[0]
+        assert np.sign(travel @ out_dir) == (1 if lane.direction == "out" else -1)
+        # right-hand traffic: a lane of a two-way arm is right of the axis in its own direction
+        if a.lanes_in and a.lanes_out:
+            mid = lane.centreline[len(lane.centreline) // 2]
+            d = travel / np.linalg.norm(travel)
+            assert (mid @ np.array([d[1], -d[0]])) > 0
+
+
+def test_connectors_follow_turn_lanes_stay_on_the_road_and_list_conflicts(junction):
+    m, cfg = junction, ImportConfig()
+    west = arm(m, "West")
+    by_lane = {lane: {c.movement for c in m.connectors_from(lane)} for lane in west.lanes_in}
+    assert by_lane[west.lanes_in[0]] == {"left", "straight"}  # "left;through"
+    assert by_lane[west.lanes_in[1]] == {"straight"}  # "through;right", but south takes no traffic
+    south = arm(m, "South")
+    assert not any(m.lanes[c.to_lane].arm == south.id for c in m.connectors)
+    for c in m.connectors:
+        assert c.min_radius >= cfg.min_turn_radius
+        assert np.allclose(c.path[0], m.lanes[c.from_lane].centreline[-1])
+        assert np.allclose(c.path[-1], m.lanes[c.to_lane].centreline[0])
+        inside = np.zeros(len(c.path), bool)
+        for poly in m.drivable:
+            inside |= geo.points_in_polygon(c.path, poly)
+        assert inside.all()
+        for other in c.conflicts:  # symmetric, never from the same lane
+            assert c.id in m.connectors[other].conflicts
+            assert m.connectors[other].from_lane != c.from_lane
+    # west -> east straight crosses the north -> south-going... north's left turn (to east) merges
+    straight_we = next(c for c in m.connectors if c.movement == "straight"
+                       and m.lanes[c.from_lane].arm == west.id)
+    north_left = next(c for c in m.connectors if m.lanes[c.from_lane].arm == arm(m, "North").id
+                      and c.movement == "left")
+    assert north_left.id in straight_we.conflicts
+
+
+def test_signals_crosswalks_stop_lines(junction):
+    m = junction
+    north, east, west, south = (arm(m, n) for n in ("North", "East", "West", "South"))
+    heads = {h.arm: h for h in m.signals}
+    assert set(heads) == {a.id for a in m.arms if a.lanes_in}
+    assert heads[north.id].source_id == 6 and not heads[north.id].inferred
+    assert heads[west.id].inferred and any("inferred" in n for n in m.notes)
+    # two phases: the busiest approach (west) with the opposite one, crossing approaches apart
+    assert heads[west.id].group == heads[east.id].group != heads[north.id].group == heads[south.id].group
+    assert m.phases == [[0], [1]]
+    kinds = {(m.arms[c.arm].name, c.kind) for c in m.crosswalks}
+    assert ("North", "unknown") in kinds  # highway=crossing without crossing=*
+    assert ("East", "uncontrolled") in kinds  # the footway crossing way
+    for c in m.crosswalks:
+        line = m.stop_line(c.arm)
+        if line is not None:  # the stop line is behind the crosswalk
+            assert line.s >= c.s + ImportConfig().crosswalk_width / 2
+        assert c.s - ImportConfig().crosswalk_width / 2 >= m.arms[c.arm].mouth - 1e-9
+    for region in m.spawn_regions:
+        assert 0 <= region.s_range[0] < region.s_range[1]
+
+
+def test_extract_edge_is_refused_or_trimmed(tmp_path):
+    path = four_way(tmp_path / "cut.osm", east_cut=True)
+    with pytest.raises(MapError, match="extract's edge"):
+        import_junction(path, 1)
+    m = import_junction(path, 1, ImportConfig(min_arm_length=15.0))
+    east = arm(m, "East")
+    assert east.cut and geo.cumulative_length(east.centreline)[-1] == pytest.approx(20.0, abs=0.1)
+    assert any("extract's edge" in n for n in m.notes)
+
+
+def test_dual_carriageway_nodes_merge_into_one_junction(tmp_path):
+    m = import_junction(divided(tmp_path / "dual.osm"), 2)
+    assert len(m.arms) == 4
+    assert m.source["junction_nodes"] == [1, 2]
+    avenue = [a for a in m.arms if a.name == "Avenue"]
+    assert len(avenue) == 2 and all(len(a.lanes_in) == 1 and len(a.lanes_out) == 1 for a in avenue)
+    assert any("dual carriageway" in n for n in m.notes)
+    assert m.signals and all(h.inferred for h in m.signals)  # the junction node itself is signalled
+    for lane in m.lanes:  # the inbound carriageway stays on its own side of the median
+        a = m.arms[lane.arm]
+        if a.name == "Avenue":
+            assert np.linalg.norm(lane.centreline[0] - lane.centreline[-1]) > 20
+
+
+def test_bad_requests_name_the_problem(tmp_path):
+    path = four_way(tmp_path / "four.osm")
+    with pytest.raises(MapError, match="not a junction"):
+        import_junction(path, 2)
+    with pytest.raises(MapError, match="not on a road"):
+        import_junction(path, 12345)
+    with pytest.raises(MapError, match="does not exist"):
+        import_junction(tmp_path / "missing.osm.pbf", 1)
+    with pytest.raises(MapError, match="no road junction within 50 m"):
+        import_junction(path, (61.0, 25.0))
+    near = import_junction(path, (60.00005, 25.00005))  # ~6 m from node 1
+    assert near.source["node"] == 1
+    with pytest.raises(MapError, match="min_arm_length"):
+        ImportConfig(min_arm_length=80.0)
+
+
+# ---- the JSON format -------------------------------------------------------------------------------
+def test_json_round_trip_and_no_silent_overwrite(junction, tmp_path):
+    out = junction.save(tmp_path / "m.json")
+    again = load_map(out)
+    assert again.to_dict() == junction.to_dict()
+    with pytest.raises(MapError, match="exists"):
+        junction.save(out)
+    junction.save(out, overwrite=True)
+
+
+@pytest.mark.parametrize("breakage, message", [
+    (lambda d: d.pop("format"), "not a box2d-driving-map"),
+    (lambda d: d.update(version=99), "unsupported map version"),
+    (lambda d: d["lanes"][0].update(arm=42), r"lanes\[0\].arm"),
+    (lambda d: d["lanes"][0].update(width=-1), "width must be positive"),
+    (lambda d: d["connectors"][0].update(movement="fly"), "movement must be one of"),
+    (lambda d: d["connectors"][0].update(from_lane=d["connectors"][0]["to_lane"]), "inbound lane to an outbound"),
+    (lambda d: d["arms"][0].update(centreline=[[0, 0]]), r"arms\[0\].centreline"),
+    (lambda d: d.update(phases=[[7]]), "phases"),
+    (lambda d: d["spawn_regions"][0].update(s_range=[5, 1]), "s_range"),
+])
+def test_malformed_maps_are_refused_with_the_field_named(junction, tmp_path, breakage, message):
+    data = json.loads(json.dumps(junction.to_dict()))
+    breakage(data)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(MapError, match=message):
+        load_map(path)
+
+
+def test_not_json_is_refused(tmp_path):
+    path = tmp_path / "x.json"
+    path.write_text("{not json")
+    with pytest.raises(MapError, match="not valid JSON"):
+        load_map(path)
+
+
+# ---- shipped maps and the command --------------------------------------------------------------
+def test_shipped_maps_load_and_carry_attribution():
+    assert 3 <= len(SHIPPED) <= 5
+    for path in SHIPPED:
+        m = load_map(path)
+        assert m.source["licence"] == "ODbL-1.0" and "OpenStreetMap" in m.source["attribution"]
+        assert len(m.arms) >= 3 and m.signals and m.connectors
+        assert {c.movement for c in m.connectors} >= {"straight", "left", "right"}
+        assert any(m.connectors[k].movement != c.movement for c in m.connectors for k in c.conflicts)
+
+
+def test_shipped_map_is_reproduced_by_the_importer():
+    path = ROOT / "assets" / "maps" / "helsinki_25345669.json"
+    assert import_junction(PBF, 25345669).to_dict() == load_map(path).to_dict()
+
+
+def test_import_osm_command(tmp_path, capsys):
+    src = four_way(tmp_path / "four.osm")
+    out = tmp_path / "map.json"
+    assert cli(["import-osm", str(src), "--node", "1", "--out", str(out)]) == 0
+    assert "4 arms" in capsys.readouterr().out and load_map(out).arms
+    assert cli(["import-osm", str(src), "--node", "1", "--out", str(out)]) == 2
+    assert "exists" in capsys.readouterr().err
+    assert cli(["import-osm", str(src), "--node", "2", "--out", str(tmp_path / "x.json")]) == 2
+    assert "not a junction" in capsys.readouterr().err
+    assert cli(["import-osm", str(src), "--out", str(tmp_path / "y.json")]) == 2
