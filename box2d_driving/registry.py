@@ -31,6 +31,8 @@ _SPECS = {
                 "signalled junction; each car picks its own spline path first (lanes emerge)"),
         EnvSpec("highway-spline-v0", "box2d_driving.envs.highway_spline_v0",
                 "one-way highway; each car picks its own lateral target first (fast lanes emerge)"),
+        EnvSpec("real-junction-v0", "box2d_driving.envs.real_junction_v0",
+                "real junctions from OpenStreetMap: lanes, turns, real signals (right of way)"),
     )
 }
 

@@ -43,7 +43,8 @@ class ImportConfig:
         uturn_angle: a movement turning more than this is a U-turn (left out) (rad).
         connector_handle: Bezier handle length of a connector, as a fraction of its chord.
         min_turn_radius: connectors tighter than this are left out (m).
-        edge_clearance: connector paths must stay this far inside the drivable area (m).
+        edge_clearance: connector paths must stay this far inside the drivable area (m); about
+            half a car's width, so that a car following the path does not touch an edge.
         spawn_gap: spawn regions end this far before the stop line (m).
         sample_step: spacing of resampled centre lines (m).
         road_classes: OSM ``highway`` values that carry cars.
@@ -57,7 +58,7 @@ class ImportConfig:
     lane_width: float = 3.25
     lane_width_range: tuple[float, float] = (2.75, 4.0)
     default_lanes: dict[str, tuple[int, int]] = field(default_factory=lambda: dict(DEFAULT_LANES))
-    curb_radius: float = 4.0
+    curb_radius: float = 6.0
     corner_samples: int = 8
     crosswalk_width: float = 3.0
     crosswalk_reach: float = 15.0
@@ -67,7 +68,7 @@ class ImportConfig:
     uturn_angle: float = math.radians(150.0)
     connector_handle: float = 0.4
     min_turn_radius: float = 3.0
-    edge_clearance: float = 0.3
+    edge_clearance: float = 1.0
     spawn_gap: float = 3.0
     sample_step: float = 2.0
     road_classes: tuple[str, ...] = tuple(DEFAULT_LANES)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from box2d_driving.road.geometry import points_in_polygon  # noqa: F401  (re-exported)
+
 
 def cumulative_length(points: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
@@ -96,17 +98,6 @@ def segment_hits_polygon(p0: np.ndarray, p1: np.ndarray, polygon: np.ndarray) ->
     if segments_intersect(np.array([p0]), np.array([p1]), ring[:-1], ring[1:]).any():
         return True
     return bool(points_in_polygon(np.array([0.5 * (p0 + p1)]), polygon)[0])
-
-
-def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """Even-odd rule containment of each point, ``(N,)`` bool."""
-    x, y = points[:, 0][:, None], points[:, 1][:, None]
-    xa, ya = polygon[:, 0][None, :], polygon[:, 1][None, :]
-    xb, yb = np.roll(polygon[:, 0], -1)[None, :], np.roll(polygon[:, 1], -1)[None, :]
-    crosses = (ya > y) != (yb > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_at = xa + (y - ya) * (xb - xa) / (yb - ya)
-    return np.sum(crosses & (x < x_at), axis=1) % 2 == 1
 
 
 def distance_to_polylines(points: np.ndarray, polylines: list[np.ndarray]) -> np.ndarray:

@@ -112,8 +112,12 @@ class Viewer:
         if lay.junction_box is not None:
             x0, y0, x1, y1 = lay.junction_box
             self._poly(JUNCTION, np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
+        if lay.junction_polygon is not None:
+            self._poly(JUNCTION, lay.junction_polygon)
         if lay.crosswalk is not None:
             self._draw_crosswalk(lay.crosswalk)
+        for poly in lay.crosswalks:
+            self._poly(CROSSWALK, poly, 2)
         for a, b in np.asarray(lay.edges).reshape(-1, 2, 2):
             pygame.draw.line(s, EDGE, *self.to_pixels(np.array([a, b])).tolist(), 2)
         for a, b in np.asarray(lay.stop_lines).reshape(-1, 2, 2):

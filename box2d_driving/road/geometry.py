@@ -146,3 +146,14 @@ def rectangles_overlap(a: np.ndarray, b: np.ndarray) -> bool:
 def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
     """Wrap to ``[-pi, pi)``."""
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Even-odd rule containment of each point ``(N, 2)`` in ``polygon`` ``(K, 2)``, ``(N,)`` bool."""
+    x, y = points[:, 0][:, None], points[:, 1][:, None]
+    xa, ya = polygon[:, 0][None, :], polygon[:, 1][None, :]
+    xb, yb = np.roll(polygon[:, 0], -1)[None, :], np.roll(polygon[:, 1], -1)[None, :]
+    crosses = (ya > y) != (yb > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_at = xa + (y - ya) * (xb - xa) / (yb - ya)
+    return np.sum(crosses & (x < x_at), axis=1) % 2 == 1

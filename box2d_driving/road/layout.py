@@ -7,7 +7,7 @@ from typing import Optional
 
 import numpy as np
 
-from box2d_driving.road.geometry import Path
+from box2d_driving.road.geometry import Path, points_in_polygon
 from box2d_driving.road.lights import TrafficLights
 
 
@@ -76,6 +76,10 @@ class Layout:
         crosswalk: ``(xmin, ymin, xmax, ymax)`` of the crosswalk, or None.
         drivable: polygons ``(K, 2)`` of drivable surface, for drawing.
         stop_lines: ``(S, 2, 2)`` stop-line segments, for drawing.
+        junction_polygon: ``(K, 2)`` outline of the junction area; when given it defines
+            :meth:`in_junction` instead of ``junction_box`` (real junctions).
+        crosswalks: crosswalk polygons ``(4, 2)``, for drawing.
+        name: the map's name (real junctions), else empty.
     """
 
     edges: np.ndarray
@@ -86,9 +90,14 @@ class Layout:
     crosswalk: Optional[tuple[float, float, float, float]] = None
     drivable: list[np.ndarray] = field(default_factory=list)
     stop_lines: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    junction_polygon: Optional[np.ndarray] = None
+    crosswalks: list[np.ndarray] = field(default_factory=list)
+    name: str = ""
 
     def in_junction(self, positions: np.ndarray) -> np.ndarray:
-        """Whether each position lies inside the junction box."""
+        """Whether each position lies inside the junction area."""
+        if self.junction_polygon is not None:
+            return points_in_polygon(np.asarray(positions, dtype=np.float64), self.junction_polygon)
         if self.junction_box is None:
             return np.zeros(len(positions), dtype=bool)
         x0, y0, x1, y1 = self.junction_box

@@ -1,0 +1,116 @@
+"""real-junction-v0: cars on real lanes and connectors, real signals, maps chosen by name or file."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from box2d_driving.config import ConfigError
+from box2d_driving.maps.shipped import get_map, shipped_maps
+from box2d_driving.road.geometry import rectangle_corners, rectangles_overlap
+from box2d_driving.road.lights import NO_LIGHT
+
+FULL = 12  # index of +1.5 m/s^2
+
+
+def test_every_shipped_map_is_a_default_and_loads():
+    env = box2d_driving.make("real-junction-v0")
+    assert set(env.config.map_names()) == set(shipped_maps())
+    assert env.config.num_cars == 8 and env.config.horizon == 30 and env.config.v_lim == 8.0
+    assert env.action_space("car_0").n == 13
+    assert box2d_driving.make("real-junction-v0", communication=True).action_space("car_0").n == 26
+
+
+def test_spawns_on_inbound_lanes_without_overlap_and_routes_through_a_connector():
+    env = box2d_driving.make("real-junction-v0", num_cars=12)
+    seen_maps = Counter()
+    for seed in range(40):
+        env.reset(seed=seed)
+        lay, cfg = env.layout, env.config
+        seen_maps[lay.name] += 1
+        m = get_map(lay.name)
+        boxes = []
+        for car in lay.cars:
+            (x, y), h = car.path.pose(0.0)
+            boxes.append(rectangle_corners(x, y, float(h), cfg.car_length, cfg.car_width))
+            assert not lay.in_junction(car.path.points[:1])[0]
+            # the route ends at the end of an outbound lane
+            ends = [m.lanes[k].centreline[-1] for k in range(len(m.lanes)) if m.lanes[k].direction == "out"]
+            assert min(np.linalg.norm(e - car.path.points[-1]) for e in ends) < 1e-6
+            assert lay.in_junction(car.path.points).any()
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                assert not rectangles_overlap(boxes[i], boxes[j]), f"seed {seed}: cars {i} and {j} overlap"
+    assert len(seen_maps) == len(shipped_maps())  # one map per episode, sampled from the list
+
+
+def test_a_lone_car_at_full_throttle_never_touches_an_edge():
+    env = box2d_driving.make("real-junction-v0", num_cars=1, light_period_range=(100.0, 101.0))
+    outcomes = Counter()
+    for seed in range(200):
+        obs, infos = env.reset(seed=seed)
+        while env.agents:
+            obs, _, _, _, infos = env.step({a: FULL for a in obs})
+        outcomes[(infos["car_0"]["arrived"], infos["car_0"]["collided_with"])] += 1
+    assert outcomes == Counter({(True, None): 200})
+
+
+def test_each_car_sees_its_own_approach_light_before_the_stop_line():
+    env = box2d_driving.make("real-junction-v0", num_cars=12)
+    lay_seen = 0
+    for seed in range(10):
+        _, infos = env.reset(seed=seed)
+        m = get_map(env.layout.name)
+        for agent, car in zip(env.possible_agents, env.layout.cars):
+            head = m.signal_for(car.approach)
+            assert car.light_index == (-1 if head is None else head.id)
+            d = infos[agent]["stop_line_distance"]
+            if head is not None and 0 < d <= env.config.light_view_distance:
+                assert infos[agent]["light"] != NO_LIGHT
+                lay_seen += 1
+    assert lay_seen > 0
+
+
+def test_junction_area_is_the_map_polygon():
+    env = box2d_driving.make("real-junction-v0", map="helsinki_25345669")
+    env.reset(seed=0)
+    m = get_map("helsinki_25345669")
+    assert env.layout.in_junction(np.array([[0.0, 0.0], m.arms[0].centreline[-1]])).tolist() == [True, False]
+
+
+def test_map_by_file_and_clear_errors(tmp_path):
+    src = get_map("helsinki_25345669")
+    path = src.save(tmp_path / "mine.json")
+    env = box2d_driving.make("real-junction-v0", map=str(path), num_cars=4)
+    env.reset(seed=1)
+    assert env.layout.name == src.name
+    with pytest.raises(ConfigError, match="unknown map 'nowhere'"):
+        box2d_driving.make("real-junction-v0", map="nowhere")
+    with pytest.raises(ConfigError, match="num_cars=99 exceeds"):
+        box2d_driving.make("real-junction-v0", num_cars=99)
+    bad = tmp_path / "bad.json"
+    data = json.loads(path.read_text())
+    data["lanes"][0]["arm"] = 77
+    bad.write_text(json.dumps(data))
+    with pytest.raises(ConfigError, match=r"lanes\[0\].arm"):
+        box2d_driving.make("real-junction-v0", map=str(bad))
+    with pytest.raises(ConfigError, match="spawn_spacing"):
+        box2d_driving.make("real-junction-v0", spawn_spacing=3.0)
+
+
+def test_same_seed_same_episode():
+    def run(seed):
+        env = box2d_driving.make("real-junction-v0", num_cars=10, lidar_noise=0.5)
+        obs, _ = env.reset(seed=seed)
+        rng = np.random.default_rng(0)
+        trace = [np.concatenate([obs[a] for a in sorted(obs)])]
+        while env.agents:
+            obs, rewards, _, _, _ = env.step({a: int(rng.integers(13)) for a in env.agents})
+            trace.append(np.concatenate([obs[a] for a in sorted(obs)] + [[rewards[a] for a in sorted(rewards)]]))
+        return trace
+    a, b = run(3), run(3)
+    assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
