@@ -1,4 +1,4 @@
-"""Hand-built worlds for physics and reward tests."""
+"""Hand-built worlds for physics and reward tests, and hand-built rollout tables for metrics."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ from typing import Callable
 import numpy as np
 
 from box2d_driving.envs.base import DrivingEnv
+from box2d_driving.metrics.rollouts import COLUMNS, OPTIONAL_COLUMNS
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, Layout
 
@@ -42,3 +43,18 @@ def hand_env(cars, edges=None, layout_kw=None, **overrides) -> HandBuiltEnv:
 def level_index(env: DrivingEnv, accel: float) -> int:
     """Action index of an acceleration level."""
     return int(np.argmin(np.abs(np.asarray(env.config.accelerations) - accel)))
+
+
+def table_from_rows(rows, names):
+    """A rollout table from hand-written rows of the columns ``names`` (others zero)."""
+    n = len(rows)
+    t = {c: np.zeros(n) for c in COLUMNS + OPTIONAL_COLUMNS}
+    t["collided_with"] = np.zeros(n, dtype=int)
+    cols = list(zip(*rows))
+    for name, col in zip(names, cols):
+        t[name] = np.asarray(col)
+    for name in ("episode", "car", "decision"):
+        t[name] = t[name].astype(int)
+    for name in ("in_junction", "arrived", "collided"):
+        t[name] = t[name].astype(bool)
+    return t

@@ -4,21 +4,7 @@ import numpy as np
 import pytest
 
 from box2d_driving.metrics.lanes import crossing_sides, fast_lane_metrics, lane_metrics, pearson
-from box2d_driving.metrics.rollouts import COLUMNS, OPTIONAL_COLUMNS
-
-
-def _table(rows, names):
-    n = len(rows)
-    t = {c: np.zeros(n) for c in COLUMNS + OPTIONAL_COLUMNS}
-    t["collided_with"] = np.zeros(n, dtype=int)
-    cols = list(zip(*rows))
-    for name, col in zip(names, cols):
-        t[name] = np.asarray(col)
-    for name in ("episode", "car", "decision"):
-        t[name] = t[name].astype(int)
-    for name in ("in_junction", "arrived", "collided"):
-        t[name] = t[name].astype(bool)
-    return t
+from tests.helpers import table_from_rows as _table
 
 
 LANE_COLS = ("episode", "car", "decision", "in_junction", "lane_offset")

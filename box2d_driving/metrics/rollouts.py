@@ -16,7 +16,7 @@ COLUMNS = ("episode", "car", "decision", "x", "y", "heading", "speed", "accelera
            "in_junction", "lane_offset", "distance_to_goal", "arrived", "collided", "reward",
            "approach", "rating", "stop_line_distance")
 # Scenario-specific numeric facts recorded when present (NaN otherwise).
-OPTIONAL_COLUMNS = ("pedestrian_distance", "crosswalk_distance")
+OPTIONAL_COLUMNS = ("pedestrian_distance", "crosswalk_distance", "bit_sent")
 COLLIDED_WITH = ("", "car", "edge", "pedestrian")
 
 

@@ -1,0 +1,60 @@
+"""Emergent communication (SPEC 6.4) from rollout tables recorded with ``communication=True``.
+
+A car's bit sent on decision ``t`` travels with its action of decision ``t`` (table row ``t``);
+its *next action* is the acceleration it applies on decision ``t + 1`` (row ``t + 1``), and its
+heading change is ``heading(t + 1) - heading(t)``.
+
+* Speaker consistency: the mutual information (bits) between the sent bit and the next action.
+* Pearson correlation between the heading change and the bit (signed, as SPEC 6.4), and between
+  the absolute heading change and the bit (a "turn signal" that says *that* a car turns, not
+  which way, shows up there).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from box2d_driving.metrics.lanes import pearson
+
+
+def mutual_information(a: np.ndarray, b: np.ndarray) -> float:
+    """Mutual information (bits) between two discrete samples of equal length."""
+    a, b = np.asarray(a), np.asarray(b)
+    if len(a) == 0:
+        return float("nan")
+    _, ai = np.unique(a, return_inverse=True)
+    _, bi = np.unique(b, return_inverse=True)
+    joint = np.zeros((ai.max() + 1, bi.max() + 1))
+    np.add.at(joint, (ai, bi), 1.0)
+    joint /= joint.sum()
+    pa, pb = joint.sum(axis=1, keepdims=True), joint.sum(axis=0, keepdims=True)
+    nz = joint > 0
+    return float(np.sum(joint[nz] * np.log2(joint[nz] / (pa @ pb)[nz])))
+
+
+def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Per (car, decision t) with a row at ``t + 1``: ``bit`` (sent at t), ``next_accel``,
+    ``heading_change`` (rad, wrapped)."""
+    if "bit_sent" not in table or np.all(np.isnan(table["bit_sent"])):
+        raise ValueError("the rollouts carry no sent bits: record them with communication=True")
+    order = np.lexsort((table["decision"], table["car"], table["episode"]))
+    ep, car, dec = table["episode"][order], table["car"][order], table["decision"][order]
+    nxt = (ep[1:] == ep[:-1]) & (car[1:] == car[:-1]) & (dec[1:] == dec[:-1] + 1)
+    now, later = order[:-1][nxt], order[1:][nxt]
+    bits = table["bit_sent"][now]
+    keep = (table["decision"][now] >= 1) & ~np.isnan(bits)  # row 0 is the reset: nothing sent yet
+    now, later, bits = now[keep], later[keep], bits[keep]
+    dh = table["heading"][later] - table["heading"][now]
+    return {"bit": bits.astype(np.int64), "next_accel": np.round(table["acceleration"][later], 6),
+            "heading_change": (dh + np.pi) % (2 * np.pi) - np.pi}
+
+
+def communication_metrics(table: dict[str, np.ndarray]) -> dict:
+    p = message_pairs(table)
+    return {
+        "samples": int(len(p["bit"])),
+        "bit_one_share": float(np.mean(p["bit"])) if len(p["bit"]) else float("nan"),
+        "speaker_consistency_bits": mutual_information(p["bit"], p["next_accel"]),
+        "pearson_heading_change_bit": pearson(p["heading_change"], p["bit"]),
+        "pearson_abs_heading_change_bit": pearson(np.abs(p["heading_change"]), p["bit"]),
+    }

@@ -1,0 +1,121 @@
+"""Right of way (SPEC 6.3) and safe following distance (SPEC 6.6) from rollout tables.
+
+Right of way, first in first out: ``t_a(i)`` is the first decision car ``i`` is inside the junction
+area and ``t_d(i)`` the first decision after that on which it is outside again (``inf`` if its
+trajectory ends inside, e.g. it crashed there). Car ``i`` violates FIFO if some car ``j`` of the
+same episode entered after it (``t_a(i) < t_a(j)``) but left before it (``t_d(j) < t_d(i)``).
+Times are decisions (1 s), so cars entering or leaving on the same decision are never ordered.
+
+Safe distance: for every row, the nearest other live car whose centre lies within
+``half_angle`` of the car's heading is its leader; ``gap`` = centre distance - car length
+(bumper to bumper when aligned), closing speed ``dv`` = the rate at which the centre distance
+shrinks. Samples with ``dv > 0`` count; one is safe if ``gap >= dv^2 / (2 a_max)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def junction_times(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """One row per car that entered the junction: ``episode``, ``car``, ``t_a``, ``t_d``."""
+    order = np.lexsort((table["decision"], table["car"], table["episode"]))
+    ep, car, dec = table["episode"][order], table["car"][order], table["decision"][order]
+    inside = table["in_junction"][order].astype(bool)
+    out: dict[str, list] = {"episode": [], "car": [], "t_a": [], "t_d": []}
+    start = 0
+    n = len(order)
+    while start < n:
+        stop = start
+        while stop < n and ep[stop] == ep[start] and car[stop] == car[start]:
+            stop += 1
+        ins = np.flatnonzero(inside[start:stop])
+        if len(ins):
+            first = ins[0]
+            after = np.flatnonzero(~inside[start + first:stop])
+            out["episode"].append(int(ep[start]))
+            out["car"].append(int(car[start]))
+            out["t_a"].append(float(dec[start + first]))
+            out["t_d"].append(float(dec[start + first + after[0]]) if len(after) else math.inf)
+        start = stop
+    return {"episode": np.array(out["episode"], dtype=np.int64), "car": np.array(out["car"], dtype=np.int64),
+            "t_a": np.array(out["t_a"]), "t_d": np.array(out["t_d"])}
+
+
+def fifo_violations(t_a: np.ndarray, t_d: np.ndarray) -> np.ndarray:
+    """Whether each car of one episode violates FIFO (someone entered after it, left before it)."""
+    t_a, t_d = np.asarray(t_a, float), np.asarray(t_d, float)
+    later_in = t_a[:, None] < t_a[None, :]
+    earlier_out = t_d[None, :] < t_d[:, None]
+    return np.any(later_in & earlier_out, axis=1)
+
+
+def fifo_metrics(table: dict[str, np.ndarray]) -> dict:
+    """Share of cars that went into the junction with no FIFO violation, overall and as mean
+    +- std over episodes (episodes with at least two such cars)."""
+    times = junction_times(table)
+    ok = np.zeros(len(times["car"]), dtype=bool)
+    per_episode = []
+    for e in np.unique(times["episode"]):
+        idx = np.flatnonzero(times["episode"] == e)
+        v = fifo_violations(times["t_a"][idx], times["t_d"][idx])
+        ok[idx] = ~v
+        if len(idx) >= 2:
+            per_episode.append(float(np.mean(~v)))
+    return {
+        "cars_through_junction": int(len(ok)),
+        "fifo_share": float(np.mean(ok)) if len(ok) else float("nan"),
+        "fifo_share_episode_mean": float(np.mean(per_episode)) if per_episode else float("nan"),
+        "fifo_share_episode_std": float(np.std(per_episode)) if per_episode else float("nan"),
+        "episodes": len(per_episode),
+    }
+
+
+def leader_samples(table: dict[str, np.ndarray], car_length: float,
+                   half_angle: float = math.pi / 6) -> dict[str, np.ndarray]:
+    """Per row with a leader within ``half_angle`` ahead: ``gap`` (m), ``closing_speed`` (m/s),
+    ``speed`` (m/s), ``row`` (index into the table)."""
+    ep, dec = table["episode"], table["decision"]
+    key = ep.astype(np.int64) * 1_000_003 + dec.astype(np.int64)
+    order = np.argsort(key, kind="stable")
+    bounds = np.flatnonzero(np.diff(key[order])) + 1
+    rows, gaps, closing, speeds = [], [], [], []
+    for group in np.split(order, bounds):
+        if len(group) < 2:
+            continue
+        pos = np.stack([table["x"][group], table["y"][group]], axis=1)
+        head = table["heading"][group]
+        vel = table["speed"][group][:, None] * np.stack([np.cos(head), np.sin(head)], axis=1)
+        rel = pos[None, :, :] - pos[:, None, :]  # i -> j
+        dist = np.linalg.norm(rel, axis=2)
+        bearing = np.arctan2(rel[..., 1], rel[..., 0]) - head[:, None]
+        bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
+        ahead = (np.abs(bearing) <= half_angle) & (dist > 0)
+        dist_ahead = np.where(ahead, dist, np.inf)
+        lead = np.argmin(dist_ahead, axis=1)
+        for i in np.flatnonzero(np.isfinite(dist_ahead[np.arange(len(group)), lead])):
+            j = lead[i]
+            u = rel[i, j] / dist[i, j]
+            rows.append(group[i])
+            gaps.append(max(dist[i, j] - car_length, 0.0))
+            closing.append(float((vel[i] - vel[j]) @ u))
+            speeds.append(float(table["speed"][group[i]]))
+    return {"row": np.array(rows, dtype=np.int64), "gap": np.array(gaps), "closing_speed": np.array(closing),
+            "speed": np.array(speeds)}
+
+
+def safety_distance_metrics(table: dict[str, np.ndarray], a_max: float, car_length: float,
+                            half_angle: float = math.pi / 6) -> dict:
+    """Share of closing samples (``dv > 0``) with ``gap >= dv^2 / (2 a_max)``."""
+    s = leader_samples(table, car_length, half_angle)
+    closing = s["closing_speed"] > 0
+    need = s["closing_speed"][closing] ** 2 / (2.0 * a_max)
+    safe = s["gap"][closing] >= need
+    return {
+        "samples_with_leader": int(len(s["gap"])),
+        "closing_samples": int(closing.sum()),
+        "safe_share": float(np.mean(safe)) if closing.any() else float("nan"),
+        "gap_median": float(np.median(s["gap"])) if len(s["gap"]) else float("nan"),
+    }

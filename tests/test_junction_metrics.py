@@ -1,0 +1,93 @@
+"""Right of way (FIFO), safe following distance and communication metrics on hand-built tables."""
+
+import math
+
+import numpy as np
+import pytest
+
+from box2d_driving.metrics.communication import communication_metrics, mutual_information
+from box2d_driving.metrics.right_of_way import (fifo_metrics, fifo_violations, junction_times,
+                                                 leader_samples, safety_distance_metrics)
+from tests.helpers import table_from_rows
+
+
+def inside_rows(episode, car, pattern):
+    """Rows of one car: ``pattern`` is a string of 0/1 per decision (1 = inside the junction)."""
+    return [(episode, car, t, int(c)) for t, c in enumerate(pattern)]
+
+
+COLS = ("episode", "car", "decision", "in_junction")
+
+
+def test_junction_times_first_entry_first_exit_and_never_leaving():
+    rows = inside_rows(0, 0, "00110") + inside_rows(0, 1, "0111") + inside_rows(0, 2, "000")
+    t = junction_times(table_from_rows(rows, COLS))
+    assert t["car"].tolist() == [0, 1]  # car 2 never entered
+    assert t["t_a"].tolist() == [2.0, 1.0]
+    assert t["t_d"].tolist() == [4.0, math.inf]  # car 1's trajectory ends inside
+
+
+def test_fifo_violation_needs_a_later_entry_leaving_earlier():
+    # car 0 enters at 1, leaves at 5; car 1 enters at 2, leaves at 3 -> car 0 overtaken
+    assert fifo_violations([1, 2], [5, 3]).tolist() == [True, False]
+    # same entry decision: never ordered, so no violation
+    assert fifo_violations([1, 1], [5, 3]).tolist() == [False, False]
+    # in order
+    assert fifo_violations([1, 2, 3], [4, 5, 6]).tolist() == [False, False, False]
+
+
+def test_fifo_metrics_overall_and_per_episode():
+    rows = (inside_rows(0, 0, "0111110") + inside_rows(0, 1, "0011000")  # ep 0: car 0 violated
+            + inside_rows(1, 0, "0110") + inside_rows(1, 1, "00110"))  # ep 1: in order
+    m = fifo_metrics(table_from_rows(rows, COLS))
+    assert m["cars_through_junction"] == 4
+    assert m["fifo_share"] == pytest.approx(3 / 4)
+    assert m["fifo_share_episode_mean"] == pytest.approx((0.5 + 1.0) / 2)
+    assert m["fifo_share_episode_std"] == pytest.approx(0.25)
+
+
+SAFE_COLS = ("episode", "car", "decision", "x", "y", "heading", "speed")
+
+
+def test_leader_gap_and_closing_speed():
+    rows = [
+        (0, 0, 1, 0.0, 0.0, 0.0, 8.0),    # follower at 8 m/s
+        (0, 1, 1, 14.48, 0.0, 0.0, 2.0),  # leader 14.48 m ahead (gap 10 m), at 2 m/s
+        (0, 2, 1, 5.0, 20.0, 0.0, 8.0),   # far to the side: not within 30 degrees of car 0
+    ]
+    s = leader_samples(table_from_rows(rows, SAFE_COLS), car_length=4.48)
+    i = s["row"].tolist().index(0)
+    assert s["gap"][i] == pytest.approx(10.0)
+    assert s["closing_speed"][i] == pytest.approx(6.0)
+    assert 1 not in s["row"].tolist()  # car 1 has nobody ahead within 30 degrees
+
+
+def test_safety_share_uses_v2_over_2a():
+    # closing 6 m/s, a_max 1.5 -> needs 12 m; gap 10 m unsafe, 13 m safe; an opening pair is ignored
+    rows = [(0, 0, 1, 0.0, 0.0, 0.0, 8.0), (0, 1, 1, 14.48, 0.0, 0.0, 2.0),
+            (1, 0, 1, 0.0, 0.0, 0.0, 8.0), (1, 1, 1, 17.48, 0.0, 0.0, 2.0),
+            (2, 0, 1, 0.0, 0.0, 0.0, 2.0), (2, 1, 1, 6.0, 0.0, 0.0, 8.0)]
+    m = safety_distance_metrics(table_from_rows(rows, SAFE_COLS), a_max=1.5, car_length=4.48)
+    assert m["closing_samples"] == 2 and m["safe_share"] == pytest.approx(0.5)
+
+
+def test_mutual_information_exact_values():
+    assert mutual_information([0, 1, 0, 1], [5, 7, 5, 7]) == pytest.approx(1.0)
+    assert mutual_information([0, 0, 1, 1], [5, 7, 5, 7]) == pytest.approx(0.0)
+
+
+COMM_COLS = ("episode", "car", "decision", "heading", "acceleration", "bit_sent")
+
+
+def test_communication_metrics_turn_signal():
+    # the car sends 1 on the decision before it turns (heading changes next) and brakes next
+    rows = [(0, 0, 0, 0.0, 0.0, np.nan), (0, 0, 1, 0.0, 1.5, 0), (0, 0, 2, 0.0, 1.5, 1),
+            (0, 0, 3, 0.5, -1.5, 1), (0, 0, 4, 1.0, -1.5, 0), (0, 0, 5, 1.0, 1.5, 0)]
+    m = communication_metrics(table_from_rows(rows, COMM_COLS))
+    assert m["samples"] == 4  # decisions 1..4 have a next row
+    # bits 0,1,1,0 -> next accel 1.5,-1.5,-1.5,1.5: fully determined
+    assert m["speaker_consistency_bits"] == pytest.approx(1.0)
+    # heading changes 0, 0.5, 0.5, 0 vs bits 0, 1, 1, 0
+    assert m["pearson_heading_change_bit"] == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="communication=True"):
+        communication_metrics(table_from_rows(rows[:2], COMM_COLS[:5]) | {"bit_sent": np.full(2, np.nan)})
