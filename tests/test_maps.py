@@ -253,3 +253,12 @@ def test_import_osm_command(tmp_path, capsys):
     assert cli(["import-osm", str(src), "--node", "2", "--out", str(tmp_path / "x.json")]) == 2
     assert "not a junction" in capsys.readouterr().err
     assert cli(["import-osm", str(src), "--out", str(tmp_path / "y.json")]) == 2
+
+
+def test_junction_area_reaches_the_stop_lines(junction):
+    m = junction
+    assert geo.points_in_polygon(np.zeros((1, 2)), m.junction_area)[0]
+    for line in m.stop_lines:
+        axis = m.arms[line.arm].centreline
+        inward, outward = geo.point_at(axis, line.s - 0.5), geo.point_at(axis, line.s + 0.5)
+        assert geo.points_in_polygon(np.array([inward, outward]), m.junction_area).tolist() == [True, False]

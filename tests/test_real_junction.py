@@ -114,3 +114,15 @@ def test_same_seed_same_episode():
         return trace
     a, b = run(3), run(3)
     assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
+
+
+def test_cars_enter_the_junction_having_seen_their_light():
+    from box2d_driving.metrics.lights import junction_entries
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import LightRulePolicy
+
+    env = box2d_driving.make("real-junction-v0", num_cars=8)
+    table = run_episodes(env, LightRulePolicy(env), 10, seed=0)
+    entries = junction_entries(table)
+    assert len(entries["light"]) > 40
+    assert np.mean(entries["light"] != NO_LIGHT) > 0.95  # every approach of the shipped maps is signalled

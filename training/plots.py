@@ -28,8 +28,8 @@ def read_progress(run_dir: Path) -> Optional[dict[str, np.ndarray]]:
                 rows += list(csv.DictReader(f))
     if not rows:
         return None
-    keys = ["time/agent_steps", "time/wall_s", "rollout/success_rate", "rollout/collision_rate",
-            "rollout/red_light_violation_rate"]
+    keys = ["time/agent_steps", "time/total_timesteps", "time/wall_s", "rollout/success_rate",
+            "rollout/collision_rate", "rollout/red_light_violation_rate"]
     out = {}
     for k in keys:
         out[k] = np.array([float(r[k]) if r.get(k) not in (None, "") else np.nan for r in rows])
@@ -166,7 +166,8 @@ def pedestrian_distance_kde(distances: np.ndarray, path: Path, control: Optional
 
 
 def speed_vs_distance(distance: np.ndarray, speed: np.ndarray, a_max: float, path: Path,
-                      xlabel: str = "distance to the nearest pedestrian ahead (m)") -> None:
+                      xlabel: str = "distance to the nearest pedestrian ahead (m)",
+                      ylabel: str = "speed (m/s)") -> None:
     """Scatter of speed against distance with the safe-stopping region ``d >= v^2/(2 a_max)``."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6, 4.5))
@@ -178,7 +179,7 @@ def speed_vs_distance(distance: np.ndarray, speed: np.ndarray, a_max: float, pat
     ax.set_xlim(0, d_max)
     ax.set_ylim(0, v_max)
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("speed (m/s)")
+    ax.set_ylabel(ylabel)
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -233,6 +234,24 @@ def lateral_over_time(table: dict[str, np.ndarray], road_width: float, path: Pat
     ax[1].set_ylabel("final lateral position 2y/W")
     ax[1].set_ylim(-1, 1)
     fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax[1], label="rating")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def metric_over_training(steps: np.ndarray, values: dict[str, np.ndarray], path: Path, ylabel: str,
+                         reference: Optional[tuple[float, str]] = None) -> None:
+    """Evaluation metrics of a run's checkpoints against agent-steps (one line per metric)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for label, v in values.items():
+        ax.plot(steps, v, marker="o", ms=3, label=label)
+    if reference is not None:
+        ax.axhline(reference[0], color="0.4", ls="--", lw=1, label=reference[1])
+    ax.set_xlabel("agent-steps")
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(0, 1.02)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -13,6 +13,7 @@ import numpy as np
 from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics
 from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
+from box2d_driving.metrics.right_of_way import fifo_metrics, leader_samples, safety_distance_metrics
 from box2d_driving.metrics.rollouts import run_episodes
 from training import plots
 
@@ -64,9 +65,30 @@ def fast_lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: i
     return metrics
 
 
+def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
+                         make_env: Callable[..., Any]) -> dict:
+    """Outcomes, lights, right of way (FIFO), safe following distance (+ scatter), and the
+    communication metrics when the bit is on."""
+    cfg = env.config
+    metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
+    metrics["right_of_way"] = fifo_metrics(table)
+    metrics["safety_distance"] = safety_distance_metrics(table, cfg.a_max, cfg.car_length)
+    s = leader_samples(table, cfg.car_length)
+    closing = s["closing_speed"] > 0
+    plots.speed_vs_distance(s["gap"][closing], s["closing_speed"][closing], cfg.a_max,
+                            out / "safety_distance.png", xlabel="gap to the car ahead (m)",
+                            ylabel="closing speed (m/s)")
+    if cfg.communication:
+        from box2d_driving.metrics.communication import communication_metrics
+
+        metrics["communication"] = communication_metrics(table)
+    return metrics
+
+
 REPORTS: dict[str, Callable[..., dict]] = {
     "intersection-v0": lights_report,
     "crosswalk-v0": crosswalk_report,
     "intersection-spline-v0": lanes_report,
     "highway-spline-v0": fast_lanes_report,
+    "real-junction-v0": real_junction_report,
 }

@@ -48,6 +48,10 @@ class CommonArgs:
     init_from: Optional[str] = None
     horizon: Optional[int] = None
 
+    def env_overrides(self) -> dict:
+        """Scenario-specific config overrides a script adds (none by default)."""
+        return {}
+
 
 @dataclass
 class ScriptArgs(CommonArgs):
@@ -58,6 +62,7 @@ class ScriptArgs(CommonArgs):
 
 def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
     overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
+    overrides.update(args.env_overrides())
     if args.horizon is not None:
         overrides["horizon"] = args.horizon
     cfg = TrainConfig(

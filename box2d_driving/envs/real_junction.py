@@ -6,8 +6,9 @@ approaches; positions on a lane uniformly random with at least ``spawn_spacing``
 centres), picks one of its lane's connectors (straight, left or right) uniformly, and follows the
 inbound lane's centre line, the connector and the outbound lane to its end, with acceleration
 control. Real signal groups run the two-phase plan (group 0 and group 1 in antiphase, SPEC 2
-timing), so turning traffic meets oncoming traffic and right of way matters. The junction area is
-the map's junction polygon. Cars collide with each other and the road edges. The 1-bit turn
+timing), so turning traffic meets oncoming traffic and right of way matters. A car is in the
+junction inside the map's ``junction_area`` (out to the stop lines, so the light a car saw last
+before entering is the one at its stop line). Cars collide with each other and the road edges. The 1-bit turn
 signal is the ``communication`` option.
 """
 
@@ -146,7 +147,7 @@ class RealJunctionEnv(DrivingEnv):
         edges = np.concatenate([np.stack([e[:-1], e[1:]], axis=1) for e in m.edges])
         return Layout(edges=edges, cars=[cars[i] for i in order], lights=lights, drivable=list(m.drivable),
                       stop_lines=np.array([s.segment for s in m.stop_lines]).reshape(-1, 2, 2),
-                      junction_polygon=m.drivable[0], crosswalks=[c.polygon for c in m.crosswalks], name=m.name)
+                      junction_polygon=m.junction_area, crosswalks=[c.polygon for c in m.crosswalks], name=m.name)
 
 
 def _route(inbound: np.ndarray, start: float, connector: np.ndarray, outbound: np.ndarray) -> Path:

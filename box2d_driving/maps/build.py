@@ -172,7 +172,7 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
         arms.append(arm)
 
     # ---- edges, drivable area ------------------------------------------------------------------
-    edges, drivable, junction = [], [], []
+    edges, drivable, junction, corners = [], [], [], []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         left, right = _strip(spec, mouth)
         edges += [left, right]
@@ -183,6 +183,7 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
                          -geo.tangent_at(specs[j].centreline, mouths[j]), cfg.corner_samples)
         edges.append(corner)
         junction += [right[0], left[0], *corner[1:-1]]
+        corners.append(corner)
     drivable.insert(0, np.array(junction))
     boundary = list(edges)
 
@@ -217,6 +218,20 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
             n = np.array([t[1], -t[0]])
             inner = spec.split - spec.median / 2
             stop_lines.append(StopLine(arm=i, s=float(stop), segment=np.array([p + inner * n, p + spec.u_left * n])))
+
+    # ---- junction area: out to the stop lines, or past the crosswalks of outbound-only arms -----
+    area = []
+    for i, (spec, mouth) in enumerate(zip(specs, mouths)):
+        line = next((s for s in stop_lines if s.arm == i), None)
+        ext = line.s if line is not None else max([mouth] + [c.s + cfg.crosswalk_width / 2
+                                                            for c in crosswalks if c.arm == i])
+        left, right = _strip(spec, mouth)
+        cum = geo.cumulative_length(left)
+        k = int(np.searchsorted(cum, ext - mouth))
+        up_right = np.vstack([right[:k], geo.point_at(right, ext - mouth)])  # outwards
+        down_left = np.vstack([geo.point_at(left, ext - mouth), left[:k][::-1]])  # back in
+        area += [*up_right, *down_left, *corners[i][1:-1]]
+    junction_area = geo.dedupe(np.array(area))
 
     # ---- connectors ----------------------------------------------------------------------------
     connectors: list[Connector] = []
@@ -293,7 +308,8 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
                 spawns.append(SpawnRegion(lane=lane.id, s_range=(0.0, hi)))
     return RoadMap(name=name, source=source, size_m=cfg.size_m, arms=arms, lanes=lanes, connectors=connectors,
                    stop_lines=stop_lines, signals=signals, phases=phases, crosswalks=crosswalks,
-                   drivable=drivable, edges=edges, spawn_regions=spawns, notes=list(dict.fromkeys(notes)))
+                   drivable=drivable, edges=edges, spawn_regions=spawns, junction_area=junction_area,
+                   notes=list(dict.fromkeys(notes)))
 
 
 def _signal_groups(specs: list[ArmSpec], angles: list[float]) -> list[int]:

@@ -25,6 +25,9 @@ def plot_map(roadmap: RoadMap, path: str | Path, title: str | None = None) -> Pa
     fig, ax = plt.subplots(figsize=(7, 7))
     for poly in roadmap.drivable:
         ax.fill(poly[:, 0], poly[:, 1], color="0.85", zorder=0, lw=0)
+    if len(roadmap.junction_area):
+        area = np.vstack([roadmap.junction_area, roadmap.junction_area[:1]])
+        ax.plot(area[:, 0], area[:, 1], color="tab:red", lw=0.8, ls=":", zorder=4, label="junction area")
     for cw in roadmap.crosswalks:
         ax.fill(cw.polygon[:, 0], cw.polygon[:, 1], facecolor="white", edgecolor="0.3", hatch="||", zorder=1, lw=0.5)
     for edge in roadmap.edges:
@@ -47,6 +50,7 @@ def plot_map(roadmap: RoadMap, path: str | Path, title: str | None = None) -> Pa
                     xytext=(0, 4), textcoords="offset points")
     handles = [plt.Line2D([], [], color=c, label=m) for m, c in MOVEMENT_COLOURS.items()
                if any(x.movement == m for x in roadmap.connectors)]
+    handles.append(plt.Line2D([], [], color="tab:red", ls=":", label="junction area"))
     handles += [plt.Line2D([], [], marker="s", ls="", color=GROUP_COLOURS[g], label=f"signal group {g}")
                 for g in sorted({h.group for h in roadmap.signals})]
     ax.legend(handles=handles, loc="lower left", fontsize=7, framealpha=0.9)

@@ -156,6 +156,9 @@ class RoadMap:
         phases: the signal plan: phase k makes the groups in ``phases[k]`` green.
         drivable: drivable polygons (junction area and each arm's carriageway).
         edges: road-edge polylines cars collide with.
+        junction_area: polygon of the junction out to the stop lines (or past the crosswalks of
+            outbound-only arms): a car is "in the junction" inside it (right-of-way timing,
+            light seen before entering).
         notes: what the importer changed or assumed (cut roads, default lane counts, ...).
     """
 
@@ -172,6 +175,7 @@ class RoadMap:
     drivable: list[np.ndarray]
     edges: list[np.ndarray]
     spawn_regions: list[SpawnRegion]
+    junction_area: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     notes: list[str] = field(default_factory=list)
 
     # ---- queries -------------------------------------------------------------------------------
@@ -212,6 +216,7 @@ class RoadMap:
             body[key] = [asdict(x) for x in getattr(self, key)]
         body["drivable"] = list(self.drivable)
         body["edges"] = list(self.edges)
+        body["junction_area"] = self.junction_area
         return clean({"format": FORMAT, "version": VERSION, **body})
 
     def save(self, path: str | Path, overwrite: bool = False) -> Path:
@@ -340,7 +345,8 @@ def _parse(data: Any, where: str) -> RoadMap:
     source = data.get("source", {})
     if not isinstance(source, dict):
         raise MapError(f"{where}: 'source' must be an object")
+    area = _pts(_need(data, "junction_area", where), f"{where}: junction_area", 3)
     return RoadMap(name=str(data.get("name", "")), source=source, size_m=float(data.get("size_m", 0.0)),
                    arms=arms, lanes=lanes, connectors=connectors, stop_lines=stop_lines, signals=signals,
                    phases=phases if signals else [], crosswalks=crosswalks, drivable=drivable, edges=edges,
-                   spawn_regions=spawns, notes=[str(n) for n in data.get("notes", [])])
+                   spawn_regions=spawns, junction_area=area, notes=[str(n) for n in data.get("notes", [])])
