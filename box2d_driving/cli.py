@@ -1,7 +1,8 @@
 """The ``box2d-driving`` command.
 
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
-world speed benchmark), ``import-osm`` (a real junction from an OpenStreetMap file to a map JSON), ``train lights|crosswalk|lanes|fast-lanes`` and ``evaluate`` (the training scripts). Bad
+world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an OpenStreetMap file or a nuScenes
+map-expansion JSON to a map JSON), ``train lights|crosswalk|lanes|fast-lanes`` and ``evaluate`` (the training scripts). Bad
 arguments print one line and exit with status 2.
 """
 
@@ -93,7 +94,29 @@ def _import_osm(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not args.overwrite:
         raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
-    roadmap = import_junction(args.file, where, ImportConfig(size_m=args.size))
+    _report_map(import_junction(args.file, where, ImportConfig(size_m=args.size)), out, args)
+    return 0
+
+
+def _import_nuscenes(args: argparse.Namespace) -> int:
+    from box2d_driving.maps import ImportConfig
+    from box2d_driving.maps.nuscenes import import_patch
+
+    centre = args.segment
+    if args.centre is not None:
+        try:
+            x, y = (float(v) for v in args.centre.split(","))
+        except ValueError:
+            raise ValueError(f"--centre expects X,Y, got {args.centre!r}") from None
+        centre = (x, y)
+    out = Path(args.out)
+    if out.exists() and not args.overwrite:
+        raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+    _report_map(import_patch(args.file, centre, ImportConfig(size_m=args.size)), out, args)
+    return 0
+
+
+def _report_map(roadmap, out: Path, args: argparse.Namespace) -> None:
     roadmap.save(out, overwrite=args.overwrite)
     arms = ", ".join(f"{a.name or a.id} ({len(a.lanes_in)} in/{len(a.lanes_out)} out)" for a in roadmap.arms)
     print(f"wrote {out}: {len(roadmap.arms)} arms [{arms}], {len(roadmap.connectors)} connectors, "
@@ -104,7 +127,6 @@ def _import_osm(args: argparse.Namespace) -> int:
         from box2d_driving.maps.plot import plot_map
 
         print(f"wrote {plot_map(roadmap, args.png)}")
-    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -137,6 +159,16 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
     m.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
     m.set_defaults(func=_import_osm)
+
+    n = sub.add_parser("import-nuscenes", help="import a junction from a nuScenes map-expansion JSON")
+    n.add_argument("file", help="map-expansion JSON (e.g. boston-seaport.json)")
+    n.add_argument("--centre", help="X,Y (map metres) inside or near the intersection")
+    n.add_argument("--segment", help="or the intersection's road_segment token")
+    n.add_argument("--size", type=float, default=100.0, help="side of the square cut out (m, default 100)")
+    n.add_argument("--out", required=True, help="map JSON to write")
+    n.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
+    n.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    n.set_defaults(func=_import_nuscenes)
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
                    add_help=False)

@@ -274,9 +274,7 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
                     continue
                 connectors.append(Connector(id=len(connectors), from_lane=fl, to_lane=tl, movement=movement,
                                             path=path, min_radius=radius))
-    for c in connectors:
-        c.conflicts = [d.id for d in connectors if d.from_lane != c.from_lane
-                       and (d.to_lane == c.to_lane or geo.polylines_cross(c.path, d.path))]
+    mark_conflicts(connectors)
     served = {c.from_lane for c in connectors}
     for lane in lanes:
         if lane.direction == "in" and lane.id not in served:
@@ -286,7 +284,7 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
     signals: list[SignalHead] = []
     phases: list[list[int]] = []
     if signalled or any(s.signals for s in specs):
-        groups = _signal_groups(specs, angles)
+        groups = signal_groups(angles, [s.lanes_in for s in specs], [s.lanes_out for s in specs])
         for i, spec in enumerate(specs):
             line = next((s for s in stop_lines if s.arm == i), None)
             if line is None:
@@ -312,9 +310,16 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
                    notes=list(dict.fromkeys(notes)))
 
 
-def _signal_groups(specs: list[ArmSpec], angles: list[float]) -> list[int]:
+def mark_conflicts(connectors: list[Connector]) -> None:
+    """Connectors from different lanes conflict if their paths cross or they end on one lane."""
+    for c in connectors:
+        c.conflicts = [d.id for d in connectors if d.from_lane != c.from_lane
+                       and (d.to_lane == c.to_lane or geo.polylines_cross(c.path, d.path))]
+
+
+def signal_groups(angles: list[float], lanes_in: list[int], lanes_out: list[int]) -> list[int]:
     """Two-phase plan: the busiest approach and the approaches roughly opposite it (or parallel
-    to it) are group 0; the crossing approaches are group 1."""
-    lead = max(range(len(specs)), key=lambda i: (specs[i].lanes_in, specs[i].lanes_in + specs[i].lanes_out))
+    to it) are group 0; the crossing approaches are group 1. ``angles``: outward arm directions."""
+    lead = max(range(len(angles)), key=lambda i: (lanes_in[i], lanes_in[i] + lanes_out[i]))
     return [0 if abs(math.cos(angles[i] - angles[lead])) >= math.cos(math.radians(45)) else 1
-            for i in range(len(specs))]
+            for i in range(len(angles))]

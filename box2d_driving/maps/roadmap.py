@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Optional, Union
 
 import numpy as np
 
@@ -52,7 +52,7 @@ class Arm:
         mouth: arc length along ``centreline`` where the arm's own carriageway starts (m).
         lanes_in / lanes_out: lane ids towards / away from the junction.
         cut: the road was cut short (extract edge or data end), not by ``size_m``.
-        source_ids: ids of the source objects (OSM ways) the arm was built from.
+        source_ids: ids of the source objects (OSM ways, nuScenes lane tokens) it was built from.
     """
 
     id: int
@@ -63,7 +63,7 @@ class Arm:
     lanes_in: list[int]
     lanes_out: list[int]
     cut: bool = False
-    source_ids: list[int] = field(default_factory=list)
+    source_ids: list[Union[int, str]] = field(default_factory=list)
 
 
 @dataclass
@@ -121,7 +121,7 @@ class SignalHead:
     arm: int
     group: int
     position: np.ndarray
-    source_id: Optional[int] = None
+    source_id: Optional[Union[int, str]] = None
     inferred: bool = False
 
 
@@ -134,7 +134,7 @@ class Crosswalk:
     s: float
     polygon: np.ndarray
     kind: str = "unknown"
-    source_id: Optional[int] = None
+    source_id: Optional[Union[int, str]] = None
 
 
 @dataclass
