@@ -1,9 +1,10 @@
 """The ``box2d-driving`` command.
 
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
-world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an OpenStreetMap file or a nuScenes
-map-expansion JSON to a map JSON), ``train lights|crosswalk|lanes|fast-lanes`` and ``evaluate`` (the training scripts). Bad
-arguments print one line and exit with status 2.
+world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
+OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
+``train lights|crosswalk|lanes|fast-lanes|real-junction`` and ``evaluate`` (the training scripts).
+Bad arguments print one line and exit with status 2.
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
                    add_help=False)
-    sub.add_parser("train", help="train: `train lights|crosswalk|lanes|fast-lanes [options]` (`train lights --help`)",
+    sub.add_parser("train", help="train: `train lights|crosswalk|lanes|fast-lanes|real-junction [options]` (`train lights --help`)",
                    add_help=False)
     sub.add_parser("evaluate", help="evaluate a checkpoint or scripted policy (`evaluate --help`)",
                    add_help=False)
@@ -180,7 +181,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 TRAINERS = {"lights": "training.traffic_lights", "crosswalk": "training.crosswalk",
-            "lanes": "training.lanes", "fast-lanes": "training.fast_lanes"}
+            "lanes": "training.lanes", "fast-lanes": "training.fast_lanes",
+            "real-junction": "training.real_junction"}
 
 
 def _delegate(argv: list[str]) -> int:

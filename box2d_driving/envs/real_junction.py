@@ -23,7 +23,7 @@ from box2d_driving.config import ConfigError, DrivingConfig
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.maps import geometry as geo
 from box2d_driving.maps.roadmap import MapError, RoadMap
-from box2d_driving.maps.shipped import get_map, shipped_maps
+from box2d_driving.maps.shipped import get_map
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
 from box2d_driving.road.lights import sample_lights

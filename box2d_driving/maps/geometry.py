@@ -121,3 +121,83 @@ def min_radius(points: np.ndarray) -> float:
     with np.errstate(divide="ignore"):
         r = ab * bc * ca / (2.0 * area2)
     return float(np.min(r)) if np.isfinite(r).any() else float("inf")
+
+
+def clip_ring_to_square(points: np.ndarray, half: float) -> list[np.ndarray]:
+    """Parts of a closed ring inside the square ``|x|, |y| <= half``, as polylines."""
+    ring = np.vstack([points, points[:1]])
+    pieces: list[list[np.ndarray]] = []
+    current: list[np.ndarray] = []
+    for a, b in zip(ring[:-1], ring[1:]):
+        t0, t1, d = 0.0, 1.0, b - a
+        ok = True
+        for p, q in ((-d[0], a[0] + half), (d[0], half - a[0]), (-d[1], a[1] + half), (d[1], half - a[1])):
+            if p == 0:
+                ok = ok and q >= 0
+            else:
+                t = q / p
+                if p < 0:
+                    t0 = max(t0, t)
+                else:
+                    t1 = min(t1, t)
+        if not ok or t0 > t1:
+            if len(current) > 1:
+                pieces.append(current)
+            current = []
+            continue
+        pa, pb = a + t0 * d, a + t1 * d
+        if current and np.linalg.norm(current[-1] - pa) > 1e-9:
+            if len(current) > 1:
+                pieces.append(current)
+            current = []
+        if not current:
+            current = [pa]
+        current.append(pb)
+    if len(current) > 1:
+        pieces.append(current)
+    return [dedupe(np.array(p)) for p in pieces if len(dedupe(np.array(p))) > 1]
+
+
+def clip_polygon_to_square(poly: np.ndarray, half: float) -> np.ndarray:
+    """Sutherland-Hodgman clip of a polygon to the square ``|x|, |y| <= half``."""
+    out = [p for p in poly]
+    for axis, sign in ((0, 1), (0, -1), (1, 1), (1, -1)):
+        src, out = out, []
+        if not src:
+            break
+        for k, cur in enumerate(src):
+            prev = src[k - 1]
+            cur_in, prev_in = sign * cur[axis] <= half, sign * prev[axis] <= half
+            if cur_in != prev_in:
+                t = (sign * half - prev[axis]) / (cur[axis] - prev[axis])
+                out.append(prev + t * (cur - prev))
+            if cur_in:
+                out.append(cur)
+    return np.array(out) if len(out) >= 3 else np.zeros((0, 2))
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Convex hull (counter-clockwise), monotone chain."""
+    pts = sorted(map(tuple, np.round(points, 9)))
+    if len(pts) < 3:
+        return np.array(pts)
+
+    def half(seq):
+        h: list = []
+        for p in seq:
+            while len(h) >= 2 and ((h[-1][0] - h[-2][0]) * (p[1] - h[-2][1]) - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])) <= 0:
+                h.pop()
+            h.append(p)
+        return h
+
+    lower, upper = half(pts), half(reversed(pts))
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def long_axis(poly: np.ndarray) -> np.ndarray:
+    """The segment along a thin polygon's long axis, through its centroid."""
+    c = poly.mean(axis=0)
+    _, _, vt = np.linalg.svd(poly - c)
+    u = vt[0]
+    proj = (poly - c) @ u
+    return np.array([c + proj.min() * u, c + proj.max() * u])

@@ -102,86 +102,6 @@ class _Layers:
         return geo.dedupe(np.vstack([arcline_points(p) for p in paths]))
 
 
-def _clip_segments(points: np.ndarray, half: float) -> list[np.ndarray]:
-    """Parts of a closed ring inside the square ``|x|, |y| <= half``, as polylines."""
-    ring = np.vstack([points, points[:1]])
-    pieces: list[list[np.ndarray]] = []
-    current: list[np.ndarray] = []
-    for a, b in zip(ring[:-1], ring[1:]):
-        t0, t1, d = 0.0, 1.0, b - a
-        ok = True
-        for p, q in ((-d[0], a[0] + half), (d[0], half - a[0]), (-d[1], a[1] + half), (d[1], half - a[1])):
-            if p == 0:
-                ok = ok and q >= 0
-            else:
-                t = q / p
-                if p < 0:
-                    t0 = max(t0, t)
-                else:
-                    t1 = min(t1, t)
-        if not ok or t0 > t1:
-            if len(current) > 1:
-                pieces.append(current)
-            current = []
-            continue
-        pa, pb = a + t0 * d, a + t1 * d
-        if current and np.linalg.norm(current[-1] - pa) > 1e-9:
-            if len(current) > 1:
-                pieces.append(current)
-            current = []
-        if not current:
-            current = [pa]
-        current.append(pb)
-    if len(current) > 1:
-        pieces.append(current)
-    return [geo.dedupe(np.array(p)) for p in pieces if len(geo.dedupe(np.array(p))) > 1]
-
-
-def _clip_polygon(poly: np.ndarray, half: float) -> np.ndarray:
-    """Sutherland-Hodgman clip of a polygon to the square ``|x|, |y| <= half``."""
-    out = [p for p in poly]
-    for axis, sign in ((0, 1), (0, -1), (1, 1), (1, -1)):
-        src, out = out, []
-        if not src:
-            break
-        for k, cur in enumerate(src):
-            prev = src[k - 1]
-            cur_in, prev_in = sign * cur[axis] <= half, sign * prev[axis] <= half
-            if cur_in != prev_in:
-                t = (sign * half - prev[axis]) / (cur[axis] - prev[axis])
-                out.append(prev + t * (cur - prev))
-            if cur_in:
-                out.append(cur)
-    return np.array(out) if len(out) >= 3 else np.zeros((0, 2))
-
-
-def _hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull (counter-clockwise), monotone chain."""
-    pts = sorted(map(tuple, np.round(points, 9)))
-    if len(pts) < 3:
-        return np.array(pts)
-
-    def half(seq):
-        h: list = []
-        for p in seq:
-            while len(h) >= 2 and ((h[-1][0] - h[-2][0]) * (p[1] - h[-2][1]) - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])) <= 0:
-                h.pop()
-            h.append(p)
-        return h
-
-    lower, upper = half(pts), half(reversed(pts))
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def _long_axis(poly: np.ndarray) -> np.ndarray:
-    """The segment along a thin polygon's long axis, through its centroid."""
-    c = poly.mean(axis=0)
-    _, _, vt = np.linalg.svd(poly - c)
-    u = vt[0]
-    proj = (poly - c) @ u
-    return np.array([c + proj.min() * u, c + proj.max() * u])
-
-
 def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, float], str, None] = None,
                  cfg: Optional[ImportConfig] = None, name: Optional[str] = None) -> RoadMap:
     """The junction of a nuScenes map-expansion file (or its parsed dict) at ``centre`` (x, y in
@@ -318,7 +238,7 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
         s = float(c @ arms[k].centreline[-1] / np.linalg.norm(arms[k].centreline[-1]))
         prev = next((x for x in stop_lines if x.arm == k), None)
         if prev is None or s < prev.s:
-            stop_lines = [x for x in stop_lines if x.arm != k] + [StopLine(arm=k, s=s, segment=_long_axis(poly))]
+            stop_lines = [x for x in stop_lines if x.arm != k] + [StopLine(arm=k, s=s, segment=geo.long_axis(poly))]
     for arm in arms:
         if arm.lanes_in and not any(x.arm == arm.id for x in stop_lines):
             ends = np.array([lanes[t].centreline[-1] for t in arm.lanes_in])
@@ -361,14 +281,14 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
     for rec in data.get("drivable_area", []):
         for token in rec.get("polygon_tokens", []):
             ring = local(L.polygon_ring(token))
-            clipped = _clip_polygon(ring, half)
+            clipped = geo.clip_polygon_to_square(ring, half)
             if len(clipped):
                 drivable.append(clipped)
             for r in [ring] + [local(h) for h in L.polygon_holes(token)]:
-                edges += _clip_segments(r, half)
+                edges += geo.clip_ring_to_square(r, half)
     if not edges:
         raise MapError(f"{where}: no drivable_area boundary near intersection {seg['token']!r}")
-    area = _hull(np.vstack([jpoly] + [x.segment for x in stop_lines]))
+    area = geo.convex_hull(np.vstack([jpoly] + [x.segment for x in stop_lines]))
 
     spawns = []
     for lane in lanes:

@@ -35,7 +35,7 @@ from box2d_driving.maps.build import ArmSpec, arm_angle, build_map
 from box2d_driving.maps.config import ImportConfig
 from box2d_driving.maps.osm_data import LocalFrame, OsmData, read_osm
 from box2d_driving.maps.roadmap import MapError, RoadMap
-from box2d_driving.road.geometry import Path
+from box2d_driving.road.geometry import Path as TrackPath
 
 LICENCE = {"licence": "ODbL-1.0", "attribution": "(c) OpenStreetMap contributors",
            "licence_url": "https://opendatacommons.org/licenses/odbl/1-0/"}
@@ -329,7 +329,7 @@ def _attach_signals_and_crossings(g: _Graph, data: OsmData, frame: LocalFrame,
 
     def along(spec: ArmSpec, p: np.ndarray) -> tuple[float, float]:
         """Arc length of the closest axis point to ``p`` and the distance to it (m)."""
-        path = Path.from_points(spec.centreline)
+        path = TrackPath.from_points(spec.centreline)
         s = path.project(p)
         return s, float(np.linalg.norm(path.pose(s)[0] - p))
 
