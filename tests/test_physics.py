@@ -7,7 +7,7 @@ import pytest
 
 import box2d_driving
 from box2d_driving.physics.kinematics import advance_speed
-from box2d_driving.road.geometry import Path, spline_path
+from box2d_driving.road.geometry import spline_path
 from box2d_driving.road.layout import PedestrianSpawn
 from box2d_driving.registry import registry
 from tests.helpers import hand_env, level_index, straight_car

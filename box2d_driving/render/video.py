@@ -7,7 +7,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
 
-import numpy as np
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
 
