@@ -62,6 +62,11 @@ def test_leader_gap_and_closing_speed():
     assert 1 not in s["row"].tolist()  # car 1 has nobody ahead within 30 degrees
 
 
+def test_an_oncoming_car_is_not_a_leader():
+    rows = [(0, 0, 1, 0.0, 0.0, 0.0, 8.0), (0, 1, 1, 20.0, 3.5, np.pi, 8.0)]  # next lane, other way
+    assert len(leader_samples(table_from_rows(rows, SAFE_COLS), car_length=4.48)["row"]) == 0
+
+
 def test_safety_share_uses_v2_over_2a():
     # closing 6 m/s, a_max 1.5 -> needs 12 m; gap 10 m unsafe, 13 m safe; an opening pair is ignored
     rows = [(0, 0, 1, 0.0, 0.0, 0.0, 8.0), (0, 1, 1, 14.48, 0.0, 0.0, 2.0),

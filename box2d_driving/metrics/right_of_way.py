@@ -7,9 +7,11 @@ same episode entered after it (``t_a(i) < t_a(j)``) but left before it (``t_d(j)
 Times are decisions (1 s), so cars entering or leaving on the same decision are never ordered.
 
 Safe distance: for every row, the nearest other live car whose centre lies within
-``half_angle`` of the car's heading is its leader; ``gap`` = centre distance - car length
-(bumper to bumper when aligned), closing speed ``dv`` = the rate at which the centre distance
-shrinks. Samples with ``dv > 0`` count; one is safe if ``gap >= dv^2 / (2 a_max)``.
+``half_angle`` of the car's heading and that travels the same way (headings less than
+``same_way`` apart: the car is *trailing* it; an oncoming car in the next lane is not a leader)
+is its leader; ``gap`` = centre distance - car length (bumper to bumper when aligned), closing
+speed ``dv`` = the rate at which the centre distance shrinks. Samples with ``dv > 0`` count; one
+is safe if ``gap >= dv^2 / (2 a_max)``.
 """
 
 from __future__ import annotations
@@ -73,8 +75,8 @@ def fifo_metrics(table: dict[str, np.ndarray]) -> dict:
     }
 
 
-def leader_samples(table: dict[str, np.ndarray], car_length: float,
-                   half_angle: float = math.pi / 6) -> dict[str, np.ndarray]:
+def leader_samples(table: dict[str, np.ndarray], car_length: float, half_angle: float = math.pi / 6,
+                   same_way: float = math.pi / 2) -> dict[str, np.ndarray]:
     """Per row with a leader within ``half_angle`` ahead: ``gap`` (m), ``closing_speed`` (m/s),
     ``speed`` (m/s), ``row`` (index into the table)."""
     ep, dec = table["episode"], table["decision"]
@@ -92,7 +94,8 @@ def leader_samples(table: dict[str, np.ndarray], car_length: float,
         dist = np.linalg.norm(rel, axis=2)
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - head[:, None]
         bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
-        ahead = (np.abs(bearing) <= half_angle) & (dist > 0)
+        turn = np.abs((head[None, :] - head[:, None] + np.pi) % (2 * np.pi) - np.pi)
+        ahead = (np.abs(bearing) <= half_angle) & (dist > 0) & (turn < same_way)
         dist_ahead = np.where(ahead, dist, np.inf)
         lead = np.argmin(dist_ahead, axis=1)
         for i in np.flatnonzero(np.isfinite(dist_ahead[np.arange(len(group)), lead])):
