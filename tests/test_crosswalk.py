@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import box2d_driving
+from box2d_driving.config import ConfigError
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, stopping_distance
 from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLUMNS, OPTIONAL_COLUMNS
 
@@ -113,3 +114,27 @@ def test_pedestrian_oracle_never_hits_a_pedestrian_where_full_throttle_does():
     assert oracle["pedestrian_collision_rate"] == 0.0
     assert oracle["success_rate"] >= 0.9
     assert oracle["safe_stopping_share"] > blind["safe_stopping_share"]
+
+
+def test_crosswalk_ahead_in_the_satnav_rises_to_one_then_drops_to_zero():
+    env = box2d_driving.make("crosswalk-v0", num_cars=1, crosswalk_in_satnav=True, pedestrians_range=(0, 0))
+    lay = env.observation_layout
+    assert "crosswalk_ahead" in lay.satnav_fields
+    assert box2d_driving.make("crosswalk-v0").observation_layout.satnav_fields[-1] == "inv_goal_distance"
+    cfg = env.config
+    obs, infos = env.reset(seed=0)
+    values, distances = [], []
+    while env.agents:
+        _, satnav = lay.split(obs["car_0"])
+        values.append(float(satnav[-1, lay.field("crosswalk_ahead")]))
+        distances.append(infos["car_0"]["crosswalk_distance"])
+        obs, _, _, _, infos = env.step({"car_0": len(cfg.accelerations) - 1})
+    values, distances = np.array(values), np.array(distances)
+    far = distances > cfg.crosswalk_view
+    assert np.all(values[far] == 0.0)
+    near = (distances > 0) & ~far
+    np.testing.assert_allclose(values[near], 1.0 - distances[near] / cfg.crosswalk_view, atol=1e-6)
+    past = distances < -(cfg.crosswalk_x[1] - cfg.crosswalk_x[0]) - cfg.car_length
+    assert past.any() and np.all(values[past] == 0.0)
+    with pytest.raises(ConfigError, match="crosswalk_view"):
+        box2d_driving.make("crosswalk-v0", crosswalk_view=0.0)

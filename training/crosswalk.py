@@ -22,11 +22,18 @@ from training.scripts import ScriptArgs, run_script  # noqa: E402
 
 @dataclass
 class Args(ScriptArgs):
-    """Train cars to slow down for pedestrians on crosswalk-v0."""
+    """Train cars to slow down for pedestrians on crosswalk-v0.
+
+    crosswalk_in_satnav: the sat-nav also tells how far ahead the crosswalk is (not in the paper)
+    """
 
     num_cars: int = 4
     timesteps: int = 3_000_000
     out: str = "runs/crosswalk"
+    crosswalk_in_satnav: bool = False
+
+    def env_overrides(self) -> dict:
+        return {"crosswalk_in_satnav": self.crosswalk_in_satnav}
 
 
 def main(argv: Optional[list[str]] = None) -> int:

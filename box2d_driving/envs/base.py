@@ -84,6 +84,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         bounds = {
             "light": (0.0, 1.0), "speed": (0.0, 1.0), "heading_error": (-math.pi, math.pi),
             "inv_goal_distance": (0.0, 1.0), "rating": (0.0, 1.0), "bit_received": (0.0, 1.0),
+            "crosswalk_ahead": (0.0, 1.0),
         }
         lidar_high = np.inf if self.config.lidar_encoding == "inverse" else 1.0
         low = np.concatenate([np.zeros(lay.history * lay.n_rays),

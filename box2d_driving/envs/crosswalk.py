@@ -37,6 +37,11 @@ class CrosswalkConfig(HighwayConfig):
         pedestrian_size: pedestrian square side (m).
         ahead_half_angle: a pedestrian within this angle of a car's heading is "ahead" (rad).
         pedestrians_turn_back: pedestrians walk back and forth instead of crossing once.
+        crosswalk_in_satnav: add ``crosswalk_ahead`` to the sat-nav (the map knows where the
+            crosswalk is; not in the paper, whose cars can tell their position along the road
+            only from ``1 / distance_to_goal``): ``1 - d / crosswalk_view`` for the distance
+            ``d`` from the car's front to the crosswalk (clipped to [0, 1]), 1 on it, 0 once past.
+        crosswalk_view: range of ``crosswalk_ahead`` (m).
     """
 
     num_cars: int = 4
@@ -54,6 +59,8 @@ class CrosswalkConfig(HighwayConfig):
     pedestrian_size: float = 0.8
     ahead_half_angle: float = math.pi / 6
     pedestrians_turn_back: bool = False
+    crosswalk_in_satnav: bool = False
+    crosswalk_view: float = 50.0
 
     def _validate(self) -> None:
         super()._validate()
@@ -68,6 +75,10 @@ class CrosswalkConfig(HighwayConfig):
         c0, c1 = self.crosswalk_x
         if not (self.x_start < c0 < c1 < self.x_start + self.road_length):
             raise ConfigError("crosswalk_x must lie on the road")
+        if not isinstance(self.crosswalk_in_satnav, bool):
+            raise ConfigError(f"crosswalk_in_satnav must be True or False, got {self.crosswalk_in_satnav!r}")
+        if self.crosswalk_view <= 0:
+            raise ConfigError("crosswalk_view must be positive")
         if c1 - c0 < self.pedestrian_size:
             raise ConfigError("the crosswalk must be wider than a pedestrian")
         if self.x_start + self.last_slot() + self.spawn_jitter + self.car_length / 2 >= c0:
@@ -84,7 +95,10 @@ class CrosswalkEnv(HighwayEnv):
     """Highway with pedestrians crossing; cars must see them with the LiDAR and slow down."""
 
     config_class = CrosswalkConfig
-    satnav_extras = ()
+
+    @property
+    def satnav_extras(self) -> tuple[str, ...]:
+        return ("crosswalk_ahead",) if self.config.crosswalk_in_satnav else ()
     metadata = {**DrivingEnv.metadata, "name": "crosswalk_v0"}
 
     def _finish_layout(self, rng: np.random.Generator, layout: Layout) -> Layout:
@@ -108,7 +122,14 @@ class CrosswalkEnv(HighwayEnv):
         return dataclasses.replace(layout, pedestrians=peds, crosswalk=crosswalk)
 
     def satnav_extra_values(self) -> np.ndarray:
-        return np.zeros((self.config.num_cars, 0))
+        cfg = self.config
+        if not cfg.crosswalk_in_satnav:
+            return np.zeros((cfg.num_cars, 0))
+        w = self.world
+        front = w.positions[:, 0] + 0.5 * cfg.car_length * np.cos(w.headings)
+        rear = w.positions[:, 0] - 0.5 * cfg.car_length * np.cos(w.headings)
+        ahead = np.clip(1.0 - (cfg.crosswalk_x[0] - front) / cfg.crosswalk_view, 0.0, 1.0)
+        return np.where(rear > cfg.crosswalk_x[1], 0.0, ahead)[:, None]
 
     def scenario_info(self, cars: np.ndarray) -> list[dict]:
         """``pedestrian_distance``: centre distance (m) to the nearest pedestrian within
