@@ -79,22 +79,29 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _float_pair(text: str, flag: str, names: str) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"{flag} expects {names}, got {text!r}") from None
+    return a, b
+
+
+def _new_output(args: argparse.Namespace) -> Path:
+    out = Path(args.out)
+    if out.exists() and not args.overwrite:
+        raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+    return out
+
+
 def _import_osm(args: argparse.Namespace) -> int:
     from box2d_driving.maps import ImportConfig
     from box2d_driving.maps.osm import import_junction
 
     if (args.node is None) == (args.latlon is None):
         raise ValueError("give exactly one of --node ID or --latlon LAT,LON")
-    where = args.node
-    if args.latlon is not None:
-        try:
-            lat, lon = (float(v) for v in args.latlon.split(","))
-        except ValueError:
-            raise ValueError(f"--latlon expects LAT,LON, got {args.latlon!r}") from None
-        where = (lat, lon)
-    out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+    where = args.node if args.latlon is None else _float_pair(args.latlon, "--latlon", "LAT,LON")
+    out = _new_output(args)
     _report_map(import_junction(args.file, where, ImportConfig(size_m=args.size)), out, args)
     return 0
 
@@ -103,16 +110,8 @@ def _import_nuscenes(args: argparse.Namespace) -> int:
     from box2d_driving.maps import ImportConfig
     from box2d_driving.maps.nuscenes import import_patch
 
-    centre = args.segment
-    if args.centre is not None:
-        try:
-            x, y = (float(v) for v in args.centre.split(","))
-        except ValueError:
-            raise ValueError(f"--centre expects X,Y, got {args.centre!r}") from None
-        centre = (x, y)
-    out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+    centre = args.segment if args.centre is None else _float_pair(args.centre, "--centre", "X,Y")
+    out = _new_output(args)
     _report_map(import_patch(args.file, centre, ImportConfig(size_m=args.size)), out, args)
     return 0
 

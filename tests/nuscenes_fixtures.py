@@ -29,24 +29,21 @@ class _Builder:
         self.n += 1
         return f"{kind}-{self.n:04d}"
 
-    def polygon(self, points) -> str:
-        nodes = []
+    def nodes(self, points) -> list[str]:
+        tokens = []
         for x, y in np.asarray(points, float) + CENTRE:
-            t = self.token("node")
-            self.data["node"].append({"token": t, "x": float(x), "y": float(y)})
-            nodes.append(t)
+            tokens.append(self.token("node"))
+            self.data["node"].append({"token": tokens[-1], "x": float(x), "y": float(y)})
+        return tokens
+
+    def polygon(self, points) -> str:
         t = self.token("poly")
-        self.data["polygon"].append({"token": t, "exterior_node_tokens": nodes, "holes": []})
+        self.data["polygon"].append({"token": t, "exterior_node_tokens": self.nodes(points), "holes": []})
         return t
 
     def line(self, points) -> str:
-        nodes = []
-        for x, y in np.asarray(points, float) + CENTRE:
-            t = self.token("node")
-            self.data["node"].append({"token": t, "x": float(x), "y": float(y)})
-            nodes.append(t)
         t = self.token("line")
-        self.data["line"].append({"token": t, "node_tokens": nodes})
+        self.data["line"].append({"token": t, "node_tokens": self.nodes(points)})
         return t
 
 

@@ -18,7 +18,6 @@ same :class:`RoadMap` the OSM importer does, with nuScenes' own geometry:
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any, Optional, Union
@@ -29,7 +28,7 @@ from box2d_driving.maps import geometry as geo
 from box2d_driving.maps.build import mark_conflicts, signal_groups
 from box2d_driving.maps.config import ImportConfig
 from box2d_driving.maps.roadmap import (Arm, Connector, Crosswalk, Lane, MapError, RoadMap, SignalHead,
-                                        SpawnRegion, StopLine)
+                                        SpawnRegion, StopLine, read_json)
 from box2d_driving.road.geometry import Path as TrackPath
 
 LICENCE = {"licence": "nuScenes terms of use (CC BY-NC-SA 4.0)", "attribution": "nuScenes map expansion (Motional)"}
@@ -109,16 +108,7 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
     :class:`MapError` names what is missing or malformed."""
     cfg = cfg or ImportConfig()
     where = "nuScenes map" if isinstance(source, dict) else str(source)
-    if isinstance(source, dict):
-        data = source
-    else:
-        path = Path(source)
-        if not path.is_file():
-            raise MapError(f"nuScenes map file {path} does not exist")
-        try:
-            data = json.loads(path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise MapError(f"{path} is not valid JSON: {exc}") from None
+    data = source if isinstance(source, dict) else read_json(source, "nuScenes map file")
     L = _Layers(data, where)
     seg = _pick_intersection(L, centre)
     jpoly_abs = L.polygon_ring(seg["polygon_token"])

@@ -235,16 +235,20 @@ class RoadMap:
         return _parse(data, where)
 
 
-def load_map(path: str | Path) -> RoadMap:
-    """Read and validate a map JSON file (:class:`MapError` naming the problem if malformed)."""
+def read_json(path: str | Path, what: str) -> Any:
+    """Parsed JSON of ``path``; :class:`MapError` if it is missing or not JSON."""
     path = Path(path)
     if not path.is_file():
-        raise MapError(f"map file {path} does not exist")
+        raise MapError(f"{what} {path} does not exist")
     try:
-        data = json.loads(path.read_text())
+        return json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise MapError(f"{path} is not valid JSON: {exc}") from None
-    return _parse(data, str(path))
+
+
+def load_map(path: str | Path) -> RoadMap:
+    """Read and validate a map JSON file (:class:`MapError` naming the problem if malformed)."""
+    return _parse(read_json(path, "map file"), str(path))
 
 
 def _need(obj: dict, key: str, where: str) -> Any:
