@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Communication on real junctions (SPEC 6.4): 8 cars with the 1-bit message at LiDAR noise 0,
+# 0.25, 0.5 and 0.75, MINUTES of training each (entropy 1e-4 without noise, 1e-2 with, as the
+# paper), then 200-episode deterministic evaluations, a markdown table and a plot of speaker
+# consistency and the heading-change / bit correlations against noise. Resumable: finished runs
+# and evaluations are skipped.
+#   bash training/experiments/communication_noise.sh [MINUTES] [OUT]
+set -euo pipefail
+MINUTES=${1:-30}
+OUT=${2:-runs/communication}
+cd "$(dirname "$0")/../.."
+mkdir -p "$OUT"
+run() {  # name, noise, entropy
+  local name=$1 noise=$2 ent=$3
+  if [ ! -f "$OUT/$name/model.zip" ]; then
+    python training/real_junction.py --communication --num-cars 8 --lidar-noise "$noise" --ent-coef "$ent" \
+      --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" > "$OUT/$name.log" 2>&1
+  fi
+  if [ ! -f "$OUT/$name/eval/metrics.json" ]; then
+    python training/evaluate.py --checkpoint "$OUT/$name" --episodes 200 --out "$OUT/$name/eval" >> "$OUT/$name.log" 2>&1
+  fi
+}
+run noise0 0.0 0.0001
+run noise025 0.25 0.01
+run noise05 0.5 0.01
+run noise075 0.75 0.01
+python training/experiments/communication_table.py --out "$OUT/communication.png" \
+  0=$OUT/noise0/eval 0.25=$OUT/noise025/eval 0.5=$OUT/noise05/eval 0.75=$OUT/noise075/eval > "$OUT/table.md"
+cat "$OUT/table.md"
