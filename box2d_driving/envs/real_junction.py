@@ -69,14 +69,14 @@ class RealJunctionConfig(DrivingConfig):
                 raise ConfigError(f"map {name!r}: only two antiphase signal groups (0, 1) are supported")
         return maps
 
+    def slots(self, s_range: tuple[float, float]) -> int:
+        """Cars that fit on one spawn region at ``spawn_spacing``."""
+        lo, hi = _spawn_range(self, s_range)
+        return int((hi - lo) // self.spawn_spacing) + 1 if hi >= lo else 0
+
     def capacity(self, roadmap: RoadMap) -> int:
         """Cars that fit on the map's spawn regions at ``spawn_spacing``."""
-        total = 0
-        for region in roadmap.spawn_regions:
-            lo, hi = _spawn_range(self, region.s_range)
-            if hi >= lo:
-                total += int((hi - lo) // self.spawn_spacing) + 1
-        return total
+        return sum(self.slots(region.s_range) for region in roadmap.spawn_regions)
 
     def max_cars(self) -> int:
         if self.spawn_spacing <= self.car_length:
@@ -117,8 +117,7 @@ class RealJunctionEnv(DrivingEnv):
         # lanes in a random order, round-robin; positions on each lane without overlap
         regions = [m.spawn_regions[k] for k in rng.permutation(len(m.spawn_regions))]
         counts = np.zeros(len(regions), dtype=np.int64)
-        caps = [int((hi - lo) // cfg.spawn_spacing) + 1 if hi >= lo else 0
-                for lo, hi in (_spawn_range(cfg, r.s_range) for r in regions)]
+        caps = [cfg.slots(r.s_range) for r in regions]
         k = 0
         for _ in range(cfg.num_cars):
             while counts[k % len(regions)] >= caps[k % len(regions)]:

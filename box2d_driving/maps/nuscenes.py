@@ -163,7 +163,7 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
         line = lane_lines[t]
         inside = np.max(np.abs(line), axis=1) <= half
         idx = np.flatnonzero(inside)
-        lines[t] = line[idx[0]:idx[-1] + 1] if t in outbound else line[idx[0]:idx[-1] + 1]
+        lines[t] = line[idx[0]:idx[-1] + 1]
     junction_end = {t: (lines[t][-1] if t in inbound else lines[t][0]) for t in lines}
     bearing = {t: math.atan2(p[1], p[0]) for t, p in junction_end.items()}
     arms_of: list[list[str]] = []
