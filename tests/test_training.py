@@ -92,6 +92,50 @@ def test_masked_buffer_yields_only_live_transitions():
     assert buf.n_valid == int(alive.sum())
 
 
+def test_masked_buffer_by_step_keeps_each_step_together():
+    from gymnasium import spaces
+
+    steps, instances, cars = 5, 2, 3
+    obs_space = spaces.Box(-1, 1, (3,), np.float32)
+    buf = MaskedRolloutBuffer(steps, obs_space, spaces.Discrete(2), n_envs=instances * cars,
+                              alive_index=2, group_size=cars, gae_lambda=0.9, gamma=0.9)
+    rng = np.random.default_rng(0)
+    alive = (rng.random((steps, instances * cars)) < 0.7).astype(np.float32)
+    for t in range(steps):
+        obs = np.zeros((instances * cars, 3), np.float32)
+        obs[:, 2] = alive[t]
+        obs[:, 0] = t * 100 + np.arange(instances * cars)  # identifies the transition
+        buf.add(obs, np.zeros((instances * cars, 1)), np.ones(instances * cars), np.zeros(instances * cars),
+                th.zeros(instances * cars), th.zeros(instances * cars))
+    buf.compute_returns_and_advantage(th.zeros(instances * cars), np.zeros(instances * cars))
+    seen = np.concatenate([b.observations[:, 0].numpy() for b in buf.get(batch_size=4)]).astype(int)
+    expected = [t * 100 + s for t in range(steps) for s in range(instances * cars) if alive[t, s]]
+    assert sorted(seen.tolist()) == sorted(expected)  # each live transition exactly once
+    step_of = [(v // 100, (v % 100) // cars) for v in seen]  # (t, instance)
+    runs = [k for i, k in enumerate(step_of) if i == 0 or k != step_of[i - 1]]
+    assert len(runs) == len(set(runs))  # one env step's cars are never split up
+
+
+def test_critic_encodes_a_repeated_team_once_with_the_same_values():
+    th.manual_seed(0)
+    net, _ = _network()
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)] * 2)
+    venv.seed(3)
+    rows = [th.as_tensor(venv.reset())]
+    for _ in range(3):
+        rows.append(th.as_tensor(venv.step(np.zeros(8, dtype=int))[0]))
+    x = th.cat(rows)  # 4 steps x 2 instances x 4 cars, grouped by step
+    encoded = []
+    net.critic_encoder.register_forward_hook(lambda m, i, o: encoded.append(o.shape[0]))
+    grouped = net.forward_critic(x)
+    assert encoded == [8 * 4]  # 8 distinct teams of 4 cars, not 32 rows x 4 cars
+    one_by_one = th.cat([net.forward_critic(x[i:i + 1]) for i in range(x.shape[0])])
+    assert th.allclose(grouped, one_by_one, atol=1e-5)
+    interleaved = th.cat([x[0::2], x[1::2]])  # no repeats next to each other
+    order = th.cat([th.arange(0, 32, 2), th.arange(1, 32, 2)])
+    assert th.allclose(net.forward_critic(interleaved), grouped[order], atol=1e-5)
+
+
 def _network(critic="mean"):
     env = box2d_driving.make("intersection-v0", num_cars=4)
     kw = policy_kwargs_for(env, critic)
@@ -303,6 +347,41 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
         train(bad, tmp_path / "bad")
     with pytest.raises(RunError, match="no checkpoint"):
         train(_tiny(init_from=str(tmp_path / "nope")), tmp_path / "bad2")
+
+
+def test_init_from_widens_a_policy_to_the_communication_option(tmp_path):
+    from stable_baselines3 import PPO
+
+    from training.trainer import load_weights
+
+    train(_tiny(), tmp_path / "plain")
+    src = PPO.load(tmp_path / "plain" / "model.zip", device="cpu").policy
+    cfg = _tiny(env_overrides={"num_cars": 2, "horizon": 8, "communication": True})
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2, horizon=8, communication=True)])
+    model = build_model(cfg, venv)
+    load_weights(model, tmp_path / "plain")
+    plain_env = box2d_driving.make("intersection-v0", num_cars=2, horizon=8)
+    old_lay, new_lay = plain_env.observation_layout, venv.envs[0].observation_layout
+    assert new_lay.satnav_fields == old_lay.satnav_fields + ("bit_received",)
+    obs, _ = plain_env.reset(seed=4)
+    old_obs = th.as_tensor(np.stack(list(obs.values())))
+    lidar, satnav = old_lay.split(old_obs.numpy())
+    for bit in (0.0, 1.0):  # whatever bit is received, the new policy starts as the old one
+        widened = np.concatenate([satnav, np.full(satnav.shape[:-1] + (1,), bit, np.float32)], axis=-1)
+        new_obs = th.as_tensor(np.concatenate([lidar.reshape(len(lidar), -1), widened.reshape(len(lidar), -1)], 1))
+        with th.no_grad():
+            p_old = src.get_distribution(th.cat([old_obs, th.zeros(len(old_obs), src.observation_space.shape[0]
+                                                                    - old_obs.shape[1])], 1)).distribution.probs
+            pad = th.zeros(len(new_obs), model.policy.observation_space.shape[0] - new_obs.shape[1])
+            p_new = model.policy.get_distribution(th.cat([new_obs, pad], 1)).distribution.probs
+        n = p_old.shape[1]
+        assert p_new.shape[1] == 2 * n
+        assert th.allclose(p_new[:, :n] + p_new[:, n:], p_old, atol=1e-6)
+        assert th.allclose(p_new[:, :n], p_new[:, n:], atol=1e-7)  # the bit is a fair coin
+    # a checkpoint whose sat-nav has a field the target lacks cannot be widened
+    with pytest.raises(RunError, match="observation layout"):
+        train(_tiny(init_from=str(tmp_path / "plain"), env_overrides={"num_cars": 2, "history": 3}),
+              tmp_path / "bad")
 
 
 def test_cli_renders_a_trained_policy_and_delegates_train(tmp_path, capsys):

@@ -44,7 +44,7 @@ import box2d_driving
 from training.bandit import SplineBanditVecEnv
 from training.inference import actor_actions
 from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
-                              check_same_run, load_weights, make_vec_env)
+                              check_same_run, load_weights, make_vec_env, set_minibatching)
 
 
 @dataclass
@@ -212,6 +212,7 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
             spline.policy.load_state_dict(PPO.load(src, device="cpu").policy.state_dict())
         accel.set_logger(configure(str(out / "accel"), ["csv", "tensorboard"]))
         spline.set_logger(configure(str(out / "spline"), ["csv"]))
+    set_minibatching(accel, acfg, accel_venv.n_cars)
     accel_venv.seed(acfg.seed + 1000 * state["round"])
     bandit.seed(acfg.seed + 10**6 + 1000 * state["round"])
     install_spline_policy(accel_venv, spline)

@@ -89,11 +89,19 @@ class CTDENetwork(nn.Module):
         b = features.shape[0]
         if self.critic == "own":
             return self.critic_mlp(self.critic_proj(self.critic_encoder(features[:, :d])))
-        team = features[:, d: d * (1 + n)].reshape(b * n, d)
-        alive = features[:, d * (1 + n): d * (1 + n) + n] > 0.5
-        z = self.critic_proj(self.critic_encoder(team)).reshape(b, n, -1)
+        block = features[:, d: d * (1 + n) + n]  # team observations and alive mask
+        # Rows of one env step carry the same block: encode each run of repeats once.
+        first = th.ones(b, dtype=th.bool)
+        first[1:] = (block[1:] != block[:-1]).any(dim=1)
+        unique = block[first]
+        u = unique.shape[0]
+        team = unique[:, : d * n].reshape(u * n, d)
+        alive = unique[:, d * n:] > 0.5
+        z = self.critic_proj(self.critic_encoder(team)).reshape(u, n, -1)
         z = th.where(alive[..., None], z, th.zeros((), dtype=z.dtype))
         mean = z.sum(dim=1) / alive.sum(dim=1, keepdim=True).clamp(min=1)
+        if u < b:
+            mean = mean[th.cumsum(first, 0) - 1]
         if self.critic == "own+mean":
             own = self.critic_proj(self.critic_encoder(features[:, :d]))
             mean = th.cat([own, mean], dim=1)

@@ -26,6 +26,7 @@ class CommonArgs:
     n_envs: env instances simulated side by side
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update
+    minibatch_by_step: minibatches of whole env steps (the critic encodes each step's team once)
     threads: torch CPU threads
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
@@ -43,6 +44,7 @@ class CommonArgs:
     n_envs: int = 16
     batch_decisions: int = 32_000
     epochs: int = 4
+    minibatch_by_step: bool = False
     threads: int = 2
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
@@ -69,6 +71,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         env_id=env_id, env_overrides=overrides,
         timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
+        minibatch_by_step=args.minibatch_by_step,
         critic=args.critic, threads=args.threads, max_minutes=args.max_minutes,
         init_from=args.init_from,
         ent_coef=0.01 if args.ent_coef is None else args.ent_coef,

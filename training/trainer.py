@@ -36,6 +36,7 @@ from box2d_driving.metrics.lights import violation_rate
 from training.buffer import MaskedRolloutBuffer
 from training.policy import CTDEPolicy, policy_kwargs_for
 from training.vec_env import SlotVecEnv
+from training.weights import WeightsError, source_fields, widen_state_dict
 
 
 @dataclass
@@ -52,6 +53,9 @@ class TrainConfig:
         batch_decisions: slot-decisions collected per PPO update (the paper: 32,000).
         minibatch: minibatch size (real transitions).
         epochs: PPO epochs per update.
+        minibatch_by_step: draw minibatches by env step (all live cars of an instance at one step
+            together) instead of by single transition, so the centralised critic encodes each
+            step's team once instead of once per car (see ``training/buffer.py``).
         learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
         ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
@@ -71,6 +75,7 @@ class TrainConfig:
     batch_decisions: int = 32_000
     minibatch: int = 4_000
     epochs: int = 4
+    minibatch_by_step: bool = False
     learning_rate: float = 1e-3
     gamma: float = 0.99
     gae_lambda: float = 0.97
@@ -251,7 +256,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     wall, agent_steps = 0.0, 0
     if resume:
         model = PPO.load(out / "model.zip", env=venv, device="cpu")
-        model.ent_coef = config.ent_coef  # the one setting a resumed run may change
+        model.ent_coef = config.ent_coef  # settings a resumed run may change
         state = json.loads((out / "state.json").read_text())
         wall, agent_steps = state["wall_s"], state["agent_steps"]
         venv.seed(config.seed + model.num_timesteps)  # reproducible continuation
@@ -260,6 +265,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         if config.init_from:
             load_weights(model, Path(config.init_from))
         venv.seed(config.seed)
+    set_minibatching(model, config, venv.n_cars)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
                      _append_logger(out, model.num_timesteps))
     remaining = config.timesteps - model.num_timesteps
@@ -273,8 +279,14 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     return getattr(callback, "last_stats", {})
 
 
+def set_minibatching(model: PPO, config: TrainConfig, n_cars: int) -> None:
+    """Apply ``config.minibatch_by_step`` to a built or loaded model (it is not saved with it)."""
+    model.rollout_buffer.group_size = n_cars if config.minibatch_by_step else 1
+
+
 def load_weights(model: PPO, checkpoint: Path) -> None:
-    """Copy the policy weights (actor, critic) of ``checkpoint`` into ``model``."""
+    """Copy the policy weights (actor, critic) of ``checkpoint`` into ``model``; widened (see
+    ``training/weights.py``) when ``model``'s env adds sat-nav fields or the communication bit."""
     path = checkpoint / "model.zip" if checkpoint.is_dir() else checkpoint
     if not path.exists():
         raise RunError(f"--init-from: no checkpoint at {path}")
@@ -284,8 +296,15 @@ def load_weights(model: PPO, checkpoint: Path) -> None:
         raise RunError(f"--init-from: {path} has a different network (critic variant?)")
     bad = [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad:
-        raise RunError(f"--init-from: {path} does not fit this env's observation layout "
-                       f"(e.g. {bad[0]}: {tuple(theirs[bad[0]].shape)} vs {tuple(mine[bad[0]].shape)})")
+        env = model.get_env().envs[0]
+        try:
+            theirs = widen_state_dict(mine, theirs, src_fields=source_fields(path.parent),
+                                      dst_fields=env.observation_layout.satnav_fields,
+                                      history=env.observation_layout.history)
+        except WeightsError as exc:
+            raise RunError(f"--init-from: {path} does not fit this env's observation layout "
+                           f"(e.g. {bad[0]}: {tuple(theirs[bad[0]].shape)} vs {tuple(mine[bad[0]].shape)}; "
+                           f"{exc})") from None
     model.policy.load_state_dict(theirs)
 
 

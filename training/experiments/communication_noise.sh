@@ -3,18 +3,23 @@
 # 0.25, 0.5 and 0.75, MINUTES of training each (entropy 1e-4 without noise, 1e-2 with, as the
 # paper), then 200-episode deterministic evaluations, a markdown table and a plot of speaker
 # consistency and the heading-change / bit correlations against noise. Resumable: finished runs
-# and evaluations are skipped.
-#   bash training/experiments/communication_noise.sh [MINUTES] [OUT]
+# and evaluations are skipped. Each run starts from INIT (default: the shipped 8-car real-junction
+# policy, widened to the 26 communication actions and the received-bit input so that it starts as
+# that policy with a coin-flip bit; "none" trains from scratch) and draws minibatches by env step.
+#   bash training/experiments/communication_noise.sh [MINUTES] [OUT] [INIT]
 set -euo pipefail
 MINUTES=${1:-30}
 OUT=${2:-runs/communication}
+INIT=${3:-assets/policies/real_junction_8cars}
+INIT_ARGS=()
+if [ "$INIT" != "none" ]; then INIT_ARGS=(--init-from "$INIT"); fi
 cd "$(dirname "$0")/../.."
 mkdir -p "$OUT"
 run() {  # name, noise, entropy
   local name=$1 noise=$2 ent=$3
   if [ ! -f "$OUT/$name/model.zip" ]; then
     python training/real_junction.py --communication --num-cars 8 --lidar-noise "$noise" --ent-coef "$ent" \
-      --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" > "$OUT/$name.log" 2>&1
+      --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" --minibatch-by-step "${INIT_ARGS[@]}" > "$OUT/$name.log" 2>&1
   fi
   if [ ! -f "$OUT/$name/eval/metrics.json" ]; then
     python training/evaluate.py --checkpoint "$OUT/$name" --episodes 200 --out "$OUT/$name/eval" >> "$OUT/$name.log" 2>&1
