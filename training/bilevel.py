@@ -44,7 +44,7 @@ import box2d_driving
 from training.bandit import SplineBanditVecEnv
 from training.inference import actor_actions
 from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
-                              check_same_run, load_weights, make_vec_env, set_minibatching)
+                              UNSAVED, check_same_run, load_weights, make_vec_env, set_minibatching)
 
 
 @dataclass
@@ -166,7 +166,7 @@ def install_spline_policy(accel_venv, spline_model: PPO) -> None:
 
 def _save(model: PPO, path: Path) -> None:
     tmp = path.with_name(path.stem + ".partial.zip")
-    model.save(tmp)
+    model.save(tmp, exclude=list(UNSAVED))
     tmp.replace(path)
 
 

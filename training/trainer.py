@@ -233,12 +233,17 @@ class RolloutMetrics(BaseCallback):
         return self.wall_offset + time.perf_counter() - self.t0
 
 
+# The last rollout's observations (all slots, team blocks included: megabytes with 8 cars) are
+# dropped on load anyway (SB3 resets the env on load), so they are not written.
+UNSAVED = ("_last_obs", "_last_original_obs", "_last_episode_starts")
+
+
 def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> Path:
     """Write ``checkpoints/model_<decisions>.zip``, refresh ``model.zip`` and ``state.json``."""
     ckpt_dir = out / "checkpoints"
     ckpt_dir.mkdir(exist_ok=True)
     path = ckpt_dir / f"model_{model.num_timesteps}.zip"
-    model.save(path)
+    model.save(path, exclude=list(UNSAVED))
     tmp = out / "model.partial.zip"
     shutil.copyfile(path, tmp)
     tmp.replace(out / "model.zip")
