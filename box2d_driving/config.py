@@ -49,6 +49,8 @@ class DrivingConfig:
         lidar_backend: ``"numba"`` (batched, default through ``"auto"``) or ``"box2d"``
             (``world.RayCast`` callbacks); they agree within 1e-3 m.
         communication: each car also sends one bit per decision (action space doubles).
+        messages_heard: with ``communication``, whether cars hear the bits (False: every car
+            receives 0 while the bits are still sent; a control for whether listeners use them).
         comm_range: a car hears the nearest other car within this distance (m) ...
         comm_half_angle: ... and within this angle of its heading (rad).
         car_length, car_width: car body size (m).
@@ -81,6 +83,7 @@ class DrivingConfig:
     lidar_backend: str = "auto"
     lidar_sees_pedestrians: bool = True
     communication: bool = False
+    messages_heard: bool = True
     comm_range: float = 30.0
     comm_half_angle: float = math.pi / 6
     car_length: float = 4.48
@@ -136,6 +139,8 @@ class DrivingConfig:
         _positive(self, "render_fps")
         if not isinstance(self.communication, bool):
             raise ConfigError(f"communication must be True or False, got {self.communication!r}")
+        if not isinstance(self.messages_heard, bool):
+            raise ConfigError(f"messages_heard must be True or False, got {self.messages_heard!r}")
         if len(self.accelerations) < 2:
             raise ConfigError("accelerations needs at least two levels")
         if list(self.accelerations) != sorted(set(self.accelerations)):

@@ -9,6 +9,22 @@ def _env(cars):
     return hand_env(cars, communication=True, horizon=10)
 
 
+def test_unheard_messages_are_sent_but_received_as_zero():
+    cars = [straight_car((0, 0), (100, 0)), straight_car((20, 0), (100, 0))]
+    received = {}
+    for heard in (True, False):
+        env = hand_env(cars, communication=True, horizon=10, messages_heard=heard)
+        env.reset(seed=0)
+        n = len(env.config.accelerations)
+        zero = int(np.argmin(np.abs(env.config.accelerations)))
+        obs, _, _, _, info = env.step({"car_0": zero, "car_1": zero + n})
+        lay = env.observation_layout
+        assert info["car_1"]["bit_sent"] == 1
+        received[heard] = (info["car_0"]["bit_received"], lay.split(obs["car_0"])[1][-1, lay.field("bit_received")])
+    assert received[True] == (1, 1.0)
+    assert received[False] == (0, 0.0)
+
+
 def test_receives_bit_of_nearest_car_ahead_within_range_and_angle():
     cars = [
         straight_car((0, 0), (100, 0)),     # car_0: listener

@@ -139,3 +139,20 @@ def test_turn_signal_bits_are_recorded_and_measured():
     m = communication_metrics(table)
     assert m["samples"] > 100 and 0.3 < m["bit_one_share"] < 0.7
     assert 0.0 <= m["speaker_consistency_bits"] < 0.1  # random bits say nothing (estimator bias only)
+
+
+def test_report_adds_communication_and_the_unheard_control(tmp_path):
+    pytest.importorskip("matplotlib")
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import RandomPolicy
+    from training.reports import real_junction_report
+
+    def make_env(**kw):
+        return box2d_driving.make("real-junction-v0", num_cars=4, communication=True, **kw)
+    env = make_env()
+    policy = RandomPolicy(env, seed=0)
+    table = run_episodes(env, policy, 2, seed=0)
+    metrics = real_junction_report(table, env, policy, tmp_path, 2, 0, make_env)
+    assert 0.0 <= metrics["communication"]["bit_one_share"] <= 1.0
+    assert set(metrics["messages_unheard"]) == {"success_rate", "collision_rate", "fifo_share", "safe_share"}
+    assert (tmp_path / "safety_distance.png").exists()

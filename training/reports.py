@@ -82,6 +82,12 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
         from box2d_driving.metrics.communication import communication_metrics
 
         metrics["communication"] = communication_metrics(table)
+        # control: the same policy with the bits sent but never heard (everyone receives 0)
+        deaf = run_episodes(make_env(messages_heard=False), policy, episodes, seed=seed)
+        deaf_metrics = {**outcome_rates(deaf), "fifo_share": fifo_metrics(deaf)["fifo_share"],
+                        "safe_share": safety_distance_metrics(deaf, cfg.a_max, cfg.car_length)["safe_share"]}
+        metrics["messages_unheard"] = {k: deaf_metrics[k] for k in (
+            "success_rate", "collision_rate", "fifo_share", "safe_share")}
     return metrics
 
 

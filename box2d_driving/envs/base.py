@@ -269,7 +269,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         extras = self.satnav_extra_values()[cars]
         satnav = np.concatenate([np.stack(cols, axis=1), extras], axis=1)
         if cfg.communication:
-            self._received[cars] = self._receive(cars, senders)
+            self._received[cars] = self._receive(cars, senders) if cfg.messages_heard else 0.0
             satnav = np.concatenate([satnav, self._received[cars][:, None]], axis=1)
         return lidar_frame, satnav.astype(np.float32)
 
