@@ -291,7 +291,10 @@ def test_crosswalk_script_and_evaluation_with_invisible_control(tmp_path):
     out = tmp_path / "cw"
     assert crosswalk.main(["--out", str(out), "--timesteps", "320", "--n-envs", "2",
                            "--batch-decisions", "80", "--num-cars", "2", "--threads", "1",
-                           "--epochs", "1"]) == 0
+                           "--epochs", "1", "--collision-reward", "-3"]) == 0
+    policy = load_policy(out)
+    assert policy.env_overrides["collision_reward"] == -3.0  # travels with the checkpoint
+    assert policy.make_env().config.collision_reward == -3.0
     ev = tmp_path / "ev"
     assert evaluate.main(["--checkpoint", str(out), "--episodes", "2", "--out", str(ev)]) == 0
     metrics = json.loads((ev / "metrics.json").read_text())

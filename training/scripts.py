@@ -31,6 +31,7 @@ class CommonArgs:
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     horizon: episode horizon in decisions (default: the scenario's)
+    collision_reward: reward on a car's first collision (default: the scenario's, -1 as in the paper)
     """
 
     num_cars: int = 4
@@ -49,6 +50,7 @@ class CommonArgs:
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
     horizon: Optional[int] = None
+    collision_reward: Optional[float] = None
 
     def env_overrides(self) -> dict:
         """Scenario-specific config overrides a script adds (none by default)."""
@@ -67,6 +69,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
     overrides.update(args.env_overrides())
     if args.horizon is not None:
         overrides["horizon"] = args.horizon
+    if args.collision_reward is not None:
+        overrides["collision_reward"] = args.collision_reward
     cfg = TrainConfig(
         env_id=env_id, env_overrides=overrides,
         timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
