@@ -65,6 +65,15 @@ def fast_lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: i
     return metrics
 
 
+def junction_summary(table: dict, config: Any) -> dict[str, float]:
+    """Success, collisions, FIFO share and safe-distance share: the real-junction headline numbers
+    (used by the unheard-messages control and the checkpoint curve)."""
+    rates = outcome_rates(table)
+    return {"success_rate": rates["success_rate"], "collision_rate": rates["collision_rate"],
+            "fifo_share": fifo_metrics(table)["fifo_share"],
+            "safe_share": safety_distance_metrics(table, config.a_max, config.car_length)["safe_share"]}
+
+
 def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                          make_env: Callable[..., Any]) -> dict:
     """Outcomes, lights, right of way (FIFO), safe following distance (+ scatter), and the
@@ -84,10 +93,7 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
         metrics["communication"] = communication_metrics(table)
         # control: the same policy with the bits sent but never heard (everyone receives 0)
         deaf = run_episodes(make_env(messages_heard=False), policy, episodes, seed=seed)
-        deaf_metrics = {**outcome_rates(deaf), "fifo_share": fifo_metrics(deaf)["fifo_share"],
-                        "safe_share": safety_distance_metrics(deaf, cfg.a_max, cfg.car_length)["safe_share"]}
-        metrics["messages_unheard"] = {k: deaf_metrics[k] for k in (
-            "success_rate", "collision_rate", "fifo_share", "safe_share")}
+        metrics["messages_unheard"] = junction_summary(deaf, cfg)
     return metrics
 
 

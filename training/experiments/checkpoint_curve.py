@@ -17,11 +17,10 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent.parent))
 
-from box2d_driving.metrics.lights import outcome_rates  # noqa: E402
-from box2d_driving.metrics.right_of_way import fifo_metrics, safety_distance_metrics  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
 from training import plots  # noqa: E402
 from training.inference import load_policy  # noqa: E402
+from training.reports import junction_summary  # noqa: E402
 
 FIELDS = ("decisions", "agent_steps", "success_rate", "collision_rate", "fifo_share", "safe_share")
 
@@ -61,11 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         policy = load_policy(path)
         env = policy.make_env()
         table = run_episodes(env, policy, args.episodes, seed=args.seed)
-        o = outcome_rates(table)
-        cfg = env.config
-        row = {"decisions": int(d), "agent_steps": float(s), "success_rate": o["success_rate"],
-               "collision_rate": o["collision_rate"], "fifo_share": fifo_metrics(table)["fifo_share"],
-               "safe_share": safety_distance_metrics(table, cfg.a_max, cfg.car_length)["safe_share"]}
+        row = {"decisions": int(d), "agent_steps": float(s), **junction_summary(table, env.config)}
         rows.append(row)
         print(" ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()), flush=True)
     with open(out / "curve.csv", "w", newline="") as f:
