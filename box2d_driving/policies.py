@@ -1,6 +1,8 @@
 """Scripted policies usable wherever a trained policy is: ``act(observations) -> actions``.
 
 * :class:`RandomPolicy`: uniform random actions (seeded).
+* :class:`FullThrottlePolicy`: the largest acceleration always (bit 0): driving blind, the lower
+  reference for every safety metric.
 * :class:`LightRulePolicy`: the crude hand rule for the intersection: brake hard while the light
   shows 0.5 or 1.0 (yellow or red in the default colours), otherwise accelerate fully. A reference
   for what obeying the lights achieves, and a check on the metric code.
@@ -28,6 +30,16 @@ class RandomPolicy:
 
     def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
         return {a: int(self.rng.integers(self.env.action_space(a).n)) for a in observations}
+
+
+class FullThrottlePolicy:
+    """The largest acceleration level for every car, every decision (bit 0)."""
+
+    def __init__(self, env: Any) -> None:
+        self._go = len(env.config.accelerations) - 1
+
+    def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
+        return {a: self._go for a in observations}
 
 
 class LightRulePolicy:
@@ -92,13 +104,16 @@ class PedestrianOraclePolicy:
         return out
 
 
-SCRIPTED = {"random": RandomPolicy, "rule": LightRulePolicy, "pedestrian-oracle": PedestrianOraclePolicy}
+SCRIPTED = {"random": RandomPolicy, "full-throttle": FullThrottlePolicy, "rule": LightRulePolicy,
+            "pedestrian-oracle": PedestrianOraclePolicy}
 
 
 def make_policy(name: str, env: Any, seed: int | None = None):
-    """A scripted policy by name (``random``, ``rule`` or ``pedestrian-oracle``)."""
+    """A scripted policy by name (``random``, ``full-throttle``, ``rule`` or ``pedestrian-oracle``)."""
     if name == "random":
         return RandomPolicy(env, seed)
+    if name == "full-throttle":
+        return FullThrottlePolicy(env)
     if name == "rule":
         return LightRulePolicy(env)
     if name == "pedestrian-oracle":

@@ -100,16 +100,11 @@ def test_pedestrian_oracle_never_hits_a_pedestrian_where_full_throttle_does():
     """The crosswalk is solvable: the privileged oracle crosses without hitting anyone on
     episodes where driving blind at full throttle hits pedestrians."""
     from box2d_driving.metrics.rollouts import run_episodes
-    from box2d_driving.policies import PedestrianOraclePolicy
+    from box2d_driving.policies import FullThrottlePolicy, PedestrianOraclePolicy
 
     env = box2d_driving.make("crosswalk-v0", num_cars=1)
     oracle = crosswalk_metrics(run_episodes(env, PedestrianOraclePolicy(env), 25, seed=2000), 3.0)
-
-    class FullThrottle:
-        def act(self, obs):
-            return {a: 24 for a in obs}
-
-    blind = crosswalk_metrics(run_episodes(env, FullThrottle(), 25, seed=2000), 3.0)
+    blind = crosswalk_metrics(run_episodes(env, FullThrottlePolicy(env), 25, seed=2000), 3.0)
     assert blind["pedestrian_collision_rate"] > 0.1
     assert oracle["pedestrian_collision_rate"] == 0.0
     assert oracle["success_rate"] >= 0.9

@@ -76,6 +76,32 @@ def test_safety_share_uses_v2_over_2a():
     assert m["closing_samples"] == 2 and m["safe_share"] == pytest.approx(0.5)
 
 
+PRESENCE_COLS = SAFE_COLS + ("arrived", "collided")
+
+
+def test_a_car_that_arrived_is_nobodys_leader():
+    # car 1 reached its goal during decision 1 (its row holds its pose on arrival) and left the
+    # world; car 0 drove on to 2 m behind that pose: no leader, no sample
+    rows = [(0, 0, 1, 0.0, 0.0, 0.0, 8.0, False, False), (0, 1, 1, 6.48, 0.0, 0.0, 8.0, True, False)]
+    assert len(leader_samples(table_from_rows(rows, PRESENCE_COLS), car_length=4.48)["row"]) == 0
+
+
+def test_a_wreck_stays_a_leader_at_speed_zero_until_the_episode_ends():
+    # car 1 crashed on decision 1 at x = 24.48; car 0 drives on towards it at 6 m/s, then 4 m/s
+    rows = [(0, 0, 1, 0.0, 0.0, 0.0, 6.0, False, False), (0, 1, 1, 24.48, 0.0, 0.0, 0.0, False, True),
+            (0, 0, 2, 10.0, 0.0, 0.0, 6.0, False, False), (0, 0, 3, 12.0, 0.0, 0.0, 4.0, False, False)]
+    table = table_from_rows(rows, PRESENCE_COLS)
+    s = leader_samples(table, car_length=4.48)
+    assert s["row"].tolist() == [0, 2, 3]  # the wreck itself (row 1) is no sample
+    assert s["gap"].tolist() == pytest.approx([20.0, 10.0, 8.0])
+    assert s["closing_speed"].tolist() == pytest.approx([6.0, 6.0, 4.0])
+    # needs 12, 12, 5.33 m at a_max 1.5: the second sample is unsafe
+    m = safety_distance_metrics(table, a_max=1.5, car_length=4.48)
+    assert m["closing_samples"] == 3 and m["safe_share"] == pytest.approx(2 / 3)
+    # when collided cars are removed from the world (during the decision they crash on), never
+    assert leader_samples(table, car_length=4.48, wrecks_stay=False)["row"].tolist() == []
+
+
 def test_mutual_information_exact_values():
     assert mutual_information([0, 1, 0, 1], [5, 7, 5, 7]) == pytest.approx(1.0)
     assert mutual_information([0, 0, 1, 1], [5, 7, 5, 7]) == pytest.approx(0.0)

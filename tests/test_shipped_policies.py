@@ -32,3 +32,26 @@ def test_shipped_policy_loads_and_drives(report):
     table = run_episodes(env, policy, 1, seed=metrics["seed"])
     assert len(set(table["car"].tolist())) == env.config.num_cars
     assert table["decision"].max() <= env.config.horizon
+
+
+WITH_ROLLOUTS = [r for r in REPORTS if (r.parent / "rollouts.npz").exists()]
+
+
+@pytest.mark.parametrize("report", WITH_ROLLOUTS, ids=lambda p: str(p.parent.parent.relative_to(ROOT / "assets")))
+def test_shipped_report_agrees_with_its_rollouts(report):
+    """A report is the current metric code applied to its saved rollouts: a metric fix that is not
+    followed by re-evaluating the shipped policies fails here."""
+    import box2d_driving
+    from box2d_driving.metrics.lights import outcome_rates
+    from box2d_driving.metrics.right_of_way import fifo_metrics, safety_distance_metrics
+    from box2d_driving.metrics.rollouts import load_table
+
+    metrics = json.loads(report.read_text())
+    table = load_table(report.parent / "rollouts.npz")
+    for key, value in outcome_rates(table).items():
+        assert metrics[key] == pytest.approx(value, nan_ok=True), key
+    if metrics["env_id"] == "real-junction-v0":
+        cfg = box2d_driving.make(metrics["env_id"], **metrics["trained_on"]).config
+        assert metrics["right_of_way"] == pytest.approx(fifo_metrics(table))
+        assert metrics["safety_distance"] == pytest.approx(safety_distance_metrics(
+            table, cfg.a_max, cfg.car_length, wrecks_stay=not cfg.remove_collided))

@@ -71,7 +71,8 @@ def junction_summary(table: dict, config: Any) -> dict[str, float]:
     rates = outcome_rates(table)
     return {"success_rate": rates["success_rate"], "collision_rate": rates["collision_rate"],
             "fifo_share": fifo_metrics(table)["fifo_share"],
-            "safe_share": safety_distance_metrics(table, config.a_max, config.car_length)["safe_share"]}
+            "safe_share": safety_distance_metrics(table, config.a_max, config.car_length,
+                                                  wrecks_stay=not config.remove_collided)["safe_share"]}
 
 
 def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
@@ -81,8 +82,10 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     cfg = env.config
     metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
     metrics["right_of_way"] = fifo_metrics(table)
-    metrics["safety_distance"] = safety_distance_metrics(table, cfg.a_max, cfg.car_length)
-    s = leader_samples(table, cfg.car_length)
+    wrecks_stay = not cfg.remove_collided
+    metrics["safety_distance"] = safety_distance_metrics(table, cfg.a_max, cfg.car_length,
+                                                         wrecks_stay=wrecks_stay)
+    s = leader_samples(table, cfg.car_length, wrecks_stay=wrecks_stay)
     closing = s["closing_speed"] > 0
     plots.speed_vs_distance(s["gap"][closing], s["closing_speed"][closing], cfg.a_max,
                             out / "safety_distance.png", xlabel="gap to the car ahead (m)",

@@ -6,12 +6,16 @@ trajectory ends inside, e.g. it crashed there). Car ``i`` violates FIFO if some 
 same episode entered after it (``t_a(i) < t_a(j)``) but left before it (``t_d(j) < t_d(i)``).
 Times are decisions (1 s), so cars entering or leaving on the same decision are never ordered.
 
-Safe distance: for every row, the nearest other live car whose centre lies within
-``half_angle`` of the car's heading and that travels the same way (headings less than
-``same_way`` apart: the car is *trailing* it; an oncoming car in the next lane is not a leader)
-is its leader; ``gap`` = centre distance - car length (bumper to bumper when aligned), closing
-speed ``dv`` = the rate at which the centre distance shrinks. Samples with ``dv > 0`` count; one
-is safe if ``gap >= dv^2 / (2 a_max)``.
+Safe distance: a sample is a car still driving at the end of a decision (not arrived, not
+collided on it). Its leader is the nearest other car *present in the world* at that moment whose
+centre lies within ``half_angle`` of the car's heading and that travels the same way (headings
+less than ``same_way`` apart: the car is *trailing* it; an oncoming car in the next lane is not a
+leader). Present means driving, or halted after a collision when wrecks stay in the world (they
+keep their last pose, at speed 0, for the rest of the episode although they have no rows after
+it); a car that arrived on a decision left the world during it, so its last row (its pose on
+arrival) is nobody's leader. ``gap`` = centre distance - car length (bumper to bumper when
+aligned), closing speed ``dv`` = the rate at which the centre distance shrinks. Samples with
+``dv > 0`` count; one is safe if ``gap >= dv^2 / (2 a_max)``.
 """
 
 from __future__ import annotations
@@ -76,20 +80,30 @@ def fifo_metrics(table: dict[str, np.ndarray]) -> dict:
 
 
 def leader_samples(table: dict[str, np.ndarray], car_length: float, half_angle: float = math.pi / 6,
-                   same_way: float = math.pi / 2) -> dict[str, np.ndarray]:
-    """Per row with a leader within ``half_angle`` ahead: ``gap`` (m), ``closing_speed`` (m/s),
-    ``speed`` (m/s), ``row`` (index into the table)."""
-    ep, dec = table["episode"], table["decision"]
-    key = ep.astype(np.int64) * 1_000_003 + dec.astype(np.int64)
+                   same_way: float = math.pi / 2, wrecks_stay: bool = True) -> dict[str, np.ndarray]:
+    """Per driving row with a leader within ``half_angle`` ahead: ``gap`` (m), ``closing_speed``
+    (m/s), ``speed`` (m/s), ``row`` (index into the table). ``wrecks_stay``: collided cars stay
+    in the world as halted obstacles (``DrivingConfig.remove_collided`` false)."""
+    n = len(table["episode"])
+    arrived = table.get("arrived", np.zeros(n, dtype=bool)).astype(bool)
+    collided = table.get("collided", np.zeros(n, dtype=bool)).astype(bool)
+    present = ~arrived & (~collided | wrecks_stay)
+    ent = {k: table[k][present] for k in ("episode", "decision", "x", "y", "heading", "speed")}
+    ent["row"] = np.flatnonzero(present)
+    ent["follower"] = ~collided[present]
+    if wrecks_stay and collided.any():
+        ent = _with_wrecks(ent, table, np.flatnonzero(collided))
+    key = ent["episode"].astype(np.int64) * 1_000_003 + ent["decision"].astype(np.int64)
     order = np.argsort(key, kind="stable")
     bounds = np.flatnonzero(np.diff(key[order])) + 1
     rows, gaps, closing, speeds = [], [], [], []
     for group in np.split(order, bounds):
         if len(group) < 2:
             continue
-        pos = np.stack([table["x"][group], table["y"][group]], axis=1)
-        head = table["heading"][group]
-        vel = table["speed"][group][:, None] * np.stack([np.cos(head), np.sin(head)], axis=1)
+        pos = np.stack([ent["x"][group], ent["y"][group]], axis=1)
+        head = ent["heading"][group]
+        speed = ent["speed"][group]
+        vel = speed[:, None] * np.stack([np.cos(head), np.sin(head)], axis=1)
         rel = pos[None, :, :] - pos[:, None, :]  # i -> j
         dist = np.linalg.norm(rel, axis=2)
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - head[:, None]
@@ -98,21 +112,36 @@ def leader_samples(table: dict[str, np.ndarray], car_length: float, half_angle: 
         ahead = (np.abs(bearing) <= half_angle) & (dist > 0) & (turn < same_way)
         dist_ahead = np.where(ahead, dist, np.inf)
         lead = np.argmin(dist_ahead, axis=1)
-        for i in np.flatnonzero(np.isfinite(dist_ahead[np.arange(len(group)), lead])):
+        has = np.isfinite(dist_ahead[np.arange(len(group)), lead]) & ent["follower"][group]
+        for i in np.flatnonzero(has):
             j = lead[i]
             u = rel[i, j] / dist[i, j]
-            rows.append(group[i])
+            rows.append(ent["row"][group[i]])
             gaps.append(max(dist[i, j] - car_length, 0.0))
             closing.append(float((vel[i] - vel[j]) @ u))
-            speeds.append(float(table["speed"][group[i]]))
+            speeds.append(float(speed[i]))
     return {"row": np.array(rows, dtype=np.int64), "gap": np.array(gaps), "closing_speed": np.array(closing),
             "speed": np.array(speeds)}
 
 
+def _with_wrecks(ent: dict[str, np.ndarray], table: dict[str, np.ndarray],
+                 crash_rows: np.ndarray) -> dict[str, np.ndarray]:
+    """Add each wreck (its pose on the collision row, speed 0) as a leader-only entry on every
+    later decision of its episode, up to the episode's last recorded decision."""
+    ep, dec = table["episode"], table["decision"]
+    episode_end = {e: int(dec[ep == e].max()) for e in np.unique(ep[crash_rows]).tolist()}
+    later = [np.arange(dec[r] + 1, episode_end[int(ep[r])] + 1) for r in crash_rows.tolist()]
+    rows = np.repeat(crash_rows, [len(t) for t in later])
+    wrecks = {"episode": ep[rows], "decision": np.concatenate(later), "x": table["x"][rows],
+              "y": table["y"][rows], "heading": table["heading"][rows], "speed": np.zeros(len(rows)),
+              "row": rows, "follower": np.zeros(len(rows), dtype=bool)}
+    return {k: np.concatenate([ent[k], wrecks[k].astype(ent[k].dtype)]) for k in ent}
+
+
 def safety_distance_metrics(table: dict[str, np.ndarray], a_max: float, car_length: float,
-                            half_angle: float = math.pi / 6) -> dict:
+                            half_angle: float = math.pi / 6, wrecks_stay: bool = True) -> dict:
     """Share of closing samples (``dv > 0``) with ``gap >= dv^2 / (2 a_max)``."""
-    s = leader_samples(table, car_length, half_angle)
+    s = leader_samples(table, car_length, half_angle, wrecks_stay=wrecks_stay)
     closing = s["closing_speed"] > 0
     need = s["closing_speed"][closing] ** 2 / (2.0 * a_max)
     safe = s["gap"][closing] >= need
