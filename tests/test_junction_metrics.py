@@ -102,6 +102,16 @@ def test_a_wreck_stays_a_leader_at_speed_zero_until_the_episode_ends():
     assert leader_samples(table, car_length=4.48, wrecks_stay=False)["row"].tolist() == []
 
 
+def test_what_each_bit_says_includes_the_senders_speed():
+    # bit 1 sent while driving at 6 m/s, bit 0 while stopped
+    rows = [(0, 0, 0, 0.0, 0.0, np.nan, 0.0), (0, 0, 1, 0.0, 0.5, 0, 0.0), (0, 0, 2, 0.0, 0.5, 1, 6.0),
+            (0, 0, 3, 0.0, 0.0, 1, 6.0), (0, 0, 4, 0.0, 0.0, 1, 6.0)]
+    m = communication_metrics(table_from_rows(rows, COMM_COLS + ("speed",)))
+    assert m["by_bit"]["1"]["share"] == pytest.approx(2 / 3)
+    assert m["by_bit"]["1"]["speed_mean"] == pytest.approx(6.0)
+    assert m["by_bit"]["0"]["speed_mean"] == pytest.approx(0.0)
+
+
 def test_mutual_information_exact_values():
     assert mutual_information([0, 1, 0, 1], [5, 7, 5, 7]) == pytest.approx(1.0)
     assert mutual_information([0, 0, 1, 1], [5, 7, 5, 7]) == pytest.approx(0.0)
@@ -120,5 +130,8 @@ def test_communication_metrics_turn_signal():
     assert m["speaker_consistency_bits"] == pytest.approx(1.0)
     # heading changes 0, 0.5, 0.5, 0 vs bits 0, 1, 1, 0
     assert m["pearson_heading_change_bit"] == pytest.approx(1.0)
+    one = m["by_bit"]["1"]
+    assert (one["share"], one["next_accel_mean"], one["abs_heading_change_mean"]) == pytest.approx((0.5, -1.5, 0.5))
+    assert m["by_bit"]["0"]["next_accel_mean"] == pytest.approx(1.5)
     with pytest.raises(ValueError, match="communication=True"):
         communication_metrics(table_from_rows(rows[:2], COMM_COLS[:5]) | {"bit_sent": np.full(2, np.nan)})

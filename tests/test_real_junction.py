@@ -156,3 +156,14 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path):
     assert 0.0 <= metrics["communication"]["bit_one_share"] <= 1.0
     assert set(metrics["messages_unheard"]) == {"success_rate", "collision_rate", "fifo_share", "safe_share"}
     assert (tmp_path / "safety_distance.png").exists()
+    # the noise-level table reads such reports (two "levels" here: the same report twice)
+    import json
+
+    from training.experiments import communication_table
+
+    (tmp_path / "metrics.json").write_text(json.dumps(metrics))
+    out = tmp_path / "communication.png"
+    assert communication_table.main([f"0={tmp_path}", f"0.5={tmp_path}", "--out", str(out)]) == 0
+    assert out.exists()
+    speeds = metrics["communication"]["by_bit"]
+    assert speeds["0"]["share"] + speeds["1"]["share"] == pytest.approx(1.0)

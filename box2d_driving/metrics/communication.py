@@ -8,6 +8,8 @@ heading change is ``heading(t + 1) - heading(t)``.
 * Pearson correlation between the heading change and the bit (signed, as SPEC 6.4), and between
   the absolute heading change and the bit (a "turn signal" that says *that* a car turns, not
   which way, shows up there).
+* What each bit value says: per value, its share and the sender's mean speed (m/s, on decision
+  ``t``), mean next acceleration (m/s^2) and mean absolute heading change (rad).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ def mutual_information(a: np.ndarray, b: np.ndarray) -> float:
 
 def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Per (car, decision t) with a row at ``t + 1``: ``bit`` (sent at t), ``next_accel``,
-    ``heading_change`` (rad, wrapped)."""
+    ``heading_change`` (rad, wrapped) and, when the table has speeds, ``speed`` (m/s, at t)."""
     if "bit_sent" not in table or np.all(np.isnan(table["bit_sent"])):
         raise ValueError("the rollouts carry no sent bits: record them with communication=True")
     order = np.lexsort((table["decision"], table["car"], table["episode"]))
@@ -45,8 +47,11 @@ def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     keep = (table["decision"][now] >= 1) & ~np.isnan(bits)  # row 0 is the reset: nothing sent yet
     now, later, bits = now[keep], later[keep], bits[keep]
     dh = table["heading"][later] - table["heading"][now]
-    return {"bit": bits.astype(np.int64), "next_accel": np.round(table["acceleration"][later], 6),
-            "heading_change": (dh + np.pi) % (2 * np.pi) - np.pi}
+    out = {"bit": bits.astype(np.int64), "next_accel": np.round(table["acceleration"][later], 6),
+           "heading_change": (dh + np.pi) % (2 * np.pi) - np.pi}
+    if "speed" in table:
+        out["speed"] = table["speed"][now]
+    return out
 
 
 def communication_metrics(table: dict[str, np.ndarray]) -> dict:
@@ -57,4 +62,17 @@ def communication_metrics(table: dict[str, np.ndarray]) -> dict:
         "speaker_consistency_bits": mutual_information(p["bit"], p["next_accel"]),
         "pearson_heading_change_bit": pearson(p["heading_change"], p["bit"]),
         "pearson_abs_heading_change_bit": pearson(np.abs(p["heading_change"]), p["bit"]),
+        "by_bit": {str(v): _bit_profile(p, p["bit"] == v) for v in (0, 1)},
     }
+
+
+def _bit_profile(pairs: dict[str, np.ndarray], sent: np.ndarray) -> dict[str, float]:
+    """Share of the samples that sent this value, and the sender's means over them."""
+    def mean(x: np.ndarray) -> float:
+        return float(np.mean(x[sent])) if sent.any() else float("nan")
+    out = {"share": float(np.mean(sent)) if len(sent) else float("nan"),
+           "next_accel_mean": mean(pairs["next_accel"]),
+           "abs_heading_change_mean": mean(np.abs(pairs["heading_change"]))}
+    if "speed" in pairs:
+        out["speed_mean"] = mean(pairs["speed"])
+    return out

@@ -1,5 +1,6 @@
-"""Compare communication evaluations across LiDAR noise levels (SPEC 6.4): a markdown table and a
-plot of speaker consistency and the heading-change / bit correlations against noise.
+"""Compare communication evaluations across LiDAR noise levels (SPEC 6.4): markdown tables (the
+metrics, and what each bit value says) and a plot of speaker consistency and the heading-change /
+bit correlations against noise.
 
     python training/experiments/communication_table.py --out docs/images/communication.png \\
         0=runs/comm_n0/eval 0.25=runs/comm_n025/eval 0.5=runs/comm_n05/eval 0.75=runs/comm_n075/eval
@@ -39,13 +40,24 @@ def main(argv: list[str] | None = None) -> int:
         rows.append((float(noise), m))
     rows.sort(key=lambda r: r[0])
     print("| LiDAR noise | bit = 1 share | speaker consistency (bits) | Pearson(dh, bit) | Pearson(abs dh, bit) "
-          "| success | collisions | FIFO share |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| success | collisions | FIFO share | safe-distance share |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for noise, m in rows:
         c = m["communication"]
         print(f"| {noise} | {c['bit_one_share']:.3f} | {c['speaker_consistency_bits']:.4f} | "
               f"{c['pearson_heading_change_bit']:.3f} | {c['pearson_abs_heading_change_bit']:.3f} | "
-              f"{m['success_rate']:.3f} | {m['collision_rate']:.3f} | {m['right_of_way']['fifo_share']:.3f} |")
+              f"{m['success_rate']:.3f} | {m['collision_rate']:.3f} | {m['right_of_way']['fifo_share']:.3f} | "
+              f"{m['safety_distance']['safe_share']:.3f} |")
+    print()
+    print("What each value says (sender's means over the decisions it sent it; bit 0 / bit 1):")
+    print()
+    print("| LiDAR noise | speed (m/s) | next acceleration (m/s²) | abs heading change (rad) |")
+    print("|---:|---:|---:|---:|")
+    for noise, m in rows:
+        b0, b1 = m["communication"]["by_bit"]["0"], m["communication"]["by_bit"]["1"]
+        print(f"| {noise} | {b0['speed_mean']:.2f} / {b1['speed_mean']:.2f} | "
+              f"{b0['next_accel_mean']:.2f} / {b1['next_accel_mean']:.2f} | "
+              f"{b0['abs_heading_change_mean']:.3f} / {b1['abs_heading_change_mean']:.3f} |")
     plt = plots._plt()
     fig, ax = plt.subplots(figsize=(6, 4))
     x = np.array([r[0] for r in rows])
