@@ -167,3 +167,6 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path):
     assert out.exists()
     speeds = metrics["communication"]["by_bit"]
     assert speeds["0"]["share"] + speeds["1"]["share"] == pytest.approx(1.0)
+    del metrics["communication"]["by_bit"]  # a report from before the per-bit profile: refused
+    (tmp_path / "metrics.json").write_text(json.dumps(metrics))
+    assert communication_table.main([f"0={tmp_path}", "--out", str(out)]) == 2

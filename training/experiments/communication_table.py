@@ -37,6 +37,10 @@ def main(argv: list[str] | None = None) -> int:
         if "communication" not in m:
             print(f"communication_table: error: {folder} was not evaluated with communication", file=sys.stderr)
             return 2
+        if "by_bit" not in m["communication"]:
+            print(f"communication_table: error: {folder} predates the per-bit profile; re-evaluate it "
+                  "(training/evaluate.py --overwrite)", file=sys.stderr)
+            return 2
         rows.append((float(noise), m))
     rows.sort(key=lambda r: r[0])
     print("| LiDAR noise | bit = 1 share | speaker consistency (bits) | Pearson(dh, bit) | Pearson(abs dh, bit) "
