@@ -13,7 +13,8 @@ import numpy as np
 from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics
 from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
-from box2d_driving.metrics.right_of_way import fifo_metrics, leader_samples, safety_distance_metrics
+from box2d_driving.metrics.right_of_way import (fifo_metrics, leader_samples, safety_distance_from_samples,
+                                                 safety_distance_metrics)
 from box2d_driving.metrics.rollouts import run_episodes
 from training import plots
 
@@ -82,10 +83,8 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     cfg = env.config
     metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
     metrics["right_of_way"] = fifo_metrics(table)
-    wrecks_stay = not cfg.remove_collided
-    metrics["safety_distance"] = safety_distance_metrics(table, cfg.a_max, cfg.car_length,
-                                                         wrecks_stay=wrecks_stay)
-    s = leader_samples(table, cfg.car_length, wrecks_stay=wrecks_stay)
+    s = leader_samples(table, cfg.car_length, wrecks_stay=not cfg.remove_collided)
+    metrics["safety_distance"] = safety_distance_from_samples(s, cfg.a_max)
     closing = s["closing_speed"] > 0
     plots.speed_vs_distance(s["gap"][closing], s["closing_speed"][closing], cfg.a_max,
                             out / "safety_distance.png", xlabel="gap to the car ahead (m)",

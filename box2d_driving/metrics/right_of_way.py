@@ -141,7 +141,12 @@ def _with_wrecks(ent: dict[str, np.ndarray], table: dict[str, np.ndarray],
 def safety_distance_metrics(table: dict[str, np.ndarray], a_max: float, car_length: float,
                             half_angle: float = math.pi / 6, wrecks_stay: bool = True) -> dict:
     """Share of closing samples (``dv > 0``) with ``gap >= dv^2 / (2 a_max)``."""
-    s = leader_samples(table, car_length, half_angle, wrecks_stay=wrecks_stay)
+    samples = leader_samples(table, car_length, half_angle, wrecks_stay=wrecks_stay)
+    return safety_distance_from_samples(samples, a_max)
+
+
+def safety_distance_from_samples(s: dict[str, np.ndarray], a_max: float) -> dict:
+    """:func:`safety_distance_metrics` of samples already drawn by :func:`leader_samples`."""
     closing = s["closing_speed"] > 0
     need = s["closing_speed"][closing] ** 2 / (2.0 * a_max)
     safe = s["gap"][closing] >= need
