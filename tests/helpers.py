@@ -50,11 +50,13 @@ def table_from_rows(rows, names):
     n = len(rows)
     t = {c: np.zeros(n) for c in COLUMNS + OPTIONAL_COLUMNS}
     t["collided_with"] = np.zeros(n, dtype=int)
+    t["collision_partner"] = np.full(n, -1, dtype=int)
+    t["partner_halted"] = np.zeros(n, dtype=bool)
     cols = list(zip(*rows))
     for name, col in zip(names, cols):
         t[name] = np.asarray(col)
     for name in ("episode", "car", "decision"):
         t[name] = t[name].astype(int)
-    for name in ("in_junction", "arrived", "collided"):
+    for name in ("in_junction", "arrived", "collided", "partner_halted"):
         t[name] = t[name].astype(bool)
     return t

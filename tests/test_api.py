@@ -161,7 +161,7 @@ def test_infos_carry_metric_facts():
     _, _, _, _, infos = env.step({a: 12 for a in env.agents})
     keys = {"position", "heading", "speed", "acceleration", "light", "in_junction", "lane_offset",
             "arrived", "collided", "collided_with", "reward_terms", "distance_to_goal",
-            "bit_sent", "bit_received", "stop_line_distance"}
+            "bit_sent", "bit_received", "stop_line_distance", "collision_partner", "partner_halted"}
     for info in infos.values():
         assert keys <= set(info)
         assert set(info["reward_terms"]) == {"goal", "collision", "smoothness", "progress"}

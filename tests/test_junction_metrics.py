@@ -135,3 +135,53 @@ def test_communication_metrics_turn_signal():
     assert m["by_bit"]["0"]["next_accel_mean"] == pytest.approx(1.5)
     with pytest.raises(ValueError, match="communication=True"):
         communication_metrics(table_from_rows(rows[:2], COMM_COLS[:5]) | {"bit_sent": np.full(2, np.nan)})
+
+
+CRASH_COLS = ("episode", "car", "decision", "heading", "in_junction", "collided", "collided_with",
+              "collision_partner", "partner_halted")
+
+
+def _crash(ep, car, t, heading, inside, with_, partner=-1, halted=False):
+    from box2d_driving.metrics.rollouts import COLLIDED_WITH
+
+    return (ep, car, t, heading, inside, True, COLLIDED_WITH.index(with_), partner, halted)
+
+
+def test_collision_breakdown_classifies_each_collided_car_once():
+    from box2d_driving.metrics.collisions import collision_breakdown, collision_classes
+
+    d = math.radians
+    rows = [
+        (0, 0, 0, 0.0, False, False, 0, -1, False),       # a driving row: not a collision
+        _crash(0, 0, 3, 0.0, True, "car", 1),             # 0 and 1 head-on: 180 degrees apart
+        _crash(0, 1, 3, d(180), True, "car", 0),
+        _crash(0, 2, 5, d(10), False, "car", 0, True),    # 2 hits wreck 0 two decisions later
+        _crash(0, 3, 4, d(90), True, "car", 4),           # 3 and 4 cross at 80 degrees
+        _crash(0, 4, 4, d(10), True, "car", 3),
+        _crash(1, 0, 2, d(-170), False, "car", 1),        # episode 1: rear-end, 20 degrees apart
+        _crash(1, 1, 2, d(170), False, "car", 0),
+        _crash(1, 2, 6, 0.0, False, "edge"),
+        _crash(1, 3, 7, 0.0, True, "pedestrian"),
+    ]
+    table = table_from_rows(rows, CRASH_COLS)
+    c = collision_classes(table)
+    assert c["row"].tolist() == list(range(1, 10))
+    b = collision_breakdown(table)
+    assert b["collided_cars"] == 9 and b["in_junction"] == 5
+    assert b["by_kind"] == {
+        "same_way": {"cars": 2, "in_junction": 0}, "crossing": {"cars": 2, "in_junction": 2},
+        "oncoming": {"cars": 2, "in_junction": 2}, "wreck": {"cars": 1, "in_junction": 0},
+        "edge": {"cars": 1, "in_junction": 0}, "pedestrian": {"cars": 1, "in_junction": 1}}
+    # the thresholds are parameters: with a 90-degree "same way" the crossing pair counts as one
+    assert collision_breakdown(table, same_way=math.pi / 2)["by_kind"]["same_way"]["cars"] == 4
+
+
+def test_collision_breakdown_needs_the_partner_columns_and_the_partners_crash_row():
+    from box2d_driving.metrics.collisions import collision_breakdown
+
+    table = table_from_rows([_crash(0, 0, 3, 0.0, True, "car", 1)], CRASH_COLS)
+    with pytest.raises(ValueError, match="car 0 hit moving car 1"):
+        collision_breakdown(table)
+    del table["partner_halted"]
+    with pytest.raises(KeyError, match="evaluate the policy again"):
+        collision_breakdown(table)

@@ -141,6 +141,8 @@ def test_head_on_cars_collide_on_the_predicted_decision():
     assert t == expected_decision
     assert term == {"car_0": True, "car_1": True}
     assert info["car_0"]["collided_with"] == "car" and info["car_1"]["collided_with"] == "car"
+    assert info["car_0"]["collision_partner"] == 1 and info["car_1"]["collision_partner"] == 0
+    assert not info["car_0"]["partner_halted"] and not info["car_1"]["partner_halted"]
     assert rewards["car_0"] == pytest.approx(rewards["car_1"])
     assert info["car_0"]["reward_terms"]["collision"] == -1.0
     # halted exactly where they touched: fronts just overlapping
@@ -181,7 +183,7 @@ def test_no_tunnelling_through_a_thin_edge_at_top_speed():
         _, _, term, _, info = env.step({"car_0": 2})
         if term["car_0"]:
             break
-    assert info["car_0"]["collided_with"] == "edge"
+    assert info["car_0"]["collided_with"] == "edge" and info["car_0"]["collision_partner"] == -1
     front = info["car_0"]["position"][0] + env.config.car_length / 2
     assert wall_x <= front < wall_x + v * env.config.dt + 1e-6
 
@@ -236,6 +238,7 @@ def test_collided_car_stays_as_an_obstacle():
         if term.get("car_2"):
             break
     assert info["car_2"]["collided_with"] == "car"
+    assert info["car_2"]["collision_partner"] == 0 and info["car_2"]["partner_halted"]  # the wreck
     assert env.world.positions[0][0] == pytest.approx(info["car_2"]["position"][0] + 4.48, abs=1.7)
 
 

@@ -186,6 +186,28 @@ def speed_vs_distance(distance: np.ndarray, speed: np.ndarray, a_max: float, pat
     plt.close(fig)
 
 
+def collision_kinds(breakdown: dict, path: Path, cars: int) -> None:
+    """Bars of collided cars per kind (share of all cars), split into inside / outside the junction
+    (``breakdown`` from :func:`box2d_driving.metrics.collisions.collision_breakdown`)."""
+    plt = _plt()
+    names = list(breakdown["by_kind"])
+    inside = np.array([breakdown["by_kind"][k]["in_junction"] for k in names]) / max(cars, 1)
+    total = np.array([breakdown["by_kind"][k]["cars"] for k in names]) / max(cars, 1)
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    y = np.arange(len(names))
+    ax.barh(y, inside, color="tab:red", label="in the junction")
+    ax.barh(y, total - inside, left=inside, color="tab:orange", label="outside")
+    ax.set_yticks(y, [k.replace("_", " ") for k in names])
+    ax.set_xlim(0, max(float(total.max(initial=0.0)), 0.01) * 1.1)
+    ax.invert_yaxis()
+    ax.set_xlabel("collided cars per car driven")
+    ax.set_title(f"what the {breakdown['collided_cars']} collided cars hit ({cars} cars)")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def lane_histogram(samples: dict[str, np.ndarray], path: Path, bins: int = 24) -> None:
     """Histograms of normalised lane position through the junction (+ = right of the direction
     of travel), one per labelled sample set (e.g. per run or noise level)."""

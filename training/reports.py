@@ -10,6 +10,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from box2d_driving.metrics.collisions import collision_breakdown
 from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics
 from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
@@ -83,6 +84,8 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     cfg = env.config
     metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
     metrics["right_of_way"] = fifo_metrics(table)
+    metrics["collisions"] = collision_breakdown(table)
+    plots.collision_kinds(metrics["collisions"], out / "collisions.png", metrics["cars"])
     s = leader_samples(table, cfg.car_length, wrecks_stay=not cfg.remove_collided)
     metrics["safety_distance"] = safety_distance_from_samples(s, cfg.a_max)
     closing = s["closing_speed"] > 0

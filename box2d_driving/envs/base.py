@@ -336,6 +336,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
             "arrived": bool(w.status[i] == ARRIVED),
             "collided": bool(w.status[i] == COLLIDED),
             "collided_with": w.collided_with[i],
+            "collision_partner": int(w.collision_partner[i]),
+            "partner_halted": bool(w.partner_halted[i]),
             "rating": float(w.ratings[i]),
             "decision": self.decision,
             "approach": self.layout.cars[i].approach,

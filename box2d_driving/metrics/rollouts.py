@@ -18,6 +18,9 @@ COLUMNS = ("episode", "car", "decision", "x", "y", "heading", "speed", "accelera
 # Scenario-specific numeric facts recorded when present (NaN otherwise).
 OPTIONAL_COLUMNS = ("pedestrian_distance", "crosswalk_distance", "bit_sent")
 COLLIDED_WITH = ("", "car", "edge", "pedestrian")
+# Who a collided car hit: the other car's index (-1: none, or not a car) and whether that car had
+# already halted (a wreck). Tables recorded before these existed lack them.
+COLLISION_COLUMNS = ("collision_partner", "partner_halted")
 
 
 class RolloutRecorder:
@@ -26,6 +29,7 @@ class RolloutRecorder:
     def __init__(self) -> None:
         self.rows: list[tuple] = []
         self.collided_with: list[int] = []
+        self.partners: list[tuple[int, bool]] = []
 
     def add(self, episode: int, infos: dict[str, dict[str, Any]],
             rewards: Optional[dict[str, float]] = None) -> None:
@@ -41,6 +45,7 @@ class RolloutRecorder:
                 *(_num(info.get(k)) for k in OPTIONAL_COLUMNS),
             ))
             self.collided_with.append(COLLIDED_WITH.index(info["collided_with"] or ""))
+            self.partners.append((info.get("collision_partner", -1), info.get("partner_halted", False)))
 
     def table(self) -> dict[str, np.ndarray]:
         names = COLUMNS + OPTIONAL_COLUMNS
@@ -52,6 +57,9 @@ class RolloutRecorder:
         for name in ("in_junction", "arrived", "collided"):
             out[name] = out[name].astype(bool)
         out["collided_with"] = np.asarray(self.collided_with, dtype=np.int64)
+        partner, halted = (list(c) for c in zip(*self.partners)) if self.partners else ([], [])
+        out["collision_partner"] = np.asarray(partner, dtype=np.int64)
+        out["partner_halted"] = np.asarray(halted, dtype=bool)
         return out
 
 

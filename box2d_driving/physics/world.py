@@ -40,12 +40,16 @@ class DecisionEvents:
         arrived: ``(N,)`` reached its goal during this decision.
         collided: ``(N,)`` had its first collision during this decision.
         collided_with: per car, ``"car"``, ``"edge"``, ``"pedestrian"`` or None.
+        partner: ``(N,)`` index of the car hit (-1 if none or not a car).
+        partner_halted: ``(N,)`` the car hit had already halted (a wreck) before the contact.
         substep: ``(N,)`` physics step (1-based) of the event, 0 if none.
     """
 
     arrived: np.ndarray
     collided: np.ndarray
     collided_with: list
+    partner: np.ndarray
+    partner_halted: np.ndarray
     substep: np.ndarray
 
 
@@ -86,6 +90,8 @@ class DrivingWorld:
         self.accel = np.zeros(n)
         self.status = np.full(n, ACTIVE, dtype=np.int64)
         self.collided_with: list = [None] * n
+        self.collision_partner = np.full(n, -1, dtype=np.int64)
+        self.partner_halted = np.zeros(n, dtype=bool)
 
         hl, hw = cfg.car_length / 2, cfg.car_width / 2
         self.car_bodies = []
@@ -142,7 +148,8 @@ class DrivingWorld:
 
         events = DecisionEvents(
             arrived=np.zeros(n, dtype=bool), collided=np.zeros(n, dtype=bool),
-            collided_with=[None] * n, substep=np.zeros(n, dtype=np.int64),
+            collided_with=[None] * n, partner=np.full(n, -1, dtype=np.int64),
+            partner_halted=np.zeros(n, dtype=bool), substep=np.zeros(n, dtype=np.int64),
         )
         live = [i for i in range(n) if moving[i]]
         bodies = self.car_bodies
@@ -182,6 +189,7 @@ class DrivingWorld:
     def _apply_contacts(self, contacts, events: DecisionEvents, substep: int) -> list[int]:
         """Mark first collisions; returns the cars that collided now."""
         hit: list[int] = []
+        halted = self.status == COLLIDED  # before these contacts: two cars touching now both move
         for a, b in contacts:
             for me, other in ((a, b), (b, a)):
                 if me[0] != CAR:
@@ -193,6 +201,10 @@ class DrivingWorld:
                 self.collided_with[i] = other[0]
                 events.collided[i] = True
                 events.collided_with[i] = other[0]
+                if other[0] == CAR:
+                    j = other[1]
+                    self.collision_partner[i] = events.partner[i] = j
+                    self.partner_halted[i] = events.partner_halted[i] = halted[j]
                 events.substep[i] = substep
                 hit.append(i)
         for i in hit:

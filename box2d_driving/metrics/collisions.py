@@ -1,0 +1,70 @@
+"""What the collisions were: each collided car classified by what it hit and where.
+
+A collided car has exactly one row with ``collided`` set: the decision of its first collision (it
+halts there and takes no more decisions). Classes:
+
+- ``edge``, ``pedestrian``: it hit a road edge or a pedestrian;
+- ``wreck``: it hit a car that had already halted after an earlier collision (a static, visible
+  obstacle: SPEC 2 keeps wrecks in the world);
+- two moving cars, by the angle between their headings at the crash: ``same_way`` (less than
+  ``same_way`` apart: rear-ends, or two cars merging into one lane), ``oncoming`` (more than
+  ``oncoming`` apart: head-on, e.g. a turn across oncoming traffic), ``crossing`` (between).
+
+Each class also counts how many of its cars crashed inside the junction area.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLLISION_COLUMNS
+
+CLASSES = ("same_way", "crossing", "oncoming", "wreck", "edge", "pedestrian")
+
+
+def collision_classes(table: dict[str, np.ndarray], same_way: float = math.pi / 6,
+                      oncoming: float = 5 * math.pi / 6) -> dict[str, np.ndarray]:
+    """Per collided car: ``row`` (its crash row) and ``kind`` (index into :data:`CLASSES`).
+    Angles in radians."""
+    missing = [c for c in COLLISION_COLUMNS if c not in table]
+    if missing:
+        raise KeyError(f"rollout table lacks {missing}: it was recorded before collision partners "
+                       "were; evaluate the policy again to classify its collisions")
+    rows = np.flatnonzero(table["collided"].astype(bool))
+    with_ = table["collided_with"][rows]
+    kind = np.full(len(rows), -1, dtype=np.int64)
+    kind[with_ == COLLIDED_WITH.index("edge")] = CLASSES.index("edge")
+    kind[with_ == COLLIDED_WITH.index("pedestrian")] = CLASSES.index("pedestrian")
+    car = with_ == COLLIDED_WITH.index("car")
+    halted = table["partner_halted"][rows].astype(bool)
+    kind[car & halted] = CLASSES.index("wreck")
+    # the moving partner also collided on this decision: its crash row holds its heading then
+    key = {(int(e), int(c), int(d)): r for r, e, c, d in zip(
+        rows.tolist(), table["episode"][rows], table["car"][rows], table["decision"][rows])}
+    for n in np.flatnonzero(car & ~halted):
+        r = rows[n]
+        partner_row = key.get((int(table["episode"][r]), int(table["collision_partner"][r]),
+                               int(table["decision"][r])))
+        if partner_row is None:
+            raise ValueError(f"row {r}: car {table['car'][r]} hit moving car "
+                             f"{table['collision_partner'][r]}, which has no crash row on that decision")
+        diff = abs((table["heading"][partner_row] - table["heading"][r] + math.pi) % (2 * math.pi) - math.pi)
+        kind[n] = CLASSES.index("same_way" if diff < same_way else "oncoming" if diff > oncoming
+                                else "crossing")
+    return {"row": rows, "kind": kind}
+
+
+def collision_breakdown(table: dict[str, np.ndarray], same_way: float = math.pi / 6,
+                        oncoming: float = 5 * math.pi / 6) -> dict:
+    """Collided cars per class (:data:`CLASSES`) and how many of each crashed in the junction."""
+    c = collision_classes(table, same_way, oncoming)
+    inside = table["in_junction"][c["row"]].astype(bool)
+    return {
+        "collided_cars": int(len(c["row"])),
+        "in_junction": int(inside.sum()),
+        "by_kind": {name: {"cars": int(np.sum(c["kind"] == k)),
+                           "in_junction": int(np.sum((c["kind"] == k) & inside))}
+                    for k, name in enumerate(CLASSES)},
+    }
