@@ -26,6 +26,7 @@ def accel_levels(low: float, high: float, step: float) -> tuple[float, ...]:
 LIDAR_ENCODINGS = ("inverse", "proximity")
 LIDAR_BACKENDS = ("auto", "numba", "box2d")
 RENDER_MODES = (None, "rgb_array", "human")
+COMM_FALLBACKS = ("zero", "own")
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,9 @@ class DrivingConfig:
             receives 0 while the bits are still sent; a control for whether listeners use them).
         comm_range: a car hears the nearest other car within this distance (m) ...
         comm_half_angle: ... and within this angle of its heading (rad).
+        comm_fallback: what a car receives when no other car is in range: ``"zero"`` (SPEC 2)
+            or ``"own"``, its own last bit (a 1-bit memory; an ablation: the original code's
+            nearest-sender rule could pick the receiver itself when no other car was visible).
         car_length, car_width: car body size (m).
         v_lim: speed limit (m/s); speed is clipped to ``[0, v_lim]``.
         accelerations: the discrete longitudinal accelerations (m/s^2).
@@ -86,6 +90,7 @@ class DrivingConfig:
     messages_heard: bool = True
     comm_range: float = 30.0
     comm_half_angle: float = math.pi / 6
+    comm_fallback: str = "zero"
     car_length: float = 4.48
     car_width: float = 2.2
     v_lim: float = 8.0
@@ -134,6 +139,7 @@ class DrivingConfig:
         _choice(self, "lidar_encoding", LIDAR_ENCODINGS)
         _choice(self, "lidar_backend", LIDAR_BACKENDS)
         _choice(self, "render_mode", RENDER_MODES)
+        _choice(self, "comm_fallback", COMM_FALLBACKS)
         if len(self.render_size) != 2 or any(not isinstance(v, int) or v < 16 for v in self.render_size):
             raise ConfigError(f"render_size must be two integers >= 16, got {self.render_size!r}")
         _positive(self, "render_fps")

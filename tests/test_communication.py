@@ -67,3 +67,26 @@ def test_nearest_sender_wins_and_range_is_respected():
     env.reset(seed=0)
     _, _, _, _, info = env.step({"car_0": zero + n, "car_1": zero, "car_2": zero, "car_3": zero})
     assert info["car_3"]["bit_received"] == 1
+
+
+def test_own_bit_fallback_is_a_memory_only_for_a_car_that_hears_nobody():
+    import pytest
+
+    import box2d_driving
+
+    cars = [straight_car((0, 0), (100, 0)), straight_car((20, 0), (100, 0))]  # car_1 ahead of car_0
+    got = {}
+    for fallback in ("zero", "own"):
+        env = hand_env(cars, communication=True, horizon=10, comm_fallback=fallback)
+        env.reset(seed=0)
+        n = len(env.config.accelerations)
+        zero = int(np.argmin(np.abs(env.config.accelerations)))
+        _, _, _, _, info = env.step({"car_0": zero + n, "car_1": zero + n})
+        first = (info["car_0"]["bit_received"], info["car_1"]["bit_received"])
+        _, _, _, _, info = env.step({"car_0": zero + n, "car_1": zero})
+        got[fallback] = first + (info["car_0"]["bit_received"], info["car_1"]["bit_received"])
+    # car_0 always hears car_1 (never itself); car_1 hears nobody: 0, or its own last bit (1, then 0)
+    assert got["zero"] == (1, 0, 0, 0)
+    assert got["own"] == (1, 1, 0, 0)
+    with pytest.raises(box2d_driving.ConfigError, match="comm_fallback"):
+        box2d_driving.make("real-junction-v0", communication=True, comm_fallback="self")

@@ -28,6 +28,7 @@ class Args(ScriptArgs):
     """Train cars through real junctions on real-junction-v0.
 
     communication: each car also sends one bit per decision (the turn-signal option)
+    comm_fallback: with communication, what a car hearing no other car receives: zero (SPEC) or own (its own last bit)
     map: one shipped map name or a map JSON file (default: all shipped maps, one per episode)
     """
 
@@ -35,10 +36,13 @@ class Args(ScriptArgs):
     timesteps: int = 3_000_000
     out: str = "runs/real_junction"
     communication: bool = False
+    comm_fallback: str = "zero"
     map: Optional[str] = None
 
     def env_overrides(self) -> dict:
         extra = {"communication": self.communication}
+        if self.comm_fallback != "zero":  # runs without it keep their recorded overrides
+            extra["comm_fallback"] = self.comm_fallback
         if self.map is not None:
             extra["map"] = self.map
         return extra

@@ -289,9 +289,10 @@ class DrivingEnv(ParallelEnv, EzPickle):
         return out
 
     def _receive(self, cars: np.ndarray, senders: np.ndarray) -> np.ndarray:
-        """Bit of the nearest other sender within range and angle of each car's heading."""
+        """Bit of the nearest other sender within range and angle of each car's heading; with
+        none, 0 or (``comm_fallback="own"``) the car's own last bit."""
         cfg, w = self.config, self.world
-        out = np.zeros(len(cars))
+        out = self._bits[cars].astype(float) if cfg.comm_fallback == "own" else np.zeros(len(cars))
         if len(senders) == 0:
             return out
         rel = w.positions[senders][None, :, :] - w.positions[cars][:, None, :]
