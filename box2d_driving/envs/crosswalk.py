@@ -126,10 +126,14 @@ class CrosswalkEnv(HighwayEnv):
         if not cfg.crosswalk_in_satnav:
             return np.zeros((cfg.num_cars, 0))
         w = self.world
-        front = w.positions[:, 0] + 0.5 * cfg.car_length * np.cos(w.headings)
-        rear = w.positions[:, 0] - 0.5 * cfg.car_length * np.cos(w.headings)
+        front = self._bumper_x(w.positions, w.headings, +1.0)
+        rear = self._bumper_x(w.positions, w.headings, -1.0)
         ahead = np.clip(1.0 - (cfg.crosswalk_x[0] - front) / cfg.crosswalk_view, 0.0, 1.0)
         return np.where(rear > cfg.crosswalk_x[1], 0.0, ahead)[:, None]
+
+    def _bumper_x(self, pos: np.ndarray, head: np.ndarray, side: float) -> np.ndarray:
+        """x (m) of the front (``side=+1``) or rear (``-1``) bumper centre of cars at ``pos``, ``head``."""
+        return pos[:, 0] + side * 0.5 * self.config.car_length * np.cos(head)
 
     def scenario_info(self, cars: np.ndarray) -> list[dict]:
         """``pedestrian_distance``: centre distance (m) to the nearest pedestrian within
@@ -137,7 +141,7 @@ class CrosswalkEnv(HighwayEnv):
         front to the near edge of the crosswalk (m, negative once the front is past it)."""
         cfg, w = self.config, self.world
         pos, head = w.positions[cars], w.headings[cars]
-        front = pos[:, 0] + 0.5 * cfg.car_length * np.cos(head)
+        front = self._bumper_x(pos, head, +1.0)
         out = [{"crosswalk_distance": float(cfg.crosswalk_x[0] - f), "pedestrian_distance": None}
                for f in front]
         if len(w.ped_positions):
