@@ -237,8 +237,9 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     with pytest.raises(RunError, match="env_overrides differs"):
         train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=800), out, resume=True)
     # a wall-clock budget already spent: nothing more is trained
-    train(_tiny(timesteps=10_000, max_minutes=0.0), out, resume=True)
+    assert train(_tiny(timesteps=10_000, max_minutes=0.0), out, resume=True) == {}
     assert json.loads((out / "state.json").read_text())["decisions"] == 640
+    assert len(list(out.glob("progress*.csv"))) == 3  # and no empty log for it
     with pytest.raises(RunError, match="no checkpoint"):
         train(_tiny(), tmp_path / "missing", resume=True)
 

@@ -271,15 +271,19 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
             load_weights(model, Path(config.init_from))
         venv.seed(config.seed)
     set_minibatching(model, config, venv.n_cars)
-    model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
-                     _append_logger(out, model.num_timesteps))
     remaining = config.timesteps - model.num_timesteps
     max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
+    if remaining <= 0 or wall >= max_seconds:  # a resumed run with nothing left: no new logs
+        venv.close()
+        print(f"{out}: nothing to train: {model.num_timesteps} of {config.timesteps} decisions and "
+              f"{wall / 60:.1f} of {max_seconds / 60:.1f} min done", file=sys.stderr)
+        return {}
+    model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
+                     _append_logger(out, model.num_timesteps))
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
                               max_seconds)
-    if remaining > 0 and wall < max_seconds:
-        model.learn(remaining, callback=callback, reset_num_timesteps=False)
-        save_checkpoint(model, out, callback.wall, callback.agent_steps)
+    model.learn(remaining, callback=callback, reset_num_timesteps=False)
+    save_checkpoint(model, out, callback.wall, callback.agent_steps)
     venv.close()
     return getattr(callback, "last_stats", {})
 
