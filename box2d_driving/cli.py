@@ -129,6 +129,14 @@ def _report_map(roadmap, out: Path, args: argparse.Namespace) -> None:
         print(f"wrote {plot_map(roadmap, args.png)}")
 
 
+def _map_output_arguments(p: argparse.ArgumentParser) -> None:
+    """Options shared by the map importers: the cut-out size and where the map goes."""
+    p.add_argument("--size", type=float, default=100.0, help="side of the square cut out (m, default 100)")
+    p.add_argument("--out", required=True, help="map JSON to write")
+    p.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="box2d-driving",
                      description="Multi-agent Box2D driving worlds in which road rules emerge.")
@@ -154,20 +162,14 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("file", help="OSM extract (.osm.pbf or .osm XML)")
     m.add_argument("--node", type=int, help="OSM node id of the junction")
     m.add_argument("--latlon", help="or the junction nearest to LAT,LON")
-    m.add_argument("--size", type=float, default=100.0, help="side of the square cut out (m, default 100)")
-    m.add_argument("--out", required=True, help="map JSON to write")
-    m.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
-    m.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    _map_output_arguments(m)
     m.set_defaults(func=_import_osm)
 
     n = sub.add_parser("import-nuscenes", help="import a junction from a nuScenes map-expansion JSON")
     n.add_argument("file", help="map-expansion JSON (e.g. boston-seaport.json)")
     n.add_argument("--centre", help="X,Y (map metres) inside or near the intersection")
     n.add_argument("--segment", help="or the intersection's road_segment token")
-    n.add_argument("--size", type=float, default=100.0, help="side of the square cut out (m, default 100)")
-    n.add_argument("--out", required=True, help="map JSON to write")
-    n.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
-    n.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    _map_output_arguments(n)
     n.set_defaults(func=_import_nuscenes)
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
