@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -241,6 +242,27 @@ def test_shipped_maps_load_and_carry_attribution():
 def test_shipped_map_is_reproduced_by_the_importer():
     path = ROOT / "assets" / "maps" / "helsinki_25345669.json"
     assert import_junction(PBF, 25345669).to_dict() == load_map(path).to_dict()
+
+
+def test_a_built_package_carries_the_shipped_maps(tmp_path):
+    """A wheel holds what ``build_py`` builds: the maps must be in it, and the package must find
+    them there when no checkout's assets/ is next to it."""
+    import subprocess
+    import sys
+
+    lib = tmp_path / "lib"
+    subprocess.run([sys.executable, "setup.py", "-q", "build_py", "--build-lib", str(lib)], cwd=ROOT,
+                   check=True, capture_output=True)
+    packaged = sorted((lib / "box2d_driving" / "maps" / "junctions").glob("*.json"))
+    assert [p.name for p in packaged] == [p.name for p in SHIPPED]
+    assert all(p.read_bytes() == q.read_bytes() for p, q in zip(packaged, SHIPPED))
+    probe = ("import box2d_driving, box2d_driving.maps.shipped as s; "
+             "env = box2d_driving.make('real-junction-v0'); env.reset(seed=0); "
+             "print(box2d_driving.__file__); print(s.SHIPPED_DIR); print(len(s.shipped_maps()))")
+    out = subprocess.run([sys.executable, "-c", probe], cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(lib)},
+                         check=True, capture_output=True, text=True).stdout.split("\n")
+    assert out[0].startswith(str(lib)) and out[1] == str(lib / "box2d_driving" / "maps" / "junctions")
+    assert int(out[2]) == len(SHIPPED)
 
 
 def test_import_osm_command(tmp_path, capsys):

@@ -7,7 +7,11 @@ from pathlib import Path
 
 from box2d_driving.maps.roadmap import MapError, RoadMap, load_map
 
-SHIPPED_DIR = Path(__file__).resolve().parent.parent.parent / "assets" / "maps"
+# A repository checkout (or editable install) reads assets/maps/; a wheel carries a copy of them
+# in the package (setup.py).
+_CHECKOUT_DIR = Path(__file__).resolve().parent.parent.parent / "assets" / "maps"
+_PACKAGED_DIR = Path(__file__).resolve().parent / "junctions"
+SHIPPED_DIR = _CHECKOUT_DIR if _CHECKOUT_DIR.is_dir() else _PACKAGED_DIR
 
 
 def shipped_maps() -> tuple[str, ...]:
