@@ -102,7 +102,8 @@ def _import_osm(args: argparse.Namespace) -> int:
         raise ValueError("give exactly one of --node ID or --latlon LAT,LON")
     where = args.node if args.latlon is None else _float_pair(args.latlon, "--latlon", "LAT,LON")
     out = _new_output(args)
-    _report_map(import_junction(args.file, where, ImportConfig(size_m=args.size)), out, args)
+    cfg = ImportConfig(size_m=args.size, drive_on=args.drive_on)
+    _report_map(import_junction(args.file, where, cfg), out, args)
     return 0
 
 
@@ -162,6 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("file", help="OSM extract (.osm.pbf or .osm XML)")
     m.add_argument("--node", type=int, help="OSM node id of the junction")
     m.add_argument("--latlon", help="or the junction nearest to LAT,LON")
+    m.add_argument("--drive-on", choices=("right", "left"), default="right",
+                   help="the side traffic keeps to (default right; left: UK, Japan, Singapore, ...)")
     _map_output_arguments(m)
     m.set_defaults(func=_import_osm)
 

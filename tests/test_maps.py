@@ -275,6 +275,9 @@ def test_import_osm_command(tmp_path, capsys):
     assert cli(["import-osm", str(src), "--node", "2", "--out", str(tmp_path / "x.json")]) == 2
     assert "not a junction" in capsys.readouterr().err
     assert cli(["import-osm", str(src), "--out", str(tmp_path / "y.json")]) == 2
+    left = tmp_path / "left.json"
+    assert cli(["import-osm", str(src), "--node", "1", "--drive-on", "left", "--out", str(left)]) == 0
+    assert load_map(left).source["drive_on"] == "left"
 
 
 def test_junction_area_reaches_the_stop_lines(junction):
@@ -284,3 +287,54 @@ def test_junction_area_reaches_the_stop_lines(junction):
         axis = m.arms[line.arm].centreline
         inward, outward = geo.point_at(axis, line.s - 0.5), geo.point_at(axis, line.s + 0.5)
         assert geo.points_in_polygon(np.array([inward, outward]), m.junction_area).tolist() == [True, False]
+
+
+def test_left_hand_traffic_is_the_mirror_image(tmp_path):
+    """drive_on="left": lanes keep left, the short turn is the left turn, the turn across
+    oncoming traffic is the right turn, turn:lanes are read left to right as in reality."""
+    osm = four_way(tmp_path / "four.osm")
+    right = import_junction(osm, 1)
+    left = import_junction(osm, 1, ImportConfig(drive_on="left"))
+    assert left.source["drive_on"] == "left" and "drive_on" not in right.source
+    assert sorted(a.name for a in left.arms) == sorted(a.name for a in right.arms)
+    for m, side in ((right, -1.0), (left, 1.0)):  # side of the axis, looking along the lane
+        for lane in m.lanes:
+            a = m.arms[lane.arm]
+            mid = lane.centreline[len(lane.centreline) // 2]
+            d = lane.centreline[-1] - lane.centreline[0]
+            d = d / np.linalg.norm(d)
+            if a.lanes_in and a.lanes_out:
+                assert np.sign(mid @ np.array([-d[1], d[0]])) == side
+        # lane 0 is the leftmost in its direction
+        for a in m.arms:
+            for ids in (a.lanes_in, a.lanes_out):
+                lanes = [m.lanes[i] for i in ids]
+                assert [la.index for la in lanes] == list(range(len(lanes)))
+                if len(lanes) == 2:
+                    d = lanes[0].centreline[-1] - lanes[0].centreline[0]
+                    gap = lanes[0].centreline[len(lanes[0].centreline) // 2] - lanes[1].centreline[len(lanes[1].centreline) // 2]
+                    assert gap @ np.array([-d[1], d[0]]) > 0
+        for c in m.connectors:  # a left turn turns counter-clockwise in both
+            h = np.diff(c.path, axis=0)
+            turn = math.remainder(math.atan2(h[-1, 1], h[-1, 0]) - math.atan2(h[0, 1], h[0, 0]), 2 * math.pi)
+            assert c.movement == "straight" or (turn > 0) == (c.movement == "left")
+    # the turn towards the kerb is the short one (mean path length over the map's turns)
+    def length(m, movement):
+        return np.mean([geo.cumulative_length(c.path)[-1] for c in m.connectors if c.movement == movement])
+    assert length(right, "right") < length(right, "left")
+    assert length(left, "left") < length(left, "right")
+    # turn:lanes "left;through|through;right" on West: its leftmost lane turns left in both
+    for m in (right, left):
+        west = arm(m, "West")
+        assert {c.movement for c in m.connectors_from(west.lanes_in[0])} >= {"left"}
+        assert "right" not in {c.movement for c in m.connectors_from(west.lanes_in[0])}
+    # a left-hand map drives: cars spawn and follow it
+    import box2d_driving
+
+    path = left.save(tmp_path / "left.json")
+    env = box2d_driving.make("real-junction-v0", map=str(path), num_cars=4)
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step({a: 12 for a in env.agents})
+    with pytest.raises(MapError, match="drive_on"):
+        ImportConfig(drive_on="middle")

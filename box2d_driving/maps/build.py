@@ -15,13 +15,14 @@ is centred on the axis: inbound lanes to the left of ``split``, outbound lanes t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
 
 from box2d_driving.maps import geometry as geo
 from box2d_driving.maps.config import ImportConfig
+from box2d_driving.maps.mirror import FLIP_Y, mirror_map, swap_turn
 from box2d_driving.maps.roadmap import (Arm, Connector, Crosswalk, Lane, MapError, RoadMap, SignalHead,
                                         SpawnRegion, StopLine)
 
@@ -142,11 +143,38 @@ def _default_turns(n: int) -> list[set[str]]:
 
 def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
               signalled: bool = False, notes: Optional[list[str]] = None) -> RoadMap:
-    """Lay out a junction from its arms (see the module docstring).
+    """Lay out a junction from its arms (see the module docstring) for traffic keeping to
+    ``cfg.drive_on``.
 
     ``signalled``: the junction has signals even if no arm found its own head (e.g. the junction
     node itself is tagged); every approach then gets one.
     """
+    if cfg.drive_on == "left":  # the mirror image of a right-hand junction (maps/mirror.py)
+        mirrored = _build([_mirror_spec(s) for s in specs], cfg, name, {**source, "drive_on": "left"},
+                          signalled, notes, mirrored=True)
+        return mirror_map(mirrored)
+    return _build(specs, cfg, name, source, signalled, notes, mirrored=False)
+
+
+def _mirror_spec(spec: ArmSpec) -> ArmSpec:
+    """The arm reflected across the x axis; its turn lanes (listed left to right) reversed, with
+    left and right turns swapped."""
+    turns = None if spec.turn_lanes is None else [{swap_turn(m) for m in t} for t in spec.turn_lanes[::-1]]
+    return replace(spec, centreline=spec.centreline * FLIP_Y, turn_lanes=turns,
+                   signals=[(p * FLIP_Y, sid) for p, sid in spec.signals], crossings=list(spec.crossings))
+
+
+def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, signalled: bool,
+           notes: Optional[list[str]], mirrored: bool) -> RoadMap:
+    """:func:`build_map` for right-hand traffic; ``mirrored``: the specs are a left-hand
+    junction's mirror image (notes then name turns and lanes as they are in reality)."""
+    def shown_lane(lane: Lane) -> int:
+        count = (specs[lane.arm].lanes_in if lane.direction == "in" else specs[lane.arm].lanes_out)
+        return count - 1 - lane.index if mirrored else lane.index
+
+    def shown_turn(movement: str) -> str:
+        return swap_turn(movement) if mirrored else movement
+
     notes = list(notes or [])
     if len(specs) < 3:
         raise MapError(f"{name}: a junction needs at least 3 arms, found {len(specs)}")
@@ -265,7 +293,8 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
                 h = cfg.connector_handle * np.linalg.norm(p3 - p0)
                 path = geo.bezier(p0, p0 + h * d0, p3 - h * d3, p3)
                 radius = geo.min_radius(path)
-                label = f"{movement} from {spec.name!r} lane {lanes[fl].index} to {specs[j].name!r} lane {lanes[tl].index}"
+                label = (f"{shown_turn(movement)} from {spec.name!r} lane {shown_lane(lanes[fl])} "
+                         f"to {specs[j].name!r} lane {shown_lane(lanes[tl])}")
                 if radius < cfg.min_turn_radius:
                     notes.append(f"connector {label} left out: radius {radius:.1f} m")
                     continue
@@ -278,7 +307,7 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
     served = {c.from_lane for c in connectors}
     for lane in lanes:
         if lane.direction == "in" and lane.id not in served:
-            notes.append(f"inbound lane {lane.index} of {specs[lane.arm].name!r} has no connector")
+            notes.append(f"inbound lane {shown_lane(lane)} of {specs[lane.arm].name!r} has no connector")
 
     # ---- signals -------------------------------------------------------------------------------
     signals: list[SignalHead] = []

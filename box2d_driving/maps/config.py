@@ -21,6 +21,8 @@ class ImportConfig:
     """How a junction is cut out of source data and turned into a :class:`RoadMap`.
 
     Attributes:
+        drive_on: the side traffic keeps to, ``"right"`` (Helsinki) or ``"left"`` (UK, Japan,
+            Singapore, ...).
         size_m: side of the square around the junction centre that the map covers (m).
         min_arm_length: an arm cut shorter than this (extract edge, dead end) is an error (m).
         merge_radius: junction nodes this close along the road network are one junction
@@ -50,6 +52,7 @@ class ImportConfig:
         road_classes: OSM ``highway`` values that carry cars.
     """
 
+    drive_on: str = "right"
     size_m: float = 100.0
     min_arm_length: float = 25.0
     merge_radius: float = 20.0
@@ -74,6 +77,8 @@ class ImportConfig:
     road_classes: tuple[str, ...] = tuple(DEFAULT_LANES)
 
     def __post_init__(self) -> None:
+        if self.drive_on not in ("right", "left"):
+            raise MapError(f"ImportConfig.drive_on must be 'right' or 'left', got {self.drive_on!r}")
         positive = ("size_m", "min_arm_length", "lane_width", "crosswalk_width", "sample_step",
                     "signal_radius", "min_turn_radius")
         for name in positive:
