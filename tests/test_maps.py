@@ -173,6 +173,18 @@ def test_dual_carriageway_nodes_merge_into_one_junction(tmp_path):
         a = m.arms[lane.arm]
         if a.name == "Avenue":
             assert np.linalg.norm(lane.centreline[0] - lane.centreline[-1]) > 20
+    # the median is kerbed: edges on both sides, not drivable, and no connector crosses it
+    for a in avenue:
+        lane_in, lane_out = m.lanes[a.lanes_in[0]].centreline, m.lanes[a.lanes_out[0]].centreline
+        mid = 0.5 * (lane_in[len(lane_in) // 2] + lane_out[len(lane_out) // 2])  # between the carriageways
+        assert not any(geo.points_in_polygon(mid[None], p)[0] for p in m.drivable)
+        assert geo.distance_to_polylines(mid[None], m.edges)[0] < 4.0
+    assert {c.movement for c in m.connectors} == {"straight", "left", "right"}
+    for c in m.connectors:
+        inside = np.zeros(len(c.path), bool)
+        for poly in m.drivable:
+            inside |= geo.points_in_polygon(c.path, poly)
+        assert inside.all()
 
 
 def test_bad_requests_name_the_problem(tmp_path):

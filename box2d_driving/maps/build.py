@@ -204,7 +204,14 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         left, right = _strip(spec, mouth)
         edges += [left, right]
-        drivable.append(np.vstack([left, right[::-1]]))
+        if spec.median > 0:  # a dual carriageway: the median is kerbed, not drivable
+            axis = geo.resample(spec.centreline, 1.0, mouth)
+            inner_in = geo.offset(axis, spec.split - spec.median / 2)
+            inner_out = geo.offset(axis, spec.split + spec.median / 2)
+            edges += [inner_in, inner_out, np.array([inner_in[0], inner_out[0]])]  # sides and nose
+            drivable += [np.vstack([left, inner_in[::-1]]), np.vstack([inner_out, right[::-1]])]
+        else:
+            drivable.append(np.vstack([left, right[::-1]]))
         j = (i + 1) % len(specs)
         nxt_left, nxt_right = _strip(specs[j], mouths[j])
         corner = _corner(left[0], -geo.tangent_at(spec.centreline, mouth), nxt_right[0],
