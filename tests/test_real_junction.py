@@ -156,7 +156,9 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path):
     assert 0.0 <= metrics["communication"]["bit_one_share"] <= 1.0
     assert set(metrics["messages_unheard"]) == {"success_rate", "collision_rate", "fifo_share", "safe_share"}
     assert (tmp_path / "safety_distance.png").exists()
-    crashes = metrics["collisions"]  # every collided car in exactly one class
+    from training.reports import add_collisions
+
+    crashes = add_collisions({}, table, tmp_path)["collisions"]  # every collided car in one class
     assert crashes["collided_cars"] == int(table["collided"].sum()) > 0
     assert sum(k["cars"] for k in crashes["by_kind"].values()) == crashes["collided_cars"]
     assert (tmp_path / "collisions.png").exists()

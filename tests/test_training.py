@@ -280,8 +280,9 @@ def test_scripts_quick_train_and_evaluate(tmp_path):
     metrics = json.loads((ev / "metrics.json").read_text())
     for key in ("success_rate", "collision_rate", "red_light_violation_rate", "mean_time_to_goal"):
         assert key in metrics
+    assert metrics["collisions"]["collided_cars"] == round(metrics["collision_rate"] * metrics["cars"])
     for name in ("rollouts.npz", "learning_curves.png", "acceleration_by_light.png",
-                 "junction_light.png", "episodes.mp4"):
+                 "junction_light.png", "episodes.mp4", "collisions.png"):
         assert (ev / name).stat().st_size > 0
     assert evaluate.main(["--checkpoint", str(out), "--episodes", "3", "--out", str(ev)]) == 2
 
@@ -301,6 +302,7 @@ def test_crosswalk_script_and_evaluation_with_invisible_control(tmp_path):
     metrics = json.loads((ev / "metrics.json").read_text())
     assert "safe_stopping_share" in metrics and "pedestrian_collision_rate" in metrics
     assert "pedestrian_collision_rate" in metrics["invisible_pedestrians"]
+    assert "pedestrian" in metrics["collisions"]["by_kind"]
     for name in ("pedestrian_distance.png", "speed_vs_pedestrian_distance.png",
                  "speed_vs_crosswalk_distance.png"):
         assert (ev / name).stat().st_size > 0

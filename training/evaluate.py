@@ -4,7 +4,8 @@
     python training/evaluate.py --checkpoint rule --episodes 200 --out runs/rule_eval
 
 Writes ``OUT/rollouts.npz`` (one row per car per decision), ``OUT/metrics.json`` and plots:
-``learning_curves.png`` (from the run's logs) and the scenario's report (``training/reports.py``):
+``learning_curves.png`` (from the run's logs), what each collided car hit (``collisions`` and
+``collisions.png``, every scenario) and the scenario's report (``training/reports.py``):
 intersection: success_rate, collision_rate, red_light_violation_rate with the adopted stop value,
 mean_time_to_goal, ``acceleration_by_light.png``, ``junction_light.png``; crosswalk: safe-stopping
 share, pedestrian collision rate (also with pedestrians invisible to the LiDAR), distance KDE and
@@ -28,7 +29,7 @@ from box2d_driving.metrics.lights import outcome_rates  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes, save_table  # noqa: E402
 from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
 from training import plots  # noqa: E402
-from training.reports import REPORTS  # noqa: E402
+from training.reports import REPORTS, add_collisions  # noqa: E402
 from training.cli_args import parse  # noqa: E402
 
 
@@ -98,6 +99,7 @@ def evaluate(args: Args) -> dict:
     report = REPORTS.get(env_id)
     metrics = (report(table, env, policy, out, args.episodes, args.seed, make_env) if report
                else outcome_rates(table))
+    add_collisions(metrics, table, out)
     metrics.update(source)
     metrics.update(episodes=args.episodes, seed=args.seed, deterministic=not args.stochastic,
                    env_id=env_id, env_config={

@@ -16,8 +16,16 @@ from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rate
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
 from box2d_driving.metrics.right_of_way import (fifo_metrics, leader_samples, safety_distance_from_samples,
                                                  safety_distance_metrics)
-from box2d_driving.metrics.rollouts import run_episodes
+from box2d_driving.metrics.rollouts import last_rows, run_episodes
 from training import plots
+
+
+def add_collisions(metrics: dict, table: dict, out: Path) -> dict:
+    """Part of every report: what each collided car hit and where (``metrics["collisions"]``,
+    ``collisions.png``)."""
+    metrics["collisions"] = collision_breakdown(table)
+    plots.collision_kinds(metrics["collisions"], out / "collisions.png", len(last_rows(table)))
+    return metrics
 
 
 def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
@@ -84,8 +92,6 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     cfg = env.config
     metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
     metrics["right_of_way"] = fifo_metrics(table)
-    metrics["collisions"] = collision_breakdown(table)
-    plots.collision_kinds(metrics["collisions"], out / "collisions.png", metrics["cars"])
     s = leader_samples(table, cfg.car_length, wrecks_stay=not cfg.remove_collided)
     metrics["safety_distance"] = safety_distance_from_samples(s, cfg.a_max)
     closing = s["closing_speed"] > 0
