@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLLISION_COLUMNS
+from box2d_driving.road.geometry import wrap_angle
 
 CLASSES = ("same_way", "crossing", "oncoming", "wreck", "edge", "pedestrian")
 
@@ -50,7 +51,7 @@ def collision_classes(table: dict[str, np.ndarray], same_way: float = math.pi / 
         if partner_row is None:
             raise ValueError(f"row {r}: car {table['car'][r]} hit moving car "
                              f"{table['collision_partner'][r]}, which has no crash row on that decision")
-        diff = abs((table["heading"][partner_row] - table["heading"][r] + math.pi) % (2 * math.pi) - math.pi)
+        diff = abs(float(wrap_angle(table["heading"][partner_row] - table["heading"][r])))
         kind[n] = CLASSES.index("same_way" if diff < same_way else "oncoming" if diff > oncoming
                                 else "crossing")
     return {"row": rows, "kind": kind}
