@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from box2d_driving.metrics.communication import communication_metrics, mutual_information
+from box2d_driving.metrics.communication import (average_ranks, communication_metrics, mutual_information,
+                                                 rank_trend)
 from box2d_driving.metrics.right_of_way import (fifo_metrics, fifo_violations, junction_times,
                                                  leader_samples, safety_distance_metrics)
 from tests.helpers import table_from_rows
@@ -74,6 +75,7 @@ def test_safety_share_uses_v2_over_2a():
             (2, 0, 1, 0.0, 0.0, 0.0, 2.0), (2, 1, 1, 6.0, 0.0, 0.0, 8.0)]
     m = safety_distance_metrics(table_from_rows(rows, SAFE_COLS), a_max=1.5, car_length=4.48)
     assert m["closing_samples"] == 2 and m["safe_share"] == pytest.approx(0.5)
+    assert m["closing_samples_halted_leader"] == 0 and m["safe_share_moving_leader"] == pytest.approx(0.5)
 
 
 PRESENCE_COLS = SAFE_COLS + ("arrived", "collided")
@@ -98,6 +100,14 @@ def test_a_wreck_stays_a_leader_at_speed_zero_until_the_episode_ends():
     # needs 12, 12, 5.33 m at a_max 1.5: the second sample is unsafe
     m = safety_distance_metrics(table, a_max=1.5, car_length=4.48)
     assert m["closing_samples"] == 3 and m["safe_share"] == pytest.approx(2 / 3)
+    assert s["leader_halted"].tolist() == [True, True, True]  # a wreck from its crash row on
+    assert (m["closing_samples_halted_leader"], m["unsafe_samples_halted_leader"]) == (3, 1)
+    assert math.isnan(m["safe_share_moving_leader"])
+    # with a moving pair in another episode (closing 6 m/s at a 13 m gap: safe): the share without
+    # the wreck samples is that pair's alone
+    moving = [(1, 0, 1, 0.0, 0.0, 0.0, 8.0, False, False), (1, 1, 1, 17.48, 0.0, 0.0, 2.0, False, False)]
+    m = safety_distance_metrics(table_from_rows(rows + moving, PRESENCE_COLS), a_max=1.5, car_length=4.48)
+    assert m["safe_share"] == pytest.approx(3 / 4) and m["safe_share_moving_leader"] == pytest.approx(1.0)
     # when collided cars are removed from the world (during the decision they crash on), never
     assert leader_samples(table, car_length=4.48, wrecks_stay=False)["row"].tolist() == []
 
@@ -135,6 +145,31 @@ def test_communication_metrics_turn_signal():
     assert m["by_bit"]["0"]["next_accel_mean"] == pytest.approx(1.5)
     with pytest.raises(ValueError, match="communication=True"):
         communication_metrics(table_from_rows(rows[:2], COMM_COLS[:5]) | {"bit_sent": np.full(2, np.nan)})
+
+
+def test_average_ranks_share_ties():
+    assert average_ranks([3.0, 1.0, 2.0]).tolist() == [3.0, 1.0, 2.0]
+    assert average_ranks([0.0, 0.0, 0.5, 0.5, 0.75]).tolist() == [1.5, 1.5, 3.5, 3.5, 5.0]
+
+
+def test_rank_trend_exact_permutation_p_value():
+    # four distinct levels, values rising: rho 1, and only the identity order of 4! reaches it
+    t = rank_trend([0, 0.25, 0.5, 0.75], [0.1, 0.2, 0.3, 0.9])
+    assert (t["n"], t["spearman"], t["p_rises"]) == (4, pytest.approx(1.0), pytest.approx(1 / 24))
+    # falling: rho -1, every order reaches it
+    t = rank_trend([0, 0.25, 0.5, 0.75], [4.0, 3.0, 2.0, 1.0])
+    assert (t["spearman"], t["p_rises"]) == (pytest.approx(-1.0), pytest.approx(1.0))
+    # two runs per level, ties in x: x ranks 1.5,1.5,3.5,3.5; y ranks 1,2,3,4 -> rho = 4/sqrt(4*5)
+    t = rank_trend([0, 0, 1, 1], [1.0, 2.0, 3.0, 4.0])
+    assert t["spearman"] == pytest.approx(4 / math.sqrt(20))
+    # the orders with both low-noise values below both high-noise ones: 2! * 2! of 4! reach it
+    assert t["p_rises"] == pytest.approx(4 / 24)
+    # sampled permutations past max_exact: same rho, p close to 1/n! is replaced by ~1/permutations
+    t = rank_trend(np.arange(10.0), np.arange(10.0) ** 2, max_exact=8, permutations=2000)
+    assert t["spearman"] == pytest.approx(1.0) and t["p_rises"] < 0.005
+    assert math.isnan(rank_trend([0, 0, 0], [1.0, 2.0, 3.0])["spearman"])  # no spread in x
+    with pytest.raises(ValueError, match="paired"):
+        rank_trend([0, 1, 2], [1.0, 2.0])
 
 
 CRASH_COLS = ("episode", "car", "decision", "heading", "in_junction", "collided", "collided_with",

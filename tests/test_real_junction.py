@@ -141,7 +141,7 @@ def test_turn_signal_bits_are_recorded_and_measured():
     assert 0.0 <= m["speaker_consistency_bits"] < 0.1  # random bits say nothing (estimator bias only)
 
 
-def test_report_adds_communication_and_the_unheard_control(tmp_path):
+def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     pytest.importorskip("matplotlib")
     from box2d_driving.metrics.rollouts import run_episodes
     from box2d_driving.policies import RandomPolicy
@@ -170,6 +170,12 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path):
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     out = tmp_path / "communication.png"
     assert communication_table.main([f"0={tmp_path}", f"0.5={tmp_path}", "--out", str(out)]) == 0
+    assert out.exists()
+    # a level given twice (two training seeds): the per-level means table and the trend rows
+    out.unlink()
+    assert communication_table.main([f"0={tmp_path}", f"0={tmp_path}", f"0.5={tmp_path}", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "mean +- std" in printed and "| speaker consistency (bits) | 3 |" in printed
     assert out.exists()
     speeds = metrics["communication"]["by_bit"]
     assert speeds["0"]["share"] + speeds["1"]["share"] == pytest.approx(1.0)

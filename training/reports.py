@@ -97,7 +97,8 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     closing = s["closing_speed"] > 0
     plots.speed_vs_distance(s["gap"][closing], s["closing_speed"][closing], cfg.a_max,
                             out / "safety_distance.png", xlabel="gap to the car ahead (m)",
-                            ylabel="closing speed (m/s)")
+                            ylabel="closing speed (m/s)", marked=s["leader_halted"][closing],
+                            marked_label="car ahead is a wreck")
     if cfg.communication:
         from box2d_driving.metrics.communication import communication_metrics
 

@@ -76,3 +76,41 @@ def _bit_profile(pairs: dict[str, np.ndarray], sent: np.ndarray) -> dict[str, fl
     if "speed" in pairs:
         out["speed_mean"] = mean(pairs["speed"])
     return out
+
+
+def average_ranks(x: np.ndarray) -> np.ndarray:
+    """Ranks 1..n of ``x``; tied values share the mean of their ranks."""
+    x = np.asarray(x, dtype=float)
+    order = np.argsort(x, kind="stable")
+    ranks = np.empty(len(x))
+    ranks[order] = np.arange(1, len(x) + 1)
+    for v in np.unique(x):
+        tied = x == v
+        ranks[tied] = ranks[tied].mean()
+    return ranks
+
+
+def rank_trend(x: np.ndarray, y: np.ndarray, max_exact: int = 8, permutations: int = 20_000,
+               seed: int = 0) -> dict[str, float]:
+    """Does ``y`` rise with ``x``? Spearman's rho and its one-sided permutation p-value: the
+    share of reorderings of ``y`` against ``x`` whose rho is at least the observed one (all
+    ``n!`` for ``n <= max_exact`` points, else ``permutations`` draws from a generator seeded
+    with ``seed``). Used across runs (several seeds per noise level) for SPEC 6.4's "rises with
+    noise"; with few runs the p-value can't be small (n = 4 points: at best 1/24)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if len(x) != len(y):
+        raise ValueError(f"rank_trend needs paired samples, got {len(x)} x and {len(y)} y values")
+    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return {"n": int(len(x)), "spearman": float("nan"), "p_rises": float("nan")}
+    rx, ry = average_ranks(x), average_ranks(y)
+    rx, ry = rx - rx.mean(), ry - ry.mean()
+    scale = np.sqrt((rx @ rx) * (ry @ ry))
+    rho = float(rx @ ry / scale)
+    if len(x) <= max_exact:
+        from itertools import permutations as all_orders
+        shuffled = np.array(list(all_orders(ry)))
+    else:
+        rng = np.random.default_rng(seed)
+        shuffled = np.array([rng.permutation(ry) for _ in range(permutations)])
+    null = shuffled @ rx / scale
+    return {"n": int(len(x)), "spearman": rho, "p_rises": float(np.mean(null >= rho - 1e-12))}

@@ -7,13 +7,15 @@
 # policy, widened to the 26 communication actions and the received-bit input so that it starts as
 # that policy with a coin-flip bit; "none" trains from scratch) and draws minibatches by env step.
 # FALLBACK (default zero) is what a car hearing no other car receives: zero (SPEC) or own (its own
-# last bit, the ablation of docs/real_junctions.md).
-#   bash training/experiments/communication_noise.sh [MINUTES] [OUT] [INIT] [FALLBACK]
+# last bit, the ablation of docs/real_junctions.md). SEED (default 0) seeds training; evaluations
+# always use the same 200 episode seeds, so runs with different SEEDs are directly comparable.
+#   bash training/experiments/communication_noise.sh [MINUTES] [OUT] [INIT] [FALLBACK] [SEED]
 set -euo pipefail
 MINUTES=${1:-30}
 OUT=${2:-runs/communication}
 INIT=${3:-assets/policies/real_junction_8cars}
 FALLBACK=${4:-zero}
+SEED=${5:-0}
 INIT_ARGS=()
 if [ "$INIT" != "none" ]; then INIT_ARGS=(--init-from "$INIT"); fi
 cd "$(dirname "$0")/../.."
@@ -22,7 +24,7 @@ run() {  # name, noise, entropy
   local name=$1 noise=$2 ent=$3
   if [ ! -f "$OUT/$name/model.zip" ]; then
     python training/real_junction.py --communication --num-cars 8 --lidar-noise "$noise" --ent-coef "$ent" \
-      --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" --minibatch-by-step --comm-fallback "$FALLBACK" "${INIT_ARGS[@]}" > "$OUT/$name.log" 2>&1
+      --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" --minibatch-by-step --comm-fallback "$FALLBACK" --seed "$SEED" "${INIT_ARGS[@]}" > "$OUT/$name.log" 2>&1
   fi
   if [ ! -f "$OUT/$name/eval/metrics.json" ]; then
     python training/evaluate.py --checkpoint "$OUT/$name" --episodes 200 --out "$OUT/$name/eval" >> "$OUT/$name.log" 2>&1

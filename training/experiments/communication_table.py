@@ -1,6 +1,8 @@
 """Compare communication evaluations across LiDAR noise levels (SPEC 6.4): markdown tables (the
-metrics, and what each bit value says) and a plot of speaker consistency and the heading-change /
-bit correlations against noise.
+metrics, and what each bit value says), whether each measure rises with noise (Spearman's rho over
+all runs, with a one-sided permutation p-value) and a plot of speaker consistency and the
+heading-change / bit correlations against noise. A noise level may be given several times (one
+evaluation per training seed); then a table of means +- std per level follows.
 
     python training/experiments/communication_table.py --out docs/images/communication.png \\
         0=runs/comm_n0/eval 0.25=runs/comm_n025/eval 0.5=runs/comm_n05/eval 0.75=runs/comm_n075/eval
@@ -18,11 +20,26 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent.parent))
 
+from box2d_driving.metrics.communication import rank_trend  # noqa: E402
 from training import plots  # noqa: E402
 
 KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
         ("pearson_heading_change_bit", "Pearson(heading change, bit)"),
         ("pearson_abs_heading_change_bit", "Pearson(|heading change|, bit)"))
+# Measures tested for a rise with noise. Which bit value means what is learnt (as which light
+# value means stop), so the size of the signed correlation is listed too.
+TREND = (("speaker consistency (bits)", lambda c: c["speaker_consistency_bits"]),
+         ("Pearson(dh, bit)", lambda c: c["pearson_heading_change_bit"]),
+         ("abs Pearson(dh, bit)", lambda c: abs(c["pearson_heading_change_bit"])),
+         ("Pearson(abs dh, bit)", lambda c: c["pearson_abs_heading_change_bit"]))
+
+
+def training_seed(eval_folder: Path) -> str:
+    """The training seed of the checkpoint an evaluation folder sits in, or "-" if unknown."""
+    config = eval_folder.parent / "config.json"
+    if config.exists():
+        return str(json.loads(config.read_text()).get("seed", "-"))
+    return "-"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,32 +58,58 @@ def main(argv: list[str] | None = None) -> int:
             print(f"communication_table: error: {folder} predates the per-bit profile; re-evaluate it "
                   "(training/evaluate.py --overwrite)", file=sys.stderr)
             return 2
-        rows.append((float(noise), m))
+        rows.append((float(noise), m, training_seed(Path(folder))))
     rows.sort(key=lambda r: r[0])
-    print("| LiDAR noise | bit = 1 share | speaker consistency (bits) | Pearson(dh, bit) | Pearson(abs dh, bit) "
+    print("| LiDAR noise | seed | bit = 1 share | speaker consistency (bits) | Pearson(dh, bit) | Pearson(abs dh, bit) "
           "| success | collisions | FIFO share | safe-distance share |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for noise, m in rows:
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for noise, m, seed in rows:
         c = m["communication"]
-        print(f"| {noise} | {c['bit_one_share']:.3f} | {c['speaker_consistency_bits']:.4f} | "
+        print(f"| {noise} | {seed} | {c['bit_one_share']:.3f} | {c['speaker_consistency_bits']:.4f} | "
               f"{c['pearson_heading_change_bit']:.3f} | {c['pearson_abs_heading_change_bit']:.3f} | "
               f"{m['success_rate']:.3f} | {m['collision_rate']:.3f} | {m['right_of_way']['fifo_share']:.3f} | "
               f"{m['safety_distance']['safe_share']:.3f} |")
     print()
     print("What each value says (sender's means over the decisions it sent it; bit 0 / bit 1):")
     print()
-    print("| LiDAR noise | speed (m/s) | next acceleration (m/s²) | abs heading change (rad) |")
-    print("|---:|---:|---:|---:|")
-    for noise, m in rows:
+    print("| LiDAR noise | seed | speed (m/s) | next acceleration (m/s²) | abs heading change (rad) |")
+    print("|---:|---:|---:|---:|---:|")
+    for noise, m, seed in rows:
         b0, b1 = m["communication"]["by_bit"]["0"], m["communication"]["by_bit"]["1"]
-        print(f"| {noise} | {b0['speed_mean']:.2f} / {b1['speed_mean']:.2f} | "
+        print(f"| {noise} | {seed} | {b0['speed_mean']:.2f} / {b1['speed_mean']:.2f} | "
               f"{b0['next_accel_mean']:.2f} / {b1['next_accel_mean']:.2f} | "
               f"{b0['abs_heading_change_mean']:.3f} / {b1['abs_heading_change_mean']:.3f} |")
+    noise = np.array([r[0] for r in rows])
+    levels = np.unique(noise)
+    if len(levels) < len(rows):
+        print()
+        print("Per noise level over its runs, mean +- std (runs):")
+        print()
+        print("| LiDAR noise | runs | " + " | ".join(name for name, _ in TREND) + " | collisions |")
+        print("|---:|---:|" + "---:|" * (len(TREND) + 1))
+        for level in levels:
+            at = [r[1] for r in rows if r[0] == level]
+            cells = [[value(m["communication"]) for m in at] for _, value in TREND]
+            cells.append([m["collision_rate"] for m in at])
+            print(f"| {level} | {len(at)} | " + " | ".join(f"{np.mean(v):.3f} +- {np.std(v):.3f}" for v in cells)
+                  + " |")
+    print()
+    print("Does it rise with noise? Spearman's rho over all runs, one-sided permutation p-value:")
+    print()
+    print("| measure | runs | Spearman rho | p (rises) |")
+    print("|---|---:|---:|---:|")
+    for name, value in TREND:
+        t = rank_trend(noise, [value(r[1]["communication"]) for r in rows])
+        print(f"| {name} | {t['n']} | {t['spearman']:.3f} | {t['p_rises']:.3f} |")
     plt = plots._plt()
     fig, ax = plt.subplots(figsize=(6, 4))
-    x = np.array([r[0] for r in rows])
-    for key, label in KEYS:
-        ax.plot(x, [r[1]["communication"][key] for r in rows], marker="o", label=label)
+    for i, (key, label) in enumerate(KEYS):
+        values = np.array([r[1]["communication"][key] for r in rows])
+        colour = f"C{i}"
+        ax.plot(levels, [values[noise == level].mean() for level in levels], marker="o", color=colour,
+                label=label if len(levels) == len(rows) else f"{label} (mean of runs)")
+        if len(levels) < len(rows):
+            ax.scatter(noise, values, s=14, color=colour, alpha=0.5)
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel("LiDAR noise (share of rays dropped)")
     ax.set_ylabel("value")
