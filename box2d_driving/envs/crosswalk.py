@@ -20,6 +20,7 @@ import numpy as np
 from box2d_driving.config import ConfigError, accel_levels
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
+from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.layout import Layout, PedestrianSpawn
 
 _SPAWN_TRIES = 200
@@ -148,7 +149,7 @@ class CrosswalkEnv(HighwayEnv):
             rel = w.ped_positions[None, :, :] - pos[:, None, :]
             dist = np.linalg.norm(rel, axis=2)
             bearing = np.arctan2(rel[..., 1], rel[..., 0]) - head[:, None]
-            bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
+            bearing = wrap_angle(bearing)
             dist = np.where(np.abs(bearing) <= cfg.ahead_half_angle, dist, np.inf)
             nearest = dist.min(axis=1)
             for j, d in enumerate(nearest):

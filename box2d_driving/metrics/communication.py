@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from box2d_driving.metrics.lanes import pearson
+from box2d_driving.road.geometry import wrap_angle
 
 
 def mutual_information(a: np.ndarray, b: np.ndarray) -> float:
@@ -48,7 +49,7 @@ def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     now, later, bits = now[keep], later[keep], bits[keep]
     dh = table["heading"][later] - table["heading"][now]
     out = {"bit": bits.astype(np.int64), "next_accel": np.round(table["acceleration"][later], 6),
-           "heading_change": (dh + np.pi) % (2 * np.pi) - np.pi}
+           "heading_change": wrap_angle(dh)}
     if "speed" in table:
         out["speed"] = table["speed"][now]
     return out

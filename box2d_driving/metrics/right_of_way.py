@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from box2d_driving.road.geometry import wrap_angle
+
 
 def junction_times(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """One row per car that entered the junction: ``episode``, ``car``, ``t_a``, ``t_d``."""
@@ -108,8 +110,8 @@ def leader_samples(table: dict[str, np.ndarray], car_length: float, half_angle: 
         rel = pos[None, :, :] - pos[:, None, :]  # i -> j
         dist = np.linalg.norm(rel, axis=2)
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - head[:, None]
-        bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
-        turn = np.abs((head[None, :] - head[:, None] + np.pi) % (2 * np.pi) - np.pi)
+        bearing = wrap_angle(bearing)
+        turn = np.abs(wrap_angle(head[None, :] - head[:, None]))
         ahead = (np.abs(bearing) <= half_angle) & (dist > 0) & (turn < same_way)
         dist_ahead = np.where(ahead, dist, np.inf)
         lead = np.argmin(dist_ahead, axis=1)
