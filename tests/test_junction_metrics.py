@@ -147,6 +147,33 @@ def test_communication_metrics_turn_signal():
         communication_metrics(table_from_rows(rows[:2], COMM_COLS[:5]) | {"bit_sent": np.full(2, np.nan)})
 
 
+def test_turn_signal_against_the_route_of_cars_that_arrived():
+    from box2d_driving.metrics.communication import route_turns, turn_signal_metrics
+
+    cols = COMM_COLS + ("arrived",)
+    rows = []
+    for car, headings, bits, arrived in ((0, (0.0, 0.0, 0.8, 1.57), (1, 1, 1), True),   # turns left, says 1
+                                         (1, (0.0, 0.0, 0.0, 0.0), (0, 0, 0), True),    # straight, says 0
+                                         (2, (0.0, -0.5, -1.0, -1.5), (1, 1, 1), True),  # turns right, says 1
+                                         (3, (0.0, 0.7, 1.4, 1.5), (0, 0, 0), False)):   # crashed: route unknown
+        rows.append((0, car, 0, headings[0], 0.0, np.nan, False))
+        for t in (1, 2, 3):
+            rows.append((0, car, t, headings[t], 0.0, bits[t - 1], arrived and t == 3))
+    table = table_from_rows(rows, cols)
+    turns = route_turns(table)
+    assert turns[table["car"] == 0] == pytest.approx([1.57] * 4)
+    assert np.isnan(turns[table["car"] == 3]).all()
+    m = turn_signal_metrics(table)
+    assert m["samples"] == 6  # decisions 1 and 2 of the three cars that arrived
+    assert m["bit_one_share_by_movement"] == pytest.approx({"right": 1.0, "straight": 0.0, "left": 1.0})
+    # the bit says "turning", not which way: full information about the movement class (3 classes,
+    # shares 1/3 each, bit determined by it) is H(bit) = H(1/3) bits; the signed correlation is weak
+    h = -(1 / 3) * np.log2(1 / 3) - (2 / 3) * np.log2(2 / 3)
+    assert m["movement_bit_mi_bits"] == pytest.approx(h)
+    turn = np.array([1.57, 1.57, 0.0, 0.0, -1.5, -1.5])
+    assert m["pearson_route_turn_bit"] == pytest.approx(np.corrcoef(turn, [1, 1, 0, 0, 1, 1])[0, 1])
+
+
 def test_average_ranks_share_ties():
     assert average_ranks([3.0, 1.0, 2.0]).tolist() == [3.0, 1.0, 2.0]
     assert average_ranks([0.0, 0.0, 0.5, 0.5, 0.75]).tolist() == [1.5, 1.5, 3.5, 3.5, 5.0]

@@ -10,6 +10,12 @@ heading change is ``heading(t + 1) - heading(t)``.
   which way, shows up there).
 * What each bit value says: per value, its share and the sender's mean speed (m/s, on decision
   ``t``), mean next acceleration (m/s^2) and mean absolute heading change (rad).
+* Turn signal: the heading change over one decision is near zero until a car is in its turn, so
+  a bit sent *before* turning shows up only against the car's whole route. Route turn = heading
+  on arrival - heading on the first decision (rad, left > 0), for cars that reached their goal;
+  movement = left / right beyond ``STRAIGHT_WITHIN`` of straight. Reported: Pearson(route turn,
+  bit), the mutual information (bits) between the bit and the movement, and the share of bit 1
+  per movement, over the decisions those cars sent a bit on.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from box2d_driving.metrics.lanes import pearson
+from box2d_driving.metrics.rollouts import last_rows
 from box2d_driving.road.geometry import wrap_angle
 
 
@@ -36,7 +43,7 @@ def mutual_information(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Per (car, decision t) with a row at ``t + 1``: ``bit`` (sent at t), ``next_accel``,
+    """Per (car, decision t) with a row at ``t + 1``: ``row`` (of t), ``bit`` (sent at t), ``next_accel``,
     ``heading_change`` (rad, wrapped) and, when the table has speeds, ``speed`` (m/s, at t)."""
     if "bit_sent" not in table or np.all(np.isnan(table["bit_sent"])):
         raise ValueError("the rollouts carry no sent bits: record them with communication=True")
@@ -48,7 +55,7 @@ def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     keep = (table["decision"][now] >= 1) & ~np.isnan(bits)  # row 0 is the reset: nothing sent yet
     now, later, bits = now[keep], later[keep], bits[keep]
     dh = table["heading"][later] - table["heading"][now]
-    out = {"bit": bits.astype(np.int64), "next_accel": np.round(table["acceleration"][later], 6),
+    out = {"row": now, "bit": bits.astype(np.int64), "next_accel": np.round(table["acceleration"][later], 6),
            "heading_change": wrap_angle(dh)}
     if "speed" in table:
         out["speed"] = table["speed"][now]
@@ -64,6 +71,42 @@ def communication_metrics(table: dict[str, np.ndarray]) -> dict:
         "pearson_heading_change_bit": pearson(p["heading_change"], p["bit"]),
         "pearson_abs_heading_change_bit": pearson(np.abs(p["heading_change"]), p["bit"]),
         "by_bit": {str(v): _bit_profile(p, p["bit"] == v) for v in (0, 1)},
+        "turn_signal": turn_signal_metrics(table, p),
+    }
+
+
+STRAIGHT_WITHIN = np.pi / 6  # rad: a route turning less than this either way is "straight"
+MOVEMENTS = ("right", "straight", "left")
+
+
+def route_turns(table: dict[str, np.ndarray]) -> np.ndarray:
+    """Per row, the route turn (rad, left > 0) of its car: heading on the car's last row minus on
+    its first; NaN for cars that did not reach their goal."""
+    order = np.lexsort((table["decision"], table["car"], table["episode"]))
+    ep, car = table["episode"][order], table["car"][order]
+    is_first = np.ones(len(order), dtype=bool)
+    is_first[1:] = (ep[1:] != ep[:-1]) | (car[1:] != car[:-1])
+    first, last = order[is_first], last_rows(table)  # both in (episode, car) order
+    turn = np.where(table["arrived"][last].astype(bool),
+                    wrap_angle(table["heading"][last] - table["heading"][first]), np.nan)
+    per_row = np.empty(len(order))
+    per_row[order] = np.repeat(turn, np.diff(np.append(np.flatnonzero(is_first), len(order))))
+    return per_row
+
+
+def turn_signal_metrics(table: dict[str, np.ndarray], pairs: dict[str, np.ndarray] | None = None) -> dict:
+    """Does the bit say which way the sender's route turns? (module docstring)."""
+    p = message_pairs(table) if pairs is None else pairs
+    turn = route_turns(table)[p["row"]]
+    known = ~np.isnan(turn)
+    turn, bit = turn[known], p["bit"][known]
+    movement = np.where(turn > STRAIGHT_WITHIN, 2, np.where(turn < -STRAIGHT_WITHIN, 0, 1))
+    return {
+        "samples": int(known.sum()),
+        "pearson_route_turn_bit": pearson(turn, bit),
+        "movement_bit_mi_bits": mutual_information(bit, movement),
+        "bit_one_share_by_movement": {name: float(np.mean(bit[movement == k])) if (movement == k).any()
+                                      else float("nan") for k, name in enumerate(MOVEMENTS)},
     }
 
 

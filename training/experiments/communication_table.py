@@ -31,7 +31,9 @@ KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
 TREND = (("speaker consistency (bits)", lambda c: c["speaker_consistency_bits"]),
          ("Pearson(dh, bit)", lambda c: c["pearson_heading_change_bit"]),
          ("abs Pearson(dh, bit)", lambda c: abs(c["pearson_heading_change_bit"])),
-         ("Pearson(abs dh, bit)", lambda c: c["pearson_abs_heading_change_bit"]))
+         ("Pearson(abs dh, bit)", lambda c: c["pearson_abs_heading_change_bit"]),
+         ("abs Pearson(route turn, bit)", lambda c: abs(c["turn_signal"]["pearson_route_turn_bit"])),
+         ("MI(movement, bit) (bits)", lambda c: c["turn_signal"]["movement_bit_mi_bits"]))
 
 
 def training_seed(eval_folder: Path) -> str:
@@ -40,6 +42,16 @@ def training_seed(eval_folder: Path) -> str:
     if config.exists():
         return str(json.loads(config.read_text()).get("seed", "-"))
     return "-"
+
+
+def _all_have(rows: list, value) -> bool:
+    """Whether every run's report has the measure (older reports lack the turn-signal ones)."""
+    try:
+        for r in rows:
+            value(r[1]["communication"])
+    except KeyError:
+        return False
+    return True
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -79,17 +91,29 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {noise} | {seed} | {b0['speed_mean']:.2f} / {b1['speed_mean']:.2f} | "
               f"{b0['next_accel_mean']:.2f} / {b1['next_accel_mean']:.2f} | "
               f"{b0['abs_heading_change_mean']:.3f} / {b1['abs_heading_change_mean']:.3f} |")
+    if all("turn_signal" in r[1]["communication"] for r in rows):
+        print()
+        print("Turn signal: the bit against the sender's whole route (cars that arrived; bit = 1 share per movement):")
+        print()
+        print("| LiDAR noise | seed | Pearson(route turn, bit) | MI(movement, bit) (bits) | right | straight | left |")
+        print("|---:|---:|---:|---:|---:|---:|---:|")
+        for level, m, seed in rows:
+            t = m["communication"]["turn_signal"]
+            share = t["bit_one_share_by_movement"]
+            print(f"| {level} | {seed} | {t['pearson_route_turn_bit']:.3f} | {t['movement_bit_mi_bits']:.4f} | "
+                  f"{share['right']:.3f} | {share['straight']:.3f} | {share['left']:.3f} |")
+    trend = [(name, value) for name, value in TREND if _all_have(rows, value)]
     noise = np.array([r[0] for r in rows])
     levels = np.unique(noise)
     if len(levels) < len(rows):
         print()
         print("Per noise level over its runs, mean +- std (runs):")
         print()
-        print("| LiDAR noise | runs | " + " | ".join(name for name, _ in TREND) + " | collisions |")
-        print("|---:|---:|" + "---:|" * (len(TREND) + 1))
+        print("| LiDAR noise | runs | " + " | ".join(name for name, _ in trend) + " | collisions |")
+        print("|---:|---:|" + "---:|" * (len(trend) + 1))
         for level in levels:
             at = [r[1] for r in rows if r[0] == level]
-            cells = [[value(m["communication"]) for m in at] for _, value in TREND]
+            cells = [[value(m["communication"]) for m in at] for _, value in trend]
             cells.append([m["collision_rate"] for m in at])
             print(f"| {level} | {len(at)} | " + " | ".join(f"{np.mean(v):.3f} +- {np.std(v):.3f}" for v in cells)
                   + " |")
@@ -98,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print("| measure | runs | Spearman rho | p (rises) |")
     print("|---|---:|---:|---:|")
-    for name, value in TREND:
+    for name, value in trend:
         t = rank_trend(noise, [value(r[1]["communication"]) for r in rows])
         print(f"| {name} | {t['n']} | {t['spearman']:.3f} | {t['p_rises']:.3f} |")
     plt = plots._plt()
