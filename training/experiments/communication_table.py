@@ -27,11 +27,11 @@ KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
         ("pearson_heading_change_bit", "Pearson(heading change, bit)"),
         ("pearson_abs_heading_change_bit", "Pearson(|heading change|, bit)"))
 # Measures tested for a rise with noise. Which bit value means what is learnt (as which light
-# value means stop), so the size of the signed correlation is listed too.
+# value means stop), so besides SPEC's signed correlation the sizes of the correlations are used.
 TREND = (("speaker consistency (bits)", lambda c: c["speaker_consistency_bits"]),
          ("Pearson(dh, bit)", lambda c: c["pearson_heading_change_bit"]),
          ("abs Pearson(dh, bit)", lambda c: abs(c["pearson_heading_change_bit"])),
-         ("Pearson(abs dh, bit)", lambda c: c["pearson_abs_heading_change_bit"]),
+         ("abs Pearson(abs dh, bit)", lambda c: abs(c["pearson_abs_heading_change_bit"])),
          ("abs Pearson(route turn, bit)", lambda c: abs(c["turn_signal"]["pearson_route_turn_bit"])),
          ("MI(movement, bit) (bits)", lambda c: c["turn_signal"]["movement_bit_mi_bits"]))
 
