@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     levels = np.unique(noise)
     if len(levels) < len(rows):
         print()
-        print("Per noise level over its runs, mean +- std (runs):")
+        print("Per noise level over its runs, mean +- std (population std, ddof 0: with two runs, half their difference):")
         print()
         print("| LiDAR noise | runs | " + " | ".join(name for name, _ in trend) + " | collisions |")
         print("|---:|---:|" + "---:|" * (len(trend) + 1))
