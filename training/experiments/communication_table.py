@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| {noise} | {seed} | {b0['speed_mean']:.2f} / {b1['speed_mean']:.2f} | "
               f"{b0['next_accel_mean']:.2f} / {b1['next_accel_mean']:.2f} | "
               f"{b0['abs_heading_change_mean']:.3f} / {b1['abs_heading_change_mean']:.3f} |")
-    if all("turn_signal" in r[1]["communication"] for r in rows):
+    if _all_have(rows, lambda c: c["turn_signal"]):
         print()
         print("Turn signal: the bit against the sender's whole route (cars that arrived; bit = 1 share per movement):")
         print()
