@@ -171,14 +171,14 @@ def speed_vs_distance(distance: np.ndarray, speed: np.ndarray, a_max: float, pat
                       marked_label: str = "") -> None:
     """Scatter of speed against distance with the safe-stopping region ``d >= v^2/(2 a_max)``;
     samples where ``marked`` is true are drawn in red under ``marked_label``."""
+    distance, speed = np.asarray(distance), np.asarray(speed)
+    marked = np.zeros(len(distance), dtype=bool) if marked is None else np.asarray(marked, dtype=bool)
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6, 4.5))
     v_max = max(float(np.max(speed)) if len(speed) else 1.0, 1.0) * 1.05
     v = np.linspace(0, v_max, 200)
     d_max = max(float(np.max(distance)) if len(distance) else 10.0, v_max**2 / (2 * a_max)) * 1.05
     ax.fill_betweenx(v, v**2 / (2 * a_max), d_max, color="tab:green", alpha=0.15, label="safe: d >= v²/2a")
-    distance, speed = np.asarray(distance), np.asarray(speed)
-    marked = np.zeros(len(distance), dtype=bool) if marked is None else np.asarray(marked, dtype=bool)
     ax.scatter(distance[~marked], speed[~marked], s=4, alpha=0.4)
     if marked.any():
         ax.scatter(distance[marked], speed[marked], s=6, alpha=0.7, color="tab:red", label=marked_label)

@@ -23,7 +23,6 @@ from __future__ import annotations
 import numpy as np
 
 from box2d_driving.metrics.lanes import pearson
-from box2d_driving.metrics.rollouts import last_rows
 from box2d_driving.road.geometry import wrap_angle
 
 
@@ -86,11 +85,12 @@ def route_turns(table: dict[str, np.ndarray]) -> np.ndarray:
     ep, car = table["episode"][order], table["car"][order]
     is_first = np.ones(len(order), dtype=bool)
     is_first[1:] = (ep[1:] != ep[:-1]) | (car[1:] != car[:-1])
-    first, last = order[is_first], last_rows(table)  # both in (episode, car) order
+    is_last = np.append(is_first[1:], True)
+    first, last = order[is_first], order[is_last]
     turn = np.where(table["arrived"][last].astype(bool),
                     wrap_angle(table["heading"][last] - table["heading"][first]), np.nan)
     per_row = np.empty(len(order))
-    per_row[order] = np.repeat(turn, np.diff(np.append(np.flatnonzero(is_first), len(order))))
+    per_row[order] = turn[np.cumsum(is_first) - 1]  # each sorted row's car
     return per_row
 
 
