@@ -248,3 +248,41 @@ def test_collision_breakdown_needs_the_partner_columns_and_the_partners_crash_ro
     del table["partner_halted"]
     with pytest.raises(KeyError, match="evaluate the policy again"):
         collision_breakdown(table)
+
+
+PILEUP_COLS = ("episode", "car", "decision", "x", "y", "speed", "heading", "in_junction", "collided",
+               "collided_with", "collision_partner", "partner_halted")
+
+
+def _pose(ep, car, t, x, speed, crash_with=None, partner=-1, halted=False):
+    """A row on the x axis heading +x; with ``crash_with`` it is the car's crash row."""
+    from box2d_driving.metrics.rollouts import COLLIDED_WITH
+
+    if crash_with is None:
+        return (ep, car, t, x, 0.0, speed, 0.0, True, False, 0, -1, False)
+    return (ep, car, t, x, 0.0, speed, 0.0, True, True, COLLIDED_WITH.index(crash_with), partner, halted)
+
+
+def test_wreck_collision_room_counts_pileups_that_braking_could_have_avoided():
+    from box2d_driving.metrics.collisions import wreck_collision_room
+
+    rows = [
+        # episode 0: cars 0 and 1 crash into each other on decision 2 (wrecks at x = 0 and x = 4)
+        _pose(0, 0, 2, 0.0, 0.0, "car", 1), _pose(0, 1, 2, 4.0, 0.0, "car", 0),
+        # car 2 is 40 m from wreck 0 at 8 m/s then: gap 35.52 >= 64/3 = 21.33, room; hits it 3 later
+        _pose(0, 2, 2, 40.0, 8.0), _pose(0, 2, 5, 4.5, 2.0, "car", 0, True),
+        # car 3 is 12 m from wreck 1 at 8 m/s: gap 7.52 < 21.33, no room; hits it 1 decision later
+        _pose(0, 3, 2, 16.0, 8.0), _pose(0, 3, 3, 8.5, 4.0, "car", 1, True),
+        # episode 1: car 0 hits the edge; car 1 is 10 m behind at 3 m/s: gap 5.52 >= 3, room
+        _pose(1, 0, 1, 0.0, 0.0, "edge"), _pose(1, 1, 1, 10.0, 3.0), _pose(1, 1, 4, 4.5, 1.0, "car", 0, True),
+    ]
+    table = table_from_rows(rows, PILEUP_COLS)
+    r = wreck_collision_room(table, a_max=1.5, car_length=4.48)
+    assert r == {"cars": 3, "room_to_stop": 2, "decisions_after_wreck_median": 3.0,
+                 "decisions_after_wreck_max": 3}
+    # a gentler brake leaves less room: at a_max 0.5 car 2 needs 64 m and car 1 (ep 1) 9 m
+    assert wreck_collision_room(table, a_max=0.5, car_length=4.48)["room_to_stop"] == 0
+    none = wreck_collision_room(table_from_rows(rows[:2], PILEUP_COLS), 1.5, 4.48)
+    assert none["cars"] == 0 and math.isnan(none["decisions_after_wreck_median"])
+    with pytest.raises(ValueError, match="no row on decision 2"):
+        wreck_collision_room(table_from_rows(rows[:2] + rows[3:], PILEUP_COLS), 1.5, 4.48)

@@ -55,6 +55,11 @@ def test_shipped_report_agrees_with_its_rollouts(report):
         assert metrics["right_of_way"] == pytest.approx(fifo_metrics(table))
         assert metrics["safety_distance"] == pytest.approx(safety_distance_metrics(
             table, cfg.a_max, cfg.car_length, wrecks_stay=not cfg.remove_collided))
+        if not cfg.remove_collided:
+            from box2d_driving.metrics.collisions import wreck_collision_room
+
+            assert metrics["wreck_collisions"] == pytest.approx(
+                wreck_collision_room(table, cfg.a_max, cfg.car_length), nan_ok=True)
     if "collisions" in metrics:  # reports from before collision partners were recorded lack it
         from box2d_driving.metrics.collisions import collision_breakdown
 

@@ -10,7 +10,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from box2d_driving.metrics.collisions import collision_breakdown
+from box2d_driving.metrics.collisions import collision_breakdown, wreck_collision_room
 from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics
 from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
@@ -99,6 +99,8 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
                             out / "safety_distance.png", xlabel="gap to the car ahead (m)",
                             ylabel="closing speed (m/s)", marked=s["leader_halted"][closing],
                             marked_label="car ahead is a wreck")
+    if not cfg.remove_collided:  # pile-ups: could the cars that hit a wreck have braked in time?
+        metrics["wreck_collisions"] = wreck_collision_room(table, cfg.a_max, cfg.car_length)
     if cfg.communication:
         from box2d_driving.metrics.communication import communication_metrics
 

@@ -11,6 +11,7 @@ halts there and takes no more decisions). Classes:
   ``oncoming`` apart: head-on, e.g. a turn across oncoming traffic), ``crossing`` (between).
 
 Each class also counts how many of its cars crashed inside the junction area.
+:func:`wreck_collision_room` asks of each ``wreck`` crash whether braking could have avoided it.
 """
 
 from __future__ import annotations
@@ -68,4 +69,43 @@ def collision_breakdown(table: dict[str, np.ndarray], same_way: float = math.pi 
         "by_kind": {name: {"cars": int(np.sum(c["kind"] == k)),
                            "in_junction": int(np.sum((c["kind"] == k) & inside))}
                     for k, name in enumerate(CLASSES)},
+    }
+
+
+def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length: float) -> dict:
+    """Pile-ups: for each car that hit a wreck, how many decisions after that wreck halted it
+    crashed, and whether on the wreck's crash decision it had room to stop: its straight-line gap
+    to the wreck (centre distance - ``car_length``, m) at least its stopping distance
+    ``v^2 / (2 a_max)`` (v in m/s, a_max in m/s^2). A straight line is never longer than the
+    path, so ``room_to_stop`` counts pile-ups that braking alone could have avoided, at least."""
+    c = collision_classes(table)
+    wreck_rows = c["row"][c["kind"] == CLASSES.index("wreck")]
+    ep = table["episode"].astype(np.int64)
+    car = table["car"].astype(np.int64)
+    dec = table["decision"].astype(np.int64)
+    # one int64 key per (episode, car, decision) row, sorted once for lookups
+    span_car, span_dec = int(car.max(initial=0)) + 1, int(dec.max(initial=0)) + 1
+    key = (ep * span_car + car) * span_dec + dec
+    order = np.argsort(key, kind="stable")
+    crash = {(int(ep[r]), int(car[r])): int(r) for r in c["row"].tolist()}
+    delays, room = [], []
+    for r in wreck_rows.tolist():
+        wreck = crash.get((int(ep[r]), int(table["collision_partner"][r])))
+        if wreck is None:
+            raise ValueError(f"row {r}: car {car[r]} hit wreck {table['collision_partner'][r]}, "
+                             "which has no crash row in that episode")
+        want = (ep[r] * span_car + car[r]) * span_dec + dec[wreck]
+        i = int(np.searchsorted(key, want, sorter=order))
+        at = order[min(i, len(order) - 1)]
+        if i == len(order) or key[at] != want:
+            raise ValueError(f"row {r}: car {car[r]} has no row on decision {dec[wreck]}, when wreck "
+                             f"{table['collision_partner'][r]} halted")
+        gap = math.hypot(table["x"][at] - table["x"][wreck], table["y"][at] - table["y"][wreck]) - car_length
+        delays.append(int(dec[r] - dec[wreck]))
+        room.append(gap >= float(table["speed"][at]) ** 2 / (2.0 * a_max))
+    return {
+        "cars": len(delays),
+        "room_to_stop": int(np.sum(room)),
+        "decisions_after_wreck_median": float(np.median(delays)) if delays else float("nan"),
+        "decisions_after_wreck_max": int(max(delays)) if delays else 0,
     }

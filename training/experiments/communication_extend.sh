@@ -3,12 +3,14 @@
 # trained MINUTES wall-clock minutes in all, in copies under OUT (SRC is never written), then
 # evaluate (200 episodes, deterministic as every report, and again sampling actions: the bit of
 # an argmax over 26 joint actions may hide what the sampled policy says) and tabulate as
-# communication_noise.sh does. Resumable: finished steps are skipped.
-#   bash training/experiments/communication_extend.sh MINUTES [SRC] [OUT]   (SRC: communication_noise.sh's OUT)
+# communication_noise.sh does. Resumable: finished steps are skipped. SEED: the training seed SRC
+# was started with (communication_noise.sh's SEED); the continuation's envs are seeded from it.
+#   bash training/experiments/communication_extend.sh MINUTES [SRC] [OUT] [SEED]   (SRC: communication_noise.sh's OUT)
 set -euo pipefail
 MINUTES=${1:?total minutes per noise level}
 SRC=${2:-runs/communication}
 OUT=${3:-runs/communication_${MINUTES}min}
+SEED=${4:-0}
 cd "$(dirname "$0")/../.."
 mkdir -p "$OUT"
 run() {  # name, noise, entropy
@@ -20,7 +22,7 @@ run() {  # name, noise, entropy
   fi
   if [ ! -f "$OUT/$name/eval/metrics.json" ]; then
     python training/real_junction.py --communication --num-cars 8 --lidar-noise "$noise" --ent-coef "$ent" \
-      --resume --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" --minibatch-by-step >> "$OUT/$name.log" 2>&1
+      --seed "$SEED" --resume --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" --minibatch-by-step >> "$OUT/$name.log" 2>&1
     python training/evaluate.py --checkpoint "$OUT/$name" --episodes 200 --out "$OUT/$name/eval" >> "$OUT/$name.log" 2>&1
   fi
   if [ ! -f "$OUT/$name/eval_stochastic/metrics.json" ]; then
