@@ -232,6 +232,9 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     logs = sorted(p.name for p in out.glob("progress*.csv"))
     assert logs == ["progress.csv", "progress.resumed_000000000320.csv",
                     "progress.resumed_000000000480.csv"]
+    # config.json keeps the first leg's settings; each resume records the ones it was given
+    assert json.loads((out / "config.json").read_text())["timesteps"] == 320
+    assert json.loads((out / "config.resumed_000000000480.json").read_text())["timesteps"] == 640
     from training.plots import read_progress
     assert len(read_progress(out)["time/agent_steps"]) == 8  # 4 + 2 + 2 updates, none lost
     with pytest.raises(RunError, match="env_overrides differs"):
@@ -240,6 +243,7 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     assert train(_tiny(timesteps=10_000, max_minutes=0.0), out, resume=True) == {}
     assert json.loads((out / "state.json").read_text())["decisions"] == 640
     assert len(list(out.glob("progress*.csv"))) == 3  # and no empty log for it
+    assert len(list(out.glob("config.resumed_*.json"))) == 2
     with pytest.raises(RunError, match="no checkpoint"):
         train(_tiny(), tmp_path / "missing", resume=True)
 

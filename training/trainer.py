@@ -4,6 +4,7 @@ resuming. Scripts (``training/traffic_lights.py`` ...) only fill in a :class:`Tr
 Output folder::
 
     OUT/config.json          full config (trainer + env), written once
+    OUT/config.resumed_<decisions>.json  the config each --resume was given (seed, budget, entropy)
     OUT/model.zip            latest checkpoint (what load_policy / evaluate / --resume read)
     OUT/checkpoints/         model_<decisions>.zip every ``checkpoint_every`` updates
     OUT/progress.csv         one row per update: rollout metrics and PPO diagnostics
@@ -278,6 +279,9 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         print(f"{out}: nothing to train: {model.num_timesteps} of {config.timesteps} decisions and "
               f"{wall / 60:.1f} of {max_seconds / 60:.1f} min done", file=sys.stderr)
         return {}
+    if resume:  # config.json stays the run's first config; record what this leg was given
+        (out / f"config.resumed_{model.num_timesteps:012d}.json").write_text(
+            json.dumps(dataclasses.asdict(config), indent=2))
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
                      _append_logger(out, model.num_timesteps))
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
