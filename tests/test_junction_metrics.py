@@ -278,11 +278,18 @@ def test_wreck_collision_room_counts_pileups_that_braking_could_have_avoided():
     ]
     table = table_from_rows(rows, PILEUP_COLS)
     r = wreck_collision_room(table, a_max=1.5, car_length=4.48)
-    assert r == {"cars": 3, "room_to_stop": 2, "decisions_after_wreck_median": 3.0,
-                 "decisions_after_wreck_max": 3}
+    assert {k: r[k] for k in ("cars", "room_to_stop", "decisions_after_wreck_median",
+                              "decisions_after_wreck_max")} == {
+        "cars": 3, "room_to_stop": 2, "decisions_after_wreck_median": 3.0, "decisions_after_wreck_max": 3}
+    # with room: car 2 (gap 35.52, 8 m/s, 3 decisions), car 1 of ep 1 (5.52, 3 m/s, 3); without: car 3
+    assert r["with_room"] == pytest.approx({"cars": 2, "gap_median": 20.52, "speed_median": 5.5,
+                                            "decisions_to_hit_median": 3.0})
+    assert r["without_room"] == pytest.approx({"cars": 1, "gap_median": 7.52, "speed_median": 8.0,
+                                               "decisions_to_hit_median": 1.0})
     # a gentler brake leaves less room: at a_max 0.5 car 2 needs 64 m and car 1 (ep 1) 9 m
     assert wreck_collision_room(table, a_max=0.5, car_length=4.48)["room_to_stop"] == 0
     none = wreck_collision_room(table_from_rows(rows[:2], PILEUP_COLS), 1.5, 4.48)
     assert none["cars"] == 0 and math.isnan(none["decisions_after_wreck_median"])
+    assert none["with_room"]["cars"] == 0 and math.isnan(none["with_room"]["gap_median"])
     with pytest.raises(ValueError, match="no row on decision 2"):
         wreck_collision_room(table_from_rows(rows[:2] + rows[3:], PILEUP_COLS), 1.5, 4.48)

@@ -73,11 +73,12 @@ def collision_breakdown(table: dict[str, np.ndarray], same_way: float = math.pi 
 
 
 def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length: float) -> dict:
-    """Pile-ups: for each car that hit a wreck, how many decisions after that wreck halted it
-    crashed, and whether on the wreck's crash decision it had room to stop: its straight-line gap
-    to the wreck (centre distance - ``car_length``, m) at least its stopping distance
-    ``v^2 / (2 a_max)`` (v in m/s, a_max in m/s^2). A straight line is never longer than the
-    path, so ``room_to_stop`` counts pile-ups that braking alone could have avoided, at least."""
+    """Pile-ups: for each car that hit a wreck, whether on the wreck's crash decision it had room
+    to stop: its straight-line gap to the wreck (centre distance - ``car_length``, m) at least its
+    stopping distance ``v^2 / (2 a_max)`` (v in m/s, a_max in m/s^2). A straight line is never
+    longer than the path, so ``room_to_stop`` counts pile-ups that braking alone could have
+    avoided, at least. For the cars with and without room: median gap and speed then, and the
+    median number of decisions from the wreck's crash to the car's."""
     c = collision_classes(table)
     wreck_rows = c["row"][c["kind"] == CLASSES.index("wreck")]
     ep = table["episode"].astype(np.int64)
@@ -88,7 +89,7 @@ def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length:
     key = (ep * span_car + car) * span_dec + dec
     order = np.argsort(key, kind="stable")
     crash = {(int(ep[r]), int(car[r])): int(r) for r in c["row"].tolist()}
-    delays, room = [], []
+    gaps, speeds, delays = [], [], []
     for r in wreck_rows.tolist():
         wreck = crash.get((int(ep[r]), int(table["collision_partner"][r])))
         if wreck is None:
@@ -100,12 +101,24 @@ def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length:
         if i == len(order) or key[at] != want:
             raise ValueError(f"row {r}: car {car[r]} has no row on decision {dec[wreck]}, when wreck "
                              f"{table['collision_partner'][r]} halted")
-        gap = math.hypot(table["x"][at] - table["x"][wreck], table["y"][at] - table["y"][wreck]) - car_length
+        gaps.append(math.hypot(table["x"][at] - table["x"][wreck], table["y"][at] - table["y"][wreck]) - car_length)
+        speeds.append(float(table["speed"][at]))
         delays.append(int(dec[r] - dec[wreck]))
-        room.append(gap >= float(table["speed"][at]) ** 2 / (2.0 * a_max))
+    gap, speed, delay = np.array(gaps), np.array(speeds), np.array(delays, dtype=np.int64)
+    room = gap >= speed ** 2 / (2.0 * a_max)
+
+    def medians(m: np.ndarray) -> dict:
+        if not m.any():
+            return {"cars": 0, "gap_median": float("nan"), "speed_median": float("nan"),
+                    "decisions_to_hit_median": float("nan")}
+        return {"cars": int(m.sum()), "gap_median": float(np.median(gap[m])),
+                "speed_median": float(np.median(speed[m])), "decisions_to_hit_median": float(np.median(delay[m]))}
+
     return {
-        "cars": len(delays),
-        "room_to_stop": int(np.sum(room)),
-        "decisions_after_wreck_median": float(np.median(delays)) if delays else float("nan"),
-        "decisions_after_wreck_max": int(max(delays)) if delays else 0,
+        "cars": int(len(delay)),
+        "room_to_stop": int(room.sum()),
+        "decisions_after_wreck_median": float(np.median(delay)) if len(delay) else float("nan"),
+        "decisions_after_wreck_max": int(delay.max(initial=0)),
+        "with_room": medians(room),
+        "without_room": medians(~room),
     }
