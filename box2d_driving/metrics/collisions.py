@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from box2d_driving.metrics.pedestrians import stopping_distance
 from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLLISION_COLUMNS
 from box2d_driving.road.geometry import wrap_angle
 
@@ -105,7 +106,7 @@ def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length:
         speeds.append(float(table["speed"][at]))
         delays.append(int(dec[r] - dec[wreck]))
     gap, speed, delay = np.array(gaps), np.array(speeds), np.array(delays, dtype=np.int64)
-    room = gap >= speed ** 2 / (2.0 * a_max)
+    room = gap >= stopping_distance(speed, a_max)
 
     def medians(m: np.ndarray) -> dict:
         if not m.any():

@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from box2d_driving.metrics.pedestrians import stopping_distance
 from box2d_driving.road.geometry import wrap_angle
 
 
@@ -157,7 +158,7 @@ def safety_distance_from_samples(s: dict[str, np.ndarray], a_max: float) -> dict
     a car closing on a crash that just happened ahead of it is the pile-up case, which human
     driving data (the paper's 99.56 %) hardly contains."""
     closing = s["closing_speed"] > 0
-    need = s["closing_speed"][closing] ** 2 / (2.0 * a_max)
+    need = stopping_distance(s["closing_speed"][closing], a_max)
     safe = s["gap"][closing] >= need
     halted = s["leader_halted"][closing]
     return {
