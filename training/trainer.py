@@ -107,7 +107,12 @@ def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
     if out.exists() and any(out.iterdir()):
         raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2))
+    write_config(out / "config.json", config)
+
+
+def write_config(path: Path, config: TrainConfig) -> None:
+    """The full config as JSON (``config.json``, and ``config.resumed_*.json`` on each resume)."""
+    path.write_text(json.dumps(dataclasses.asdict(config), indent=2))
 
 
 def check_same_run(saved: dict, config: TrainConfig) -> None:
@@ -280,8 +285,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
               f"{wall / 60:.1f} of {max_seconds / 60:.1f} min done", file=sys.stderr)
         return {}
     if resume:  # config.json stays the run's first config; record what this leg was given
-        (out / f"config.resumed_{model.num_timesteps:012d}.json").write_text(
-            json.dumps(dataclasses.asdict(config), indent=2))
+        write_config(out / f"config.resumed_{model.num_timesteps:012d}.json", config)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
                      _append_logger(out, model.num_timesteps))
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
