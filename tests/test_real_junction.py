@@ -182,3 +182,24 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     del metrics["communication"]["by_bit"]  # a report from before the per-bit profile: refused
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     assert communication_table.main([f"0={tmp_path}", "--out", str(out)]) == 2
+
+
+def test_remove_collided_option_reaches_training_config_and_evaluation(tmp_path):
+    pytest.importorskip("matplotlib")
+    import json
+
+    from training import evaluate
+    from training.real_junction import Args
+    from training.scripts import config_from
+
+    assert config_from("real-junction-v0", Args(remove_collided=True)).env_overrides["remove_collided"] is True
+    assert "remove_collided" not in config_from("real-junction-v0", Args()).env_overrides
+    ev = tmp_path / "ev"
+    assert evaluate.main(["--checkpoint", "full-throttle", "--env-id", "real-junction-v0", "--num-cars", "8",
+                          "--episodes", "3", "--out", str(ev), "--remove-collided"]) == 0
+    m = json.loads((ev / "metrics.json").read_text())
+    assert m["env_config"]["remove_collided"] is True
+    assert m["collisions"]["collided_cars"] > 0  # full throttle crashes, yet no car meets a wreck
+    assert m["collisions"]["by_kind"]["wreck"]["cars"] == 0
+    assert m["safety_distance"]["closing_samples_halted_leader"] == 0
+    assert "wreck_collisions" not in m

@@ -46,6 +46,7 @@ class Args:
     lidar_noise: LiDAR noise (default: as trained; scripted: 0)
     stochastic: sample actions instead of taking the most likely one
     video: episodes to record to OUT/episodes.mp4 (0 = none)
+    remove_collided: take collided cars out of the world (default: as trained; scripted: they stay)
     overwrite: allow writing into an existing output folder
     """
 
@@ -58,6 +59,7 @@ class Args:
     lidar_noise: Optional[float] = None
     stochastic: bool = False
     video: int = 0
+    remove_collided: bool = False
     overwrite: bool = False
 
 
@@ -69,6 +71,8 @@ def evaluate(args: Args) -> dict:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
     extra = {k: v for k, v in (("num_cars", args.num_cars), ("lidar_noise", args.lidar_noise))
              if v is not None}
+    if args.remove_collided:
+        extra["remove_collided"] = True
     run_dir, env_id = None, args.env_id
     if args.checkpoint in SCRIPTED:
         def make_env(**kw):
@@ -103,7 +107,8 @@ def evaluate(args: Args) -> dict:
     metrics.update(source)
     metrics.update(episodes=args.episodes, seed=args.seed, deterministic=not args.stochastic,
                    env_id=env_id, env_config={
-                       "num_cars": env.config.num_cars, "lidar_noise": env.config.lidar_noise},
+                       "num_cars": env.config.num_cars, "lidar_noise": env.config.lidar_noise,
+                       "remove_collided": env.config.remove_collided},
                    eval_seconds=round(seconds, 2))
     if run_dir is not None and (run_dir / "state.json").exists():
         metrics["training"] = json.loads((run_dir / "state.json").read_text())

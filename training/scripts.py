@@ -32,6 +32,7 @@ class CommonArgs:
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     horizon: episode horizon in decisions (default: the scenario's)
     collision_reward: reward on a car's first collision (default: the scenario's, -1 as in the paper)
+    remove_collided: take a collided car out of the world instead of leaving it as a wreck (SPEC 2 option)
     """
 
     num_cars: int = 4
@@ -51,6 +52,7 @@ class CommonArgs:
     init_from: Optional[str] = None
     horizon: Optional[int] = None
     collision_reward: Optional[float] = None
+    remove_collided: bool = False
 
     def env_overrides(self) -> dict:
         """Scenario-specific config overrides a script adds (none by default)."""
@@ -71,6 +73,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         overrides["horizon"] = args.horizon
     if args.collision_reward is not None:
         overrides["collision_reward"] = args.collision_reward
+    if args.remove_collided:  # runs without it keep their recorded overrides
+        overrides["remove_collided"] = True
     cfg = TrainConfig(
         env_id=env_id, env_overrides=overrides,
         timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
