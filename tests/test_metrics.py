@@ -5,7 +5,8 @@ import pytest
 
 import box2d_driving
 from box2d_driving.metrics.lights import junction_entries, outcome_rates, traffic_light_metrics, violation_rate
-from box2d_driving.metrics.rollouts import COLUMNS, RolloutRecorder, load_table, run_episodes, save_table
+from box2d_driving.metrics.rollouts import (COLUMNS, RolloutRecorder, load_table, row_lookup, run_episodes,
+                                            save_table)
 from box2d_driving.policies import LightRulePolicy, RandomPolicy
 
 
@@ -51,6 +52,19 @@ def test_outcome_rates_use_each_cars_last_row():
     assert r["cars"] == 3
     assert r["success_rate"] == pytest.approx(1 / 3) and r["collision_rate"] == pytest.approx(1 / 3)
     assert r["mean_time_to_goal"] == 5
+
+
+def test_row_lookup_finds_rows_and_reports_missing_ones():
+    rows = [(0, 0, 0, 0, 0, 0, 0), (0, 0, 5, 0, 0, 1, 0), (0, 1, 0, 0, 0, 0, 0),
+            (0, 1, 2, 0, 0, 0, 1), (1, 0, 0, 0, 0, 0, 0), (1, 0, 9, 0, 0, 0, 0)]
+    t = _table(rows[::-1])  # any row order
+    find = row_lookup(t)
+    assert int(find(0, 1, 2)) == 2 and int(find(1, 0, 9)) == 0
+    np.testing.assert_array_equal(find([0, 0, 1], [0, 1, 0], [5, 0, 0]), [4, 3, 1])
+    # absent: decision 1 of car 0; car 2, car -1 and decision 10 (out of range, no aliasing)
+    np.testing.assert_array_equal(find([0, 0, 0, 1, 2], [0, 2, -1, 0, 0], [1, 0, 0, 10, 0]), [-1] * 5)
+    empty = row_lookup({k: v[:0] for k, v in t.items()})
+    assert int(empty(0, 0, 0)) == -1
 
 
 def test_hand_rule_obeys_lights_and_random_does_not(tmp_path):

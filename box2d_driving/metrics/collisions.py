@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from box2d_driving.metrics.pedestrians import stopping_distance
-from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLLISION_COLUMNS
+from box2d_driving.metrics.rollouts import COLLIDED_WITH, COLLISION_COLUMNS, row_lookup
 from box2d_driving.road.geometry import wrap_angle
 
 CLASSES = ("same_way", "crossing", "oncoming", "wreck", "edge", "pedestrian")
@@ -44,16 +44,14 @@ def collision_classes(table: dict[str, np.ndarray], same_way: float = math.pi / 
     halted = table["partner_halted"][rows].astype(bool)
     kind[car & halted] = CLASSES.index("wreck")
     # the moving partner also collided on this decision: its crash row holds its heading then
-    key = {(int(e), int(c), int(d)): r for r, e, c, d in zip(
-        rows.tolist(), table["episode"][rows], table["car"][rows], table["decision"][rows])}
-    for n in np.flatnonzero(car & ~halted):
-        r = rows[n]
-        partner_row = key.get((int(table["episode"][r]), int(table["collision_partner"][r]),
-                               int(table["decision"][r])))
-        if partner_row is None:
-            raise ValueError(f"row {r}: car {table['car'][r]} hit moving car "
-                             f"{table['collision_partner'][r]}, which has no crash row on that decision")
-        diff = abs(float(wrap_angle(table["heading"][partner_row] - table["heading"][r])))
+    moving = np.flatnonzero(car & ~halted)
+    r = rows[moving]
+    partner_rows = row_lookup(table)(table["episode"][r], table["collision_partner"][r], table["decision"][r])
+    for n, pr in zip(moving.tolist(), partner_rows.tolist()):
+        if pr < 0 or not table["collided"][pr]:
+            raise ValueError(f"row {rows[n]}: car {table['car'][rows[n]]} hit moving car "
+                             f"{table['collision_partner'][rows[n]]}, which has no crash row on that decision")
+        diff = abs(float(wrap_angle(table["heading"][pr] - table["heading"][rows[n]])))
         kind[n] = CLASSES.index("same_way" if diff < same_way else "oncoming" if diff > oncoming
                                 else "crossing")
     return {"row": rows, "kind": kind}
@@ -82,13 +80,8 @@ def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length:
     median number of decisions from the wreck's crash to the car's."""
     c = collision_classes(table)
     wreck_rows = c["row"][c["kind"] == CLASSES.index("wreck")]
-    ep = table["episode"].astype(np.int64)
-    car = table["car"].astype(np.int64)
-    dec = table["decision"].astype(np.int64)
-    # one int64 key per (episode, car, decision) row, sorted once for lookups
-    span_car, span_dec = int(car.max(initial=0)) + 1, int(dec.max(initial=0)) + 1
-    key = (ep * span_car + car) * span_dec + dec
-    order = np.argsort(key, kind="stable")
+    ep, car, dec = (table[k].astype(np.int64) for k in ("episode", "car", "decision"))
+    find = row_lookup(table)
     crash = {(int(ep[r]), int(car[r])): int(r) for r in c["row"].tolist()}
     gaps, speeds, delays = [], [], []
     for r in wreck_rows.tolist():
@@ -96,10 +89,8 @@ def wreck_collision_room(table: dict[str, np.ndarray], a_max: float, car_length:
         if wreck is None:
             raise ValueError(f"row {r}: car {car[r]} hit wreck {table['collision_partner'][r]}, "
                              "which has no crash row in that episode")
-        want = (ep[r] * span_car + car[r]) * span_dec + dec[wreck]
-        i = int(np.searchsorted(key, want, sorter=order))
-        at = order[min(i, len(order) - 1)]
-        if i == len(order) or key[at] != want:
+        at = int(find(ep[r], car[r], dec[wreck]))
+        if at < 0:
             raise ValueError(f"row {r}: car {car[r]} has no row on decision {dec[wreck]}, when wreck "
                              f"{table['collision_partner'][r]} halted")
         gaps.append(math.hypot(table["x"][at] - table["x"][wreck], table["y"][at] - table["y"][wreck]) - car_length)

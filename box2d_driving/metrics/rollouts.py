@@ -8,7 +8,7 @@ decision its trajectory ends.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 
@@ -70,6 +70,27 @@ def last_rows(table: dict[str, np.ndarray]) -> np.ndarray:
     is_last = np.ones(len(order), dtype=bool)
     is_last[:-1] = (ep[1:] != ep[:-1]) | (car[1:] != car[:-1])
     return order[is_last]
+
+
+def row_lookup(table: dict[str, np.ndarray]) -> Callable[[Any, Any, Any], np.ndarray]:
+    """A function ``find(episode, car, decision)`` (scalars or equal-length arrays) giving the
+    table row of each (episode, car, decision), -1 where the table has none."""
+    ep, car, dec = (table[k].astype(np.int64) for k in ("episode", "car", "decision"))
+    span_car, span_dec = int(car.max(initial=0)) + 1, int(dec.max(initial=0)) + 1
+    key = (ep * span_car + car) * span_dec + dec  # one int64 per row, sorted once
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+
+    def find(episode: Any, car_: Any, decision: Any) -> np.ndarray:
+        e, c, d = (np.asarray(v, dtype=np.int64) for v in (episode, car_, decision))
+        want = (e * span_car + c) * span_dec + d
+        if not len(order):
+            return np.full(want.shape, -1, dtype=np.int64)
+        i = np.minimum(np.searchsorted(sorted_key, want), len(order) - 1)
+        # a car or decision out of range would alias another row's key
+        hit = (c >= 0) & (c < span_car) & (d >= 0) & (d < span_dec) & (sorted_key[i] == want)
+        return np.where(hit, order[i], -1)
+    return find
 
 
 def _num(value: Optional[float]) -> float:
