@@ -196,6 +196,11 @@ class DrivingConfig:
         return math.inf
 
     @property
+    def wrecks_stay(self) -> bool:
+        """A collided car stays in the world as a halted obstacle (SPEC 2; not ``remove_collided``)."""
+        return not self.remove_collided
+
+    @property
     def a_max(self) -> float:
         """Largest acceleration magnitude (m/s^2)."""
         return max(abs(a) for a in self.accelerations)

@@ -51,11 +51,12 @@ def test_shipped_report_agrees_with_its_rollouts(report):
     for key, value in outcome_rates(table).items():
         assert metrics[key] == pytest.approx(value, nan_ok=True), key
     if metrics["env_id"] == "real-junction-v0":
-        cfg = box2d_driving.make(metrics["env_id"], **metrics["trained_on"]).config
+        # evaluated as trained unless the report says otherwise (e.g. --remove-collided)
+        cfg = box2d_driving.make(metrics["env_id"], **{**metrics["trained_on"], **metrics["env_config"]}).config
         assert metrics["right_of_way"] == pytest.approx(fifo_metrics(table))
         assert metrics["safety_distance"] == pytest.approx(safety_distance_metrics(
-            table, cfg.a_max, cfg.car_length, wrecks_stay=not cfg.remove_collided))
-        if not cfg.remove_collided:
+            table, cfg.a_max, cfg.car_length, wrecks_stay=cfg.wrecks_stay))
+        if cfg.wrecks_stay:
             from box2d_driving.metrics.collisions import wreck_collision_room
 
             # nested and possibly NaN: compare as the report writes them

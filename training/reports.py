@@ -82,7 +82,7 @@ def junction_summary(table: dict, config: Any) -> dict[str, float]:
     return {"success_rate": rates["success_rate"], "collision_rate": rates["collision_rate"],
             "fifo_share": fifo_metrics(table)["fifo_share"],
             "safe_share": safety_distance_metrics(table, config.a_max, config.car_length,
-                                                  wrecks_stay=not config.remove_collided)["safe_share"]}
+                                                  wrecks_stay=config.wrecks_stay)["safe_share"]}
 
 
 def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
@@ -92,14 +92,14 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     cfg = env.config
     metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
     metrics["right_of_way"] = fifo_metrics(table)
-    s = leader_samples(table, cfg.car_length, wrecks_stay=not cfg.remove_collided)
+    s = leader_samples(table, cfg.car_length, wrecks_stay=cfg.wrecks_stay)
     metrics["safety_distance"] = safety_distance_from_samples(s, cfg.a_max)
     closing = s["closing_speed"] > 0
     plots.speed_vs_distance(s["gap"][closing], s["closing_speed"][closing], cfg.a_max,
                             out / "safety_distance.png", xlabel="gap to the car ahead (m)",
                             ylabel="closing speed (m/s)", marked=s["leader_halted"][closing],
                             marked_label="car ahead is a wreck")
-    if not cfg.remove_collided:  # pile-ups: could the cars that hit a wreck have braked in time?
+    if cfg.wrecks_stay:  # pile-ups: could the cars that hit a wreck have braked in time?
         metrics["wreck_collisions"] = wreck_collision_room(table, cfg.a_max, cfg.car_length)
     if cfg.communication:
         from box2d_driving.metrics.communication import communication_metrics
