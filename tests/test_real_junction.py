@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -203,3 +204,26 @@ def test_remove_collided_option_reaches_training_config_and_evaluation(tmp_path)
     assert m["collisions"]["by_kind"]["wreck"]["cars"] == 0
     assert m["safety_distance"]["closing_samples_halted_leader"] == 0
     assert "wreck_collisions" not in m
+
+
+def test_evaluation_can_leave_wrecks_for_a_policy_trained_without_them(tmp_path):
+    """--remove-collided is three-way: given, negated (--no-...), or absent (as trained)."""
+    pytest.importorskip("torch")
+    import json
+
+    from training import evaluate
+    from training.cli_args import parse
+
+    assert parse(evaluate.Args, ["--checkpoint", "x", "--out", "y"]).remove_collided is None
+    assert parse(evaluate.Args, ["--checkpoint", "x", "--out", "y", "--remove-collided"]).remove_collided is True
+    assert parse(evaluate.Args, ["--checkpoint", "x", "--out", "y", "--no-remove-collided"]).remove_collided is False
+    policy = Path(__file__).resolve().parent.parent / "assets" / "policies" / "real_junction_8cars_remove_collided"
+    runs = {}
+    for name, flag in (("as_trained", []), ("wrecks_stay", ["--no-remove-collided"])):
+        assert evaluate.main(["--checkpoint", str(policy), "--episodes", "1", "--out",
+                              str(tmp_path / name), *flag]) == 0
+        runs[name] = json.loads((tmp_path / name / "metrics.json").read_text())
+    assert runs["as_trained"]["env_config"]["remove_collided"] is True
+    assert "wreck_collisions" not in runs["as_trained"]
+    assert runs["wrecks_stay"]["env_config"]["remove_collided"] is False
+    assert "wreck_collisions" in runs["wrecks_stay"]  # the report asks wreck questions only when wrecks stay

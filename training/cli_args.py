@@ -29,7 +29,7 @@ def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str =
         kind = hints[f.name]
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         help_text = f"{docs.get(f.name, '')} (default: {default})"
-        if kind is bool:
+        if kind is bool or kind == Optional[bool]:  # Optional: None when neither flag is given
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default, help=help_text)
         else:
             parser.add_argument(flag, type=_caster(kind), default=default, help=help_text)

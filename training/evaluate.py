@@ -46,7 +46,7 @@ class Args:
     lidar_noise: LiDAR noise (default: as trained; scripted: 0)
     stochastic: sample actions instead of taking the most likely one
     video: episodes to record to OUT/episodes.mp4 (0 = none)
-    remove_collided: take collided cars out of the world (default: as trained; scripted: they stay)
+    remove_collided: take collided cars out of the world (--no-remove-collided: leave them as wrecks; neither: as trained, scripted policies leave them)
     overwrite: allow writing into an existing output folder
     """
 
@@ -59,7 +59,7 @@ class Args:
     lidar_noise: Optional[float] = None
     stochastic: bool = False
     video: int = 0
-    remove_collided: bool = False
+    remove_collided: Optional[bool] = None
     overwrite: bool = False
 
 
@@ -71,8 +71,8 @@ def evaluate(args: Args) -> dict:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
     extra = {k: v for k, v in (("num_cars", args.num_cars), ("lidar_noise", args.lidar_noise))
              if v is not None}
-    if args.remove_collided:
-        extra["remove_collided"] = True
+    if args.remove_collided is not None:
+        extra["remove_collided"] = args.remove_collided
     run_dir, env_id = None, args.env_id
     if args.checkpoint in SCRIPTED:
         def make_env(**kw):
