@@ -164,8 +164,6 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     assert sum(k["cars"] for k in crashes["by_kind"].values()) == crashes["collided_cars"]
     assert (tmp_path / "collisions.png").exists()
     # the noise-level table reads such reports (two "levels" here: the same report twice)
-    import json
-
     from training.experiments import communication_table
 
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
@@ -187,7 +185,6 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
 
 def test_remove_collided_option_reaches_training_config_and_evaluation(tmp_path):
     pytest.importorskip("matplotlib")
-    import json
 
     from training import evaluate
     from training.real_junction import Args
@@ -209,7 +206,6 @@ def test_remove_collided_option_reaches_training_config_and_evaluation(tmp_path)
 def test_evaluation_can_leave_wrecks_for_a_policy_trained_without_them(tmp_path):
     """--remove-collided is three-way: given, negated (--no-...), or absent (as trained)."""
     pytest.importorskip("torch")
-    import json
 
     from training import evaluate
     from training.cli_args import parse
