@@ -60,3 +60,31 @@ def table_from_rows(rows, names):
     for name in ("in_junction", "arrived", "collided", "partner_halted"):
         t[name] = t[name].astype(bool)
     return t
+
+
+def assert_nested_close(actual, expected, atol: float = 1e-6, where: str = "") -> None:
+    """Equal structures (dicts, lists, strings, ints, bools) whose floats agree within ``atol``
+    (NaN equals NaN, infinities must match exactly). For computed geometry and metrics, whose last
+    bits can move between numpy / libosmium releases while a real change moves them far more.
+    Names the first path that differs."""
+    here = where or "<root>"
+    if isinstance(expected, dict):
+        assert isinstance(actual, dict), f"{here}: {type(actual).__name__} vs dict"
+        assert actual.keys() == expected.keys(), f"{here}: keys {sorted(actual)} vs {sorted(expected)}"
+        for key in expected:
+            assert_nested_close(actual[key], expected[key], atol, f"{where}.{key}")
+    elif isinstance(expected, (list, tuple)):
+        assert isinstance(actual, (list, tuple)), f"{here}: {type(actual).__name__} vs list"
+        assert len(actual) == len(expected), f"{here}: length {len(actual)} vs {len(expected)}"
+        for i, (a, e) in enumerate(zip(actual, expected)):
+            assert_nested_close(a, e, atol, f"{where}[{i}]")
+    elif isinstance(expected, float) or isinstance(actual, float):
+        assert not isinstance(actual, (bool, str)) and not isinstance(expected, (bool, str)), \
+            f"{here}: {actual!r} vs {expected!r}"
+        a, e = float(actual), float(expected)
+        if np.isnan(e) or np.isinf(e):
+            assert a == e or (np.isnan(a) and np.isnan(e)), f"{here}: {a!r} vs {e!r}"
+        else:
+            assert abs(a - e) <= atol, f"{here}: {a!r} vs {e!r} (differ by {abs(a - e):.3g} > {atol})"
+    else:
+        assert type(actual) is type(expected) and actual == expected, f"{here}: {actual!r} vs {expected!r}"
