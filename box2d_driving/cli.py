@@ -3,7 +3,8 @@
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
 world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
 OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
-``train lights|crosswalk|lanes|fast-lanes|real-junction`` and ``evaluate`` (the training scripts).
+``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate`` and
+``convert-checkpoint`` (the training scripts).
 Bad arguments print one line and exit with status 2.
 """
 
@@ -147,7 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="record episodes as a video and/or PNG frames")
     r.add_argument("env_id", help="a scenario id (see `box2d-driving list`)")
     r.add_argument("--policy", default="random",
-                   help="random (default), rule (brake on 0.5/1.0 lights) or a checkpoint (run folder or model.zip)")
+                   help="random (default), rule (brake on 0.5/1.0 lights) or a checkpoint (run folder or model.safetensors)")
     r.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
     r.add_argument("--out", type=Path, help="video file, .mp4 or .gif")
     r.add_argument("--frames", type=Path, help="also write PNG frames into this folder")
@@ -181,6 +182,9 @@ def build_parser() -> argparse.ArgumentParser:
                    add_help=False)
     sub.add_parser("evaluate", help="evaluate a checkpoint or scripted policy (`evaluate --help`)",
                    add_help=False)
+    sub.add_parser("convert-checkpoint", add_help=False,
+                   help="convert an older pickled model.zip of your own to model.safetensors "
+                        "(`convert-checkpoint --help`)")
     return parser
 
 
@@ -193,8 +197,8 @@ def _delegate(argv: list[str]) -> int:
     """``train`` and ``evaluate`` run the training scripts (they need the train extra)."""
     import importlib
 
-    if argv[0] == "evaluate":
-        module, rest = "training.evaluate", argv[1:]
+    if argv[0] in ("evaluate", "convert-checkpoint"):
+        module, rest = "training." + argv[0].replace("-", "_"), argv[1:]
     else:
         if len(argv) < 2 or argv[1] not in TRAINERS:
             print(f"box2d-driving: error: train needs a scenario: {', '.join(TRAINERS)}", file=sys.stderr)
@@ -214,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "bench":
         from box2d_driving import bench
         return bench.main(argv[1:])
-    if argv and argv[0] in ("train", "evaluate"):
+    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint"):
         return _delegate(argv)
     args = build_parser().parse_args(argv)
     try:

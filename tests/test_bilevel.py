@@ -69,8 +69,8 @@ def test_bilevel_alternates_checkpoints_both_and_resumes(tmp_path, env_id):
     state = json.loads((out / "state.json").read_text())
     assert state["round"] == 2 and state["spline_samples"] == 2 * 64
     assert state["accel_decisions"] == 2 * 800
-    for name in ("accel/model.zip", "spline/model.zip", "accel/config.json",
-                 "checkpoints/round_0002_spline.zip"):
+    for name in ("accel/model.safetensors", "spline/model.safetensors", "accel/config.json",
+                 "checkpoints/round_0002_spline.safetensors"):
         assert (out / name).exists(), name
     with pytest.raises(RunError, match="not empty"):
         train_bilevel(_config(env_id), out)
@@ -81,7 +81,7 @@ def test_bilevel_alternates_checkpoints_both_and_resumes(tmp_path, env_id):
     policy = load_policy(out)
     env = policy.make_env()
     obs, _ = env.reset(seed=0)
-    expected = policy.spline_model.policy.predict(env.spline_observations, deterministic=True)[0]
+    expected = policy.spline_policy.predict(env.spline_observations, deterministic=True)[0]
     assert np.array_equal(np.asarray(env.spline_actions).ravel(), np.asarray(expected).ravel())
     assert set(policy.act(obs)) == set(env.agents)
 

@@ -1,5 +1,6 @@
 """Training stack: slot VecEnv semantics, masked buffer, CTDE policy, trainer, inference."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -193,20 +194,31 @@ def test_actor_is_blind_to_the_team_block():
 
 
 def test_model_save_load_round_trip(tmp_path):
-    from stable_baselines3 import PPO
+    """Weights, Adam moments and step, and the counters survive the safetensors checkpoint."""
+    from training.checkpoint import read_checkpoint, restore_model, save_model
 
-    cfg = TrainConfig(env_overrides={"num_cars": 2}, n_envs=1, batch_decisions=64, minibatch=32)
-    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2)])
+    cfg = TrainConfig(env_overrides={"num_cars": 2, "horizon": 8}, n_envs=1, batch_decisions=32,
+                      minibatch=16, epochs=1)
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2, horizon=8)])
     model = build_model(cfg, venv)
+    model.learn(64)  # two updates: the optimiser has state to save
     obs = th.as_tensor(venv.reset())
-    model.save(tmp_path / "m.zip")
-    back = PPO.load(tmp_path / "m.zip", device="cpu")
+    save_model(model, tmp_path / "m.safetensors")
+    back = build_model(dataclasses.replace(cfg, seed=7), venv)
+    restore_model(back, read_checkpoint(tmp_path / "m.safetensors"))
     assert isinstance(back.policy, CTDEPolicy)
+    assert (back.num_timesteps, back._n_updates) == (model.num_timesteps, model._n_updates) == (64, 2)
     with th.no_grad():
         d1 = model.policy.get_distribution(obs).distribution.logits
         d2 = back.policy.get_distribution(obs).distribution.logits
-        assert th.allclose(d1, d2)
-        assert th.allclose(model.policy.predict_values(obs), back.policy.predict_values(obs))
+        assert th.equal(d1, d2)
+        assert th.equal(model.policy.predict_values(obs), back.policy.predict_values(obs))
+    mine, theirs = model.policy.optimizer.state_dict(), back.policy.optimizer.state_dict()
+    assert mine["param_groups"] == theirs["param_groups"]
+    assert mine["state"].keys() == theirs["state"].keys() and mine["state"]
+    for idx, entries in mine["state"].items():
+        for name, value in entries.items():
+            assert th.equal(value, theirs["state"][idx][name]), (idx, name)
 
 
 def _tiny(**kw):
@@ -219,8 +231,9 @@ def _tiny(**kw):
 def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     out = tmp_path / "run"
     stats = train(_tiny(), out)
-    assert (out / "model.zip").exists() and (out / "config.json").exists()
-    assert list((out / "checkpoints").glob("model_*.zip"))
+    assert (out / "model.safetensors").exists() and (out / "config.json").exists()
+    assert list((out / "checkpoints").glob("model_*.safetensors"))
+    assert not list(out.rglob("*.zip")) and not list(out.rglob("*.partial"))
     assert "rollout/success_rate" in stats
     state = json.loads((out / "state.json").read_text())
     assert state["decisions"] == 320 and state["agent_steps"] > 0
@@ -260,13 +273,17 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
 
 
 def test_load_policy_rejects_bad_checkpoints(tmp_path):
-    with pytest.raises(FileNotFoundError):
-        load_policy(tmp_path / "nothing.zip")
+    from training.checkpoint import CheckpointError
+
+    with pytest.raises(CheckpointError, match="no checkpoint"):
+        load_policy(tmp_path / "nothing.safetensors")
     bad = tmp_path / "bad"
     bad.mkdir()
-    (bad / "model.zip").write_bytes(b"not a zip")
     (bad / "config.json").write_text("{}")
-    with pytest.raises(ValueError, match="cannot load checkpoint"):
+    with pytest.raises(CheckpointError, match="model.safetensors is missing"):
+        load_policy(bad)
+    (bad / "model.safetensors").write_bytes(b"not a checkpoint")
+    with pytest.raises(CheckpointError, match="no safetensors header"):
         load_policy(bad)
 
 
@@ -335,7 +352,7 @@ def test_main_job_demo_runs_end_to_end(tmp_path):
 
 
 def test_init_from_copies_weights_across_car_counts(tmp_path):
-    from stable_baselines3 import PPO
+    from training.checkpoint import read_checkpoint
 
     train(_tiny(), tmp_path / "four")
     out = tmp_path / "eight"
@@ -347,11 +364,11 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
     from training.trainer import load_weights
     model = build_model(cfg, venv)
     load_weights(model, tmp_path / "four")
-    src = PPO.load(tmp_path / "four" / "model.zip", device="cpu")
-    for k, v in src.policy.state_dict().items():
+    src = read_checkpoint(tmp_path / "four")
+    for k, v in src.policy.items():
         assert th.equal(model.policy.state_dict()[k], v)
     train(cfg, out)
-    assert (out / "model.zip").exists()
+    assert (out / "model.safetensors").exists()
     bad = _tiny(env_overrides={"num_cars": 2, "history": 3}, init_from=str(tmp_path / "four"))
     with pytest.raises(RunError, match="observation layout"):
         train(bad, tmp_path / "bad")
@@ -360,12 +377,10 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
 
 
 def test_init_from_widens_a_policy_to_the_communication_option(tmp_path):
-    from stable_baselines3 import PPO
-
-    from training.trainer import load_weights
+    from training.trainer import load_ppo, load_weights
 
     train(_tiny(), tmp_path / "plain")
-    src = PPO.load(tmp_path / "plain" / "model.zip", device="cpu").policy
+    src = load_ppo(tmp_path / "plain").policy
     cfg = _tiny(env_overrides={"num_cars": 2, "horizon": 8, "communication": True})
     venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2, horizon=8, communication=True)])
     model = build_model(cfg, venv)

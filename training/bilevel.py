@@ -14,12 +14,12 @@ reset annealed values each round. No observation normalisation is used.
 Output folder::
 
     OUT/config.json       the BilevelConfig (written once)
-    OUT/accel/            acceleration policy: config.json, model.zip, progress.csv, tb/
+    OUT/accel/            acceleration policy: config.json, model.safetensors, progress.csv, tb/
                           (a normal run folder: load_policy(OUT/accel) works)
-    OUT/spline/           spline policy: model.zip, progress.csv
+    OUT/spline/           spline policy: model.safetensors, progress.csv
     OUT/rounds.csv        one row per round: bandit return, lane side shares, driving outcomes
     OUT/state.json        rounds done, wall-clock seconds, acceleration-stage agent-steps
-    OUT/checkpoints/      round_<r>_{accel,spline}.zip every ``checkpoint_every`` rounds
+    OUT/checkpoints/      round_<r>_{accel,spline}.safetensors every ``checkpoint_every`` rounds
 """
 
 from __future__ import annotations
@@ -42,9 +42,11 @@ from stable_baselines3.common.logger import configure
 
 import box2d_driving
 from training.bandit import SplineBanditVecEnv
+from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
 from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
-                              UNSAVED, check_same_run, load_weights, make_vec_env, set_minibatching)
+                              check_same_run, load_weights, make_vec_env, resumed_config,
+                              set_minibatching, write_json_atomic)
 
 
 @dataclass
@@ -120,8 +122,12 @@ class BanditStats(BaseCallback):
 
 def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
     if resume:
-        for need in ("config.json", "state.json", "accel/model.zip", "spline/model.zip"):
+        for need in ("config.json", "state.json", f"accel/{FILE}", f"spline/{FILE}"):
             if not (out / need).exists():
+                legacy = out / need.replace(FILE, "model.zip")
+                if legacy != out / need and legacy.exists():
+                    raise RunError(f"--resume: {out / need} is missing and {legacy} is a pickled "
+                                   f"SB3 file; convert it first (box2d-driving convert-checkpoint)")
                 raise RunError(f"--resume: {out / need} is missing")
         check_same_run(json.loads((out / "config.json").read_text())["accel"], config.accel)
         return
@@ -164,21 +170,15 @@ def install_spline_policy(accel_venv, spline_model: PPO) -> None:
     accel_venv.set_attr("spline_policy", choose)
 
 
-def _save(model: PPO, path: Path) -> None:
-    tmp = path.with_name(path.stem + ".partial.zip")
-    model.save(tmp, exclude=list(UNSAVED))
-    tmp.replace(path)
-
-
 def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> None:
-    _save(accel, out / "accel" / "model.zip")
-    _save(spline, out / "spline" / "model.zip")
-    (out / "state.json").write_text(json.dumps(state, indent=2))
+    save_model(accel, out / "accel" / FILE)
+    save_model(spline, out / "spline" / FILE)
+    write_json_atomic(out / "state.json", state)
     if keep:
         ck = out / "checkpoints"
         ck.mkdir(exist_ok=True)
-        shutil.copyfile(out / "accel" / "model.zip", ck / f"round_{state['round']:04d}_accel.zip")
-        shutil.copyfile(out / "spline" / "model.zip", ck / f"round_{state['round']:04d}_spline.zip")
+        for stage in ("accel", "spline"):
+            shutil.copyfile(out / stage / FILE, ck / f"round_{state['round']:04d}_{stage}.safetensors")
 
 
 def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dict[str, Any]:
@@ -193,9 +193,14 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
     state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}
     if resume:
         state = json.loads((out / "state.json").read_text())
-        accel = PPO.load(out / "accel" / "model.zip", env=accel_venv, device="cpu")
+        accel = build_model(resumed_config(out / "accel", acfg), accel_venv)
         bandit = make_bandit(config, accel)
-        spline = PPO.load(out / "spline" / "model.zip", env=bandit, device="cpu")
+        spline = build_spline_model(config, bandit)
+        try:
+            restore_model(accel, read_checkpoint(out / "accel"))
+            restore_model(spline, read_checkpoint(out / "spline"))
+        except CheckpointError as exc:
+            raise RunError(f"--resume: {exc}") from None
         accel.set_logger(_append_logger(out / "accel", accel.num_timesteps))
         spline.set_logger(_append_logger(out / "spline", spline.num_timesteps))
     else:
@@ -206,10 +211,12 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
         spline = build_spline_model(config, bandit)
         if config.spline_init_from:
             src = Path(config.spline_init_from)
-            src = src / "spline" / "model.zip" if src.is_dir() else src
-            if not src.exists():
-                raise RunError(f"--spline-init-from: no spline checkpoint at {src}")
-            spline.policy.load_state_dict(PPO.load(src, device="cpu").policy.state_dict())
+            src = src / "spline" if (src / "spline").is_dir() else src
+            try:
+                restore_model(spline, read_checkpoint(src), optimizer=False)
+            except CheckpointError as exc:
+                raise RunError(f"--spline-init-from: {exc}") from None
+            spline.num_timesteps = spline._n_updates = 0
         accel.set_logger(configure(str(out / "accel"), ["csv", "tensorboard"]))
         spline.set_logger(configure(str(out / "spline"), ["csv"]))
     set_minibatching(accel, acfg, accel_venv.n_cars)

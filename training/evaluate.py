@@ -37,7 +37,7 @@ from training.cli_args import parse  # noqa: E402
 class Args:
     """Evaluate a policy.
 
-    checkpoint: run folder or model.zip, or a scripted policy (random, full-throttle, rule, pedestrian-oracle)
+    checkpoint: run folder or model.safetensors, or a scripted policy (random, full-throttle, rule, pedestrian-oracle)
     env_id: env for scripted policies (trained ones use the env they were trained on)
     episodes: evaluation episodes
     out: output folder (must not exist unless --overwrite)

@@ -1,4 +1,7 @@
-"""Load a trained policy and drive a ParallelEnv directly: ``load_policy(path).act(obs)``."""
+"""Load a trained policy and drive a ParallelEnv directly: ``load_policy(path).act(obs)``.
+
+Loading never unpickles: the network is rebuilt from the run's ``config.json`` and its weights are
+read from ``model.safetensors`` (see ``training/checkpoint.py``)."""
 
 from __future__ import annotations
 
@@ -9,29 +12,30 @@ from typing import Any, Union
 import numpy as np
 import torch as th
 
+from training.checkpoint import CheckpointError, load_policy_weights, read_checkpoint
+
 
 class TrainedPolicy:
     """A trained actor. ``act(observations)`` maps ``{agent: obs}`` to ``{agent: action}``;
     deterministic (most likely action) unless ``deterministic=False``. The actor needs only each
     car's own observation, so no training wrapper is involved."""
 
-    def __init__(self, model: Any, config: dict, deterministic: bool = True) -> None:
-        self.model = model
+    def __init__(self, policy: Any, config: dict, deterministic: bool = True) -> None:
+        self.policy = policy  # a training.policy.CTDEPolicy
         self.config = config
         self.deterministic = deterministic
-        self.policy = model.policy
         self.obs_dim = self.policy.mlp_extractor.obs_dim
-        self.spline_model: Any = None
+        self.spline_policy: Any = None
 
-    def attach_spline(self, spline_model: Any) -> None:
-        """Use ``spline_model`` (a bilevel run's stage-0 PPO) to pick each car's path; envs from
-        :meth:`make_env` call it at every reset."""
-        self.spline_model = spline_model
+    def attach_spline(self, spline_policy: Any) -> None:
+        """Use ``spline_policy`` (a bilevel run's stage-0 SB3 policy) to pick each car's path;
+        envs from :meth:`make_env` call it at every reset."""
+        self.spline_policy = spline_policy
 
     def choose_paths(self, obs0: np.ndarray) -> np.ndarray:
         """Stage-0 actions ``(N, ...)`` for stage-0 observations ``(N, D0)``."""
-        return self.spline_model.policy.predict(np.asarray(obs0, dtype=np.float32),
-                                                deterministic=self.deterministic)[0]
+        return self.spline_policy.predict(np.asarray(obs0, dtype=np.float32),
+                                          deterministic=self.deterministic)[0]
 
     @property
     def env_id(self) -> str:
@@ -46,7 +50,7 @@ class TrainedPolicy:
         import box2d_driving
 
         env = box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
-        if self.spline_model is not None:
+        if self.spline_policy is not None:
             env.spline_policy = self.choose_paths
         return env
 
@@ -72,35 +76,73 @@ def actor_actions(policy: Any, obs: np.ndarray, deterministic: bool = True) -> n
 
 
 def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPolicy:
-    """Load a checkpoint (``model.zip`` or a run folder containing it, with its ``config.json``;
-    or a bilevel run folder with ``accel/`` and ``spline/``, whose envs then pick their paths with
-    the spline policy)."""
-    from stable_baselines3 import PPO
-
+    """Load a checkpoint: a run folder (``model.safetensors`` + ``config.json``), the
+    ``.safetensors`` file itself, or a bilevel run folder with ``accel/`` and ``spline/``, whose
+    envs then pick their paths with the spline policy. Raises :class:`CheckpointError` (a
+    ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
+    malformed."""
     path = Path(path)
-    if path.is_dir() and (path / "spline" / "model.zip").exists() and (path / "accel").is_dir():
+    if path.is_dir() and (path / "spline").is_dir() and (path / "accel").is_dir():
         policy = load_policy(path / "accel", deterministic)
-        try:
-            policy.attach_spline(PPO.load(path / "spline" / "model.zip", device="cpu"))
-        except Exception as exc:
-            raise ValueError(f"cannot load spline checkpoint {path / 'spline' / 'model.zip'}: {exc}") from exc
+        policy.attach_spline(_load_spline_policy(path))
         return policy
-    model_path = path / "model.zip" if path.is_dir() else path
-    if not model_path.exists():
-        raise FileNotFoundError(f"no checkpoint at {model_path}")
-    config_path = _find_config(model_path)
+    ckpt = read_checkpoint(path)
+    config_path = _find_config(ckpt.path)
+    config = _read_json(config_path)
+    net = build_ctde_policy(config, config_path)
+    load_policy_weights(net, ckpt)
+    return TrainedPolicy(net, config, deterministic)
+
+
+def build_ctde_policy(config: dict, where: Path) -> Any:
+    """An untrained :class:`CTDEPolicy` shaped for the env and critic a run's config names."""
+    import box2d_driving
+    from training.policy import CTDEPolicy, policy_kwargs_for
+    from training.vec_env import slot_observation_space
+
     try:
-        config = json.loads(config_path.read_text())
-        model = PPO.load(model_path, device="cpu")
-    except Exception as exc:  # corrupt zip, wrong format, incompatible policy class
-        raise ValueError(f"cannot load checkpoint {model_path}: {exc}") from exc
-    if not hasattr(model.policy.mlp_extractor, "forward_actor") or not hasattr(model.policy.mlp_extractor, "obs_dim"):
-        raise ValueError(f"{model_path} is not a box2d-driving CTDE policy checkpoint")
-    return TrainedPolicy(model, config, deterministic)
+        env = box2d_driving.make(config["env_id"], **config["env_overrides"])
+        critic = config.get("critic", "mean")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CheckpointError(f"{where}: cannot rebuild the policy's env ({exc!r})") from None
+    agent = env.possible_agents[0]
+    space = slot_observation_space(env.observation_space(agent), len(env.possible_agents))
+    policy = CTDEPolicy(space, env.action_space(agent), lambda _: 0.0, **policy_kwargs_for(env, critic))
+    env.close()
+    return policy.eval()
+
+
+def _load_spline_policy(run: Path) -> Any:
+    """The stage-0 (spline) policy of a bilevel run folder, rebuilt from its ``config.json``."""
+    import box2d_driving
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    ckpt = read_checkpoint(run / "spline")
+    config = _read_json(run / "config.json")
+    try:
+        env = box2d_driving.make(config["accel"]["env_id"], **config["accel"]["env_overrides"])
+        hidden = [int(h) for h in config.get("spline_hidden", (64, 64))]
+        policy = ActorCriticPolicy(env.spline_observation_space, env.spline_action_space,
+                                   lambda _: 0.0, net_arch=hidden)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
+    env.close()
+    load_policy_weights(policy, ckpt)
+    return policy.eval()
+
+
+def _read_json(path: Path) -> dict:
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise CheckpointError(f"{path}: not a readable JSON config ({exc})") from None
+    if not isinstance(data, dict):
+        raise CheckpointError(f"{path}: expected a JSON object")
+    return data
 
 
 def _find_config(model_path: Path) -> Path:
     for folder in (model_path.parent, model_path.parent.parent):
         if (folder / "config.json").exists():
             return folder / "config.json"
-    raise FileNotFoundError(f"no config.json next to {model_path} or in its parent folder")
+    raise CheckpointError(f"no config.json next to {model_path} or in its parent folder")

@@ -102,7 +102,7 @@ def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: st
         return 2
     print("last update:", {k.split("/")[-1]: round(v, 4) if isinstance(v, float) else v
                            for k, v in stats.items()})
-    print(f"checkpoint: {Path(args.out) / 'model.zip'}")
+    print(f"checkpoint: {Path(args.out) / 'model.safetensors'}")
     return 0
 
 

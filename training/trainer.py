@@ -5,8 +5,9 @@ Output folder::
 
     OUT/config.json          full config (trainer + env), written once
     OUT/config.resumed_<decisions>.json  the config each --resume was given (seed, budget, entropy)
-    OUT/model.zip            latest checkpoint (what load_policy / evaluate / --resume read)
-    OUT/checkpoints/         model_<decisions>.zip every ``checkpoint_every`` updates
+    OUT/model.safetensors    latest checkpoint: weights, optimiser state, counters (what
+                             load_policy / evaluate / --resume read; see training/checkpoint.py)
+    OUT/checkpoints/         model_<decisions>.safetensors every ``checkpoint_every`` updates
     OUT/progress.csv         one row per update: rollout metrics and PPO diagnostics
                              (each --resume adds progress.resumed_<decisions>.csv)
     OUT/tb/                  TensorBoard logs
@@ -35,6 +36,8 @@ from stable_baselines3.common.utils import explained_variance
 import box2d_driving
 from box2d_driving.metrics.lights import violation_rate
 from training.buffer import MaskedRolloutBuffer
+from training.checkpoint import (FILE, CheckpointError, find_checkpoint, read_checkpoint,
+                                 restore_model, save_model)
 from training.policy import CTDEPolicy, policy_kwargs_for
 from training.vec_env import SlotVecEnv
 from training.weights import WeightsError, source_fields, widen_state_dict
@@ -100,8 +103,14 @@ class RunError(RuntimeError):
 def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
     """Create ``out`` for a new run, or check it for ``--resume``; never overwrite silently."""
     if resume:
-        if not (out / "model.zip").exists() or not (out / "config.json").exists():
-            raise RunError(f"--resume: no checkpoint in {out} (model.zip and config.json needed)")
+        if not (out / "config.json").exists():
+            raise RunError(f"--resume: no checkpoint in {out} ({FILE}, config.json and state.json needed)")
+        try:
+            find_checkpoint(out)
+        except CheckpointError as exc:
+            raise RunError(f"--resume: {exc}") from None
+        if not (out / "state.json").exists():
+            raise RunError(f"--resume: {out / 'state.json'} is missing (training time and agent-steps so far)")
         check_same_run(json.loads((out / "config.json").read_text()), config)
         return
     if out.exists() and any(out.iterdir()):
@@ -239,23 +248,52 @@ class RolloutMetrics(BaseCallback):
         return self.wall_offset + time.perf_counter() - self.t0
 
 
-# The last rollout's observations (all slots, team blocks included: megabytes with 8 cars) are
-# dropped on load anyway (SB3 resets the env on load), so they are not written.
-UNSAVED = ("_last_obs", "_last_original_obs", "_last_episode_starts")
-
-
 def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> Path:
-    """Write ``checkpoints/model_<decisions>.zip``, refresh ``model.zip`` and ``state.json``."""
+    """Write ``checkpoints/model_<decisions>.safetensors``, refresh ``model.safetensors`` and
+    ``state.json`` (each replaced whole, so an interruption leaves the previous ones)."""
     ckpt_dir = out / "checkpoints"
     ckpt_dir.mkdir(exist_ok=True)
-    path = ckpt_dir / f"model_{model.num_timesteps}.zip"
-    model.save(path, exclude=list(UNSAVED))
-    tmp = out / "model.partial.zip"
+    path = save_model(model, ckpt_dir / f"model_{model.num_timesteps}.safetensors")
+    tmp = out / (FILE + ".partial")
     shutil.copyfile(path, tmp)
-    tmp.replace(out / "model.zip")
-    (out / "state.json").write_text(json.dumps(
-        {"decisions": model.num_timesteps, "agent_steps": agent_steps, "wall_s": wall_s}, indent=2))
+    tmp.replace(out / FILE)
+    write_json_atomic(out / "state.json",
+                      {"decisions": model.num_timesteps, "agent_steps": agent_steps, "wall_s": wall_s})
     return path
+
+
+def write_json_atomic(path: Path, data: Any) -> None:
+    tmp = path.with_name(path.name + ".partial")
+    tmp.write_text(json.dumps(data, indent=2))
+    tmp.replace(path)
+
+
+def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
+    """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
+    bonus and the number of env instances given now."""
+    saved = json.loads((out / "config.json").read_text())
+    known = {f.name for f in dataclasses.fields(TrainConfig)}
+    first = TrainConfig(**{k: v for k, v in saved.items() if k in known})
+    return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
+                               threads=config.threads)
+
+
+def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
+    """A plain SB3 ``PPO`` from a run folder or a shipped policy (``model.safetensors`` and
+    ``config.json``): the model is built from the config and the weights, and where saved the
+    optimiser state and counters, are copied in; nothing is unpickled. ``env`` defaults to the
+    run's own :class:`SlotVecEnv`. The result can ``predict``, ``learn`` or ``save`` as any PPO."""
+    run = Path(run)
+    ckpt = read_checkpoint(run)
+    cfg_path = ckpt.path.parent / "config.json"
+    if not cfg_path.exists():
+        raise CheckpointError(f"no config.json beside {ckpt.path}: cannot rebuild the model")
+    saved = json.loads(cfg_path.read_text())
+    known = {f.name for f in dataclasses.fields(TrainConfig)}
+    config = TrainConfig(**{k: v for k, v in saved.items() if k in known})
+    model = build_model(config, env if env is not None else make_vec_env(config))
+    restore_model(model, ckpt, optimizer=ckpt.optimizer is not None)
+    return model
 
 
 def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
@@ -266,11 +304,14 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     venv = make_vec_env(config)
     wall, agent_steps = 0.0, 0
     if resume:
-        model = PPO.load(out / "model.zip", env=venv, device="cpu")
-        model.ent_coef = config.ent_coef  # settings a resumed run may change
+        model = build_model(resumed_config(out, config), venv)
+        try:
+            restore_model(model, read_checkpoint(out))
+        except CheckpointError as exc:
+            raise RunError(f"--resume: {exc}") from None
         state = json.loads((out / "state.json").read_text())
         wall, agent_steps = state["wall_s"], state["agent_steps"]
-        venv.seed(config.seed + model.num_timesteps)  # reproducible continuation
+        model.set_random_seed(config.seed + model.num_timesteps)  # reproducible continuation
     else:
         model = build_model(config, venv)
         if config.init_from:
@@ -304,11 +345,12 @@ def set_minibatching(model: PPO, config: TrainConfig, n_cars: int) -> None:
 def load_weights(model: PPO, checkpoint: Path) -> None:
     """Copy the policy weights (actor, critic) of ``checkpoint`` into ``model``; widened (see
     ``training/weights.py``) when ``model``'s env adds sat-nav fields or the communication bit."""
-    path = checkpoint / "model.zip" if checkpoint.is_dir() else checkpoint
-    if not path.exists():
-        raise RunError(f"--init-from: no checkpoint at {path}")
-    source = PPO.load(path, device="cpu")
-    mine, theirs = model.policy.state_dict(), source.policy.state_dict()
+    try:
+        source = read_checkpoint(checkpoint)
+    except CheckpointError as exc:
+        raise RunError(f"--init-from: {exc}") from None
+    path = source.path
+    mine, theirs = model.policy.state_dict(), source.policy
     if mine.keys() != theirs.keys():
         raise RunError(f"--init-from: {path} has a different network (critic variant?)")
     bad = [k for k in mine if mine[k].shape != theirs[k].shape]

@@ -62,6 +62,13 @@ class TeamLayout:
         return self.self_alive + 1
 
 
+def slot_observation_space(base_space: spaces.Box, n_cars: int) -> spaces.Box:
+    """The space of a slot observation (``TeamLayout``) for cars whose own space is ``base_space``."""
+    low = np.concatenate([np.tile(base_space.low, 1 + n_cars), np.zeros(n_cars + 1)])
+    high = np.concatenate([np.tile(base_space.high, 1 + n_cars), np.ones(n_cars + 1)])
+    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+
 class CarSlots:
     """The ``VecEnv`` plumbing shared by every one-slot-per-car vector env: slot ``k * N + i`` is
     car ``i`` of instance ``self.envs[k]`` (needs ``envs`` and ``n_cars``)."""
@@ -104,10 +111,8 @@ class SlotVecEnv(CarSlots, VecEnv):
                 raise ValueError("all env instances must have the same agents")
         base_space = first.observation_space(self.agents[0])
         self.layout = TeamLayout(int(np.prod(base_space.shape)), self.n_cars)
-        low = np.concatenate([np.tile(base_space.low, 1 + self.n_cars), np.zeros(self.n_cars + 1)])
-        high = np.concatenate([np.tile(base_space.high, 1 + self.n_cars), np.ones(self.n_cars + 1)])
-        obs_space = spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
-        super().__init__(len(self.envs) * self.n_cars, obs_space, first.action_space(self.agents[0]))
+        super().__init__(len(self.envs) * self.n_cars, slot_observation_space(base_space, self.n_cars),
+                         first.action_space(self.agents[0]))
         self._obs = np.zeros((self.num_envs, self.layout.size), dtype=np.float32)
         self._actions: Optional[np.ndarray] = None
 

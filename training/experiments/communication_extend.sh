@@ -17,7 +17,7 @@ run() {  # name, noise, entropy
   local name=$1 noise=$2 ent=$3
   if [ ! -d "$OUT/$name" ]; then
     mkdir -p "$OUT/$name"
-    cp "$SRC/$name"/{config.json,model.zip,state.json} "$OUT/$name/"
+    cp "$SRC/$name"/{config.json,model.safetensors,state.json} "$OUT/$name/"
     cp "$SRC/$name"/progress*.csv "$OUT/$name/"
   fi
   if [ ! -f "$OUT/$name/eval/metrics.json" ]; then

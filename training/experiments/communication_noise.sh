@@ -22,7 +22,7 @@ cd "$(dirname "$0")/../.."
 mkdir -p "$OUT"
 run() {  # name, noise, entropy
   local name=$1 noise=$2 ent=$3
-  if [ ! -f "$OUT/$name/model.zip" ]; then
+  if [ ! -f "$OUT/$name/model.safetensors" ]; then
     python training/real_junction.py --communication --num-cars 8 --lidar-noise "$noise" --ent-coef "$ent" \
       --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" --minibatch-by-step --comm-fallback "$FALLBACK" --seed "$SEED" "${INIT_ARGS[@]}" > "$OUT/$name.log" 2>&1
   fi

@@ -12,7 +12,7 @@ cd "$(dirname "$0")/../.."
 mkdir -p "$OUT"
 stage() {  # name, collision reward, minutes, init
   local name=$1 reward=$2 minutes=$3 init=$4
-  if [ ! -f "$OUT/$name/model.zip" ]; then
+  if [ ! -f "$OUT/$name/model.safetensors" ]; then
     python training/crosswalk.py --crosswalk-in-satnav --init-from "$init" --collision-reward "$reward" \
       --out "$OUT/$name" --timesteps 100000000 --max-minutes "$minutes" --ent-coef 0.001 \
       --minibatch-by-step > "$OUT/$name.log" 2>&1

@@ -10,7 +10,7 @@ cd "$(dirname "$0")/../.."
 mkdir -p "$OUT"
 run() {  # name, extra args
   local name=$1; shift
-  if [ ! -f "$OUT/$name/model.zip" ]; then
+  if [ ! -f "$OUT/$name/model.safetensors" ]; then
     python training/traffic_lights.py --out "$OUT/$name" --timesteps 100000000 --max-minutes "$MINUTES" "$@" \
       > "$OUT/$name.log" 2>&1
   fi

@@ -1,0 +1,180 @@
+"""Checkpoints never run code from the file: a crafted pickled policy is refused on every path that
+loads one, and a user's own older checkpoint converts only with an explicit opt-in."""
+
+from __future__ import annotations
+
+import base64
+import json
+import pickle
+import shutil
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+th = pytest.importorskip("torch")
+pytest.importorskip("stable_baselines3")
+
+from training.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
+from training.inference import load_policy  # noqa: E402
+from training.trainer import RunError, TrainConfig, build_model, load_ppo, make_vec_env, train  # noqa: E402
+
+
+class _Payload:
+    """Unpickling this creates ``marker``: what a malicious file could do with any code."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def _tiny(**kw) -> TrainConfig:
+    base = dict(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=160, n_envs=2,
+                batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=1, threads=1)
+    base.update(kw)
+    return TrainConfig(**base)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("ckpt") / "run"
+    train(_tiny(), out)
+    return out
+
+
+def _legacy_zip(config: TrainConfig, path: Path, payload: object = None) -> None:
+    """A genuine SB3 ``model.zip``; with ``payload``, one more pickled attribute in its data."""
+    model = build_model(config, make_vec_env(config))
+    model.save(path)
+    if payload is None:
+        return
+    with zipfile.ZipFile(path) as zf:
+        parts = {name: zf.read(name) for name in zf.namelist()}
+    data = json.loads(parts["data"])
+    data["innocent_looking"] = {":type:": "<class 'object'>",
+                               ":serialized:": base64.b64encode(pickle.dumps(payload)).decode()}
+    parts["data"] = json.dumps(data).encode()
+    with zipfile.ZipFile(path, "w") as zf:
+        for name, blob in parts.items():
+            zf.writestr(name, blob)
+
+
+@pytest.fixture
+def crafted(run, tmp_path):
+    """A run folder whose model.zip runs code when unpickled, and the marker that code creates."""
+    folder = tmp_path / "downloaded"
+    folder.mkdir()
+    shutil.copy(run / "config.json", folder / "config.json")
+    shutil.copy(run / "state.json", folder / "state.json")
+    marker = tmp_path / "PWNED"
+    _legacy_zip(_tiny(), folder / "model.zip", _Payload(marker))
+    return folder, marker
+
+
+def test_a_crafted_pickle_is_refused_everywhere_and_never_runs(crafted, tmp_path):
+    from box2d_driving.cli import main as cli
+    from training import evaluate
+
+    folder, marker = crafted
+    with pytest.raises(CheckpointError, match="pickled"):
+        load_policy(folder)
+    with pytest.raises(CheckpointError, match="pickled"):
+        load_policy(folder / "model.zip")
+    disguised = tmp_path / "disguised"
+    disguised.mkdir()
+    shutil.copy(folder / "config.json", disguised / "config.json")
+    shutil.copy(folder / "model.zip", disguised / "model.safetensors")  # renamed, still a zip
+    with pytest.raises(CheckpointError, match="pickled"):
+        load_policy(disguised)
+    (disguised / "model.safetensors").write_bytes(pickle.dumps(_Payload(marker)))  # a bare pickle
+    with pytest.raises(CheckpointError, match="no safetensors header"):
+        load_policy(disguised)
+    assert evaluate.main(["--checkpoint", str(folder), "--episodes", "1",
+                          "--out", str(tmp_path / "ev")]) == 2
+    assert cli(["render", "intersection-v0", "--policy", str(folder), "--out", str(tmp_path / "v.mp4")]) == 2
+    with pytest.raises(RunError, match="pickled"):
+        train(_tiny(init_from=str(folder)), tmp_path / "fine_tune")
+    with pytest.raises(RunError, match="pickled"):
+        train(_tiny(timesteps=320), folder, resume=True)
+    from training import convert_checkpoint
+    assert convert_checkpoint.main([str(folder)]) == 2  # no --trust-pickle: nothing is unpickled
+    assert not marker.exists()
+    # the payload is live: SB3's own loader runs it (so the checks above could have failed)
+    from stable_baselines3 import PPO
+    try:
+        PPO.load(folder / "model.zip", device="cpu")
+    except Exception:
+        pass
+    assert marker.exists()
+
+
+def test_own_old_checkpoint_converts_with_trust_pickle(run, tmp_path):
+    from stable_baselines3 import PPO
+
+    from training import convert_checkpoint
+
+    old = tmp_path / "old"
+    old.mkdir()
+    shutil.copy(run / "config.json", old / "config.json")
+    _legacy_zip(_tiny(), old / "model.zip")
+    (old / "checkpoints").mkdir()
+    shutil.copy(old / "model.zip", old / "checkpoints" / "model_80.zip")
+    assert convert_checkpoint.main([str(old), "--trust-pickle"]) == 0
+    assert (old / "model.safetensors").exists() and (old / "checkpoints" / "model_80.safetensors").exists()
+    assert convert_checkpoint.main([str(old), "--trust-pickle"]) == 2  # would overwrite
+    policy = load_policy(old)
+    reference = PPO.load(old / "model.zip", device="cpu").policy
+    env = policy.make_env()
+    obs, _ = env.reset(seed=3)
+    x = th.as_tensor(np.stack(list(obs.values())))
+    with th.no_grad():
+        expected = reference.action_net(reference.mlp_extractor.forward_actor(x)).argmax(1).tolist()
+    assert list(policy.act(obs).values()) == expected
+    assert read_checkpoint(old).optimizer is not None  # a converted run can be resumed
+    with pytest.raises(RunError, match="state.json"):
+        train(_tiny(timesteps=240), old, resume=True)
+    shutil.copy(run / "state.json", old / "state.json")
+    train(_tiny(timesteps=240), old, resume=True)
+
+
+def test_load_ppo_gives_a_plain_sb3_model(run, tmp_path):
+    from stable_baselines3 import PPO
+
+    model = load_ppo(run)
+    assert isinstance(model, PPO) and model.num_timesteps == 160
+    policy = load_policy(run)
+    env = policy.make_env()
+    obs, _ = env.reset(seed=1)
+    own = np.stack(list(obs.values()))
+    slot = np.zeros((len(own), model.observation_space.shape[0]), np.float32)
+    slot[:, :own.shape[1]] = own
+    actions, _ = model.predict(slot, deterministic=True)
+    assert actions.tolist() == list(policy.act(obs).values())
+
+
+def test_malformed_checkpoints_are_one_clear_error(run, tmp_path):
+    from safetensors.torch import save_file
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    shutil.copy(run / "config.json", bad / "config.json")
+    blob = (run / "model.safetensors").read_bytes()
+    (bad / "model.safetensors").write_bytes(blob[: len(blob) // 2])  # truncated
+    with pytest.raises(CheckpointError, match="unreadable|header"):
+        load_policy(bad)
+    save_file({"x": th.zeros(2)}, str(bad / "model.safetensors"))  # not ours
+    with pytest.raises(CheckpointError, match="not a box2d-driving-checkpoint"):
+        load_policy(bad)
+    ckpt = read_checkpoint(run)
+    weights = {f"policy/{k}": v for k, v in ckpt.policy.items()}
+    weights["policy/action_net.bias"] = th.zeros(3)
+    save_file(weights, str(bad / "model.safetensors"),
+              metadata={"format": "box2d-driving-checkpoint", "version": "1", "counters": "{}"})
+    with pytest.raises(CheckpointError, match="action_net.bias"):
+        load_policy(bad)
+    (bad / "config.json").write_text("[1, 2]")
+    with pytest.raises(CheckpointError, match="JSON object"):
+        load_policy(bad)
