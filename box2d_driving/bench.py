@@ -5,7 +5,8 @@ steps of 0.1 s, 100 LiDAR rays, 5-frame history), random actions, one process, n
 resets included. Prints agent-steps/s for 4, 8, 16 and 32 cars, the share of time in LiDAR,
 physics and Python glue, and the process's peak memory.
 
-Usage: ``python -m box2d_driving.bench [--seconds 5] [--cars 4 8 16 32] [--json FILE]``.
+Usage: ``python -m box2d_driving.bench [--seconds 5] [--cars 4 8 16 32] [--json FILE]``;
+``--memory`` measures memory growth over resets instead (``box2d_driving/memcheck.py``).
 """
 
 from __future__ import annotations
@@ -107,6 +108,11 @@ def format_table(results: list[BenchResult]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if "--memory" in argv:  # memory growth over resets: its own table (box2d_driving/memcheck.py)
+        from box2d_driving import memcheck
+
+        return memcheck.main([a for a in argv if a != "--memory"])
     parser = argparse.ArgumentParser(prog="box2d-driving bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=5.0, help="timed seconds per car count")
     parser.add_argument("--cars", type=int, nargs="+", default=[4, 8, 16, 32])

@@ -228,6 +228,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         return self._viewer.render(self)
 
     def close(self) -> None:
+        self.world.release()
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None
