@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Optional
 
+from box2d_driving.fields import coerce_fields
+
 
 class ConfigError(ValueError):
     """A configuration value, override name, env id or input file is invalid."""
@@ -109,10 +111,12 @@ class DrivingConfig:
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
 
+    _SLOTS_SET_BY = "the scenario"  # what decides max_cars(), for the num_cars message
+    # Upper limits of integer fields: beyond them an episode would take hours or gigabytes.
+    _INT_MAX = {"horizon": 100_000, "substeps": 1_000, "history": 100, "n_rays": 4_096}
+
     def __post_init__(self) -> None:
-        object.__setattr__(self, "accelerations", tuple(float(a) for a in self.accelerations))
-        object.__setattr__(self, "light_period_range", tuple(self.light_period_range))
-        object.__setattr__(self, "render_size", tuple(self.render_size))
+        coerce_fields(self, ConfigError)  # kinds first: every check below sees plain values
         self._validate()
 
     # -- validation -------------------------------------------------------------------------
@@ -121,12 +125,10 @@ class DrivingConfig:
         if self.num_cars > self.max_cars():
             raise ConfigError(
                 f"num_cars={self.num_cars} exceeds the {self.max_cars()} spawn slots of "
-                f"{type(self).__name__}"
+                f"{type(self).__name__} (set by {self._SLOTS_SET_BY})"
             )
-        _int_at_least(self, "horizon", 1)
-        _int_at_least(self, "substeps", 1)
-        _int_at_least(self, "history", 1)
-        _int_at_least(self, "n_rays", 1)
+        for name, high in self._INT_MAX.items():
+            _int_at_least(self, name, 1, high)
         _positive(self, "dt")
         _positive(self, "lidar_range")
         _positive(self, "car_length")
@@ -140,17 +142,16 @@ class DrivingConfig:
         _choice(self, "lidar_backend", LIDAR_BACKENDS)
         _choice(self, "render_mode", RENDER_MODES)
         _choice(self, "comm_fallback", COMM_FALLBACKS)
-        if len(self.render_size) != 2 or any(not isinstance(v, int) or v < 16 for v in self.render_size):
-            raise ConfigError(f"render_size must be two integers >= 16, got {self.render_size!r}")
+        if any(not 16 <= v <= 8192 for v in self.render_size):
+            raise ConfigError(f"render_size must be two integers in [16, 8192], got {self.render_size!r}")
         _positive(self, "render_fps")
-        if not isinstance(self.communication, bool):
-            raise ConfigError(f"communication must be True or False, got {self.communication!r}")
-        if not isinstance(self.messages_heard, bool):
-            raise ConfigError(f"messages_heard must be True or False, got {self.messages_heard!r}")
-        if len(self.accelerations) < 2:
-            raise ConfigError("accelerations needs at least two levels")
-        if list(self.accelerations) != sorted(set(self.accelerations)):
-            raise ConfigError("accelerations must be strictly increasing")
+        if self.light_yellow < 0:
+            raise ConfigError(f"light_yellow must be >= 0 s, got {self.light_yellow!r}")
+        if not 0.0 < self.comm_half_angle <= math.pi:
+            raise ConfigError(f"comm_half_angle must be in (0, pi] rad, got {self.comm_half_angle!r}")
+        require(self, len(self.accelerations) >= 2, ("accelerations",), "accelerations needs at least two levels")
+        require(self, list(self.accelerations) == sorted(set(self.accelerations)), ("accelerations",),
+                "accelerations must be strictly increasing")
         lo, hi = self.light_period_range
         if not (2 * self.light_yellow < lo < hi):
             raise ConfigError(
@@ -163,19 +164,21 @@ class DrivingConfig:
         car = min(self.car_width, self.car_length)
         if step >= self._BOX2D_MAX_TRANSLATION:
             raise ConfigError(
-                f"a car would move {step:.2f} m per physics step, more than Box2D's "
-                f"{self._BOX2D_MAX_TRANSLATION} m limit: lower v_lim or dt"
+                f"a car would move {step:.2f} m per physics step (v_lim={self.v_lim!r} m/s x "
+                f"dt={self.dt!r} s), more than Box2D's {self._BOX2D_MAX_TRANSLATION} m limit: lower v_lim or dt"
             )
         if step >= car:
             raise ConfigError(
-                f"a car moves {step:.2f} m per physics step, not less than its smallest extent "
-                f"({car} m): it could tunnel through a road edge; lower v_lim or dt"
+                f"a car moves {step:.2f} m per physics step (v_lim={self.v_lim!r} m/s x dt={self.dt!r} s), "
+                f"not less than its smallest extent (car_length={self.car_length!r}, "
+                f"car_width={self.car_width!r} m): it could tunnel through a road edge; lower v_lim "
+                f"or dt, or enlarge the car"
             )
         ped_closing = step + self.max_obstacle_speed() * self.dt
         if ped_closing >= car + self.min_obstacle_size():
             raise ConfigError(
-                f"a car and a pedestrian close {ped_closing:.2f} m per physics step: they "
-                "could tunnel through each other; lower v_lim or dt"
+                f"a car and a pedestrian close {ped_closing:.2f} m per physics step (v_lim, dt and "
+                f"the pedestrian speed): they could tunnel through each other; lower v_lim or dt"
             )
 
     # -- derived ------------------------------------------------------------------------------
@@ -234,10 +237,19 @@ class DrivingConfig:
             raise ConfigError(f"{cls.__name__}: {exc}") from exc
 
 
-def _int_at_least(cfg: Any, name: str, low: int) -> None:
+def require(cfg: Any, ok: bool, fields: tuple[str, ...], rule: str) -> None:
+    """Raise :class:`ConfigError` stating ``rule`` and the values of ``fields`` unless ``ok``
+    (for constraints between fields: the message names every field involved)."""
+    if not ok:
+        values = ", ".join(f"{n}={getattr(cfg, n)!r}" for n in fields)
+        raise ConfigError(f"{type(cfg).__name__}: {rule} (got {values})")
+
+
+def _int_at_least(cfg: Any, name: str, low: int, high: Optional[int] = None) -> None:
     value = getattr(cfg, name)
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ConfigError(f"{name} must be an integer >= {low}, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, int) or value < low or (high is not None and value > high):
+        allowed = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ConfigError(f"{name} must be an integer {allowed}, got {value!r}")
 
 
 def _positive(cfg: Any, name: str) -> None:

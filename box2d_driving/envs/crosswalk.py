@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from box2d_driving.config import ConfigError, accel_levels
+from box2d_driving.config import ConfigError, accel_levels, require
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
 from box2d_driving.road.geometry import wrap_angle
@@ -66,24 +66,22 @@ class CrosswalkConfig(HighwayConfig):
     def _validate(self) -> None:
         super()._validate()
         lo, hi = self.pedestrians_range
-        if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
-            raise ConfigError(f"pedestrians_range must be integers 0 <= low <= high, got {self.pedestrians_range}")
+        require(self, 0 <= lo <= hi <= 100, ("pedestrians_range",), "pedestrians_range must satisfy 0 <= low <= high <= 100")
         s_lo, s_hi = self.pedestrian_speed_range
-        if not 0 < s_lo <= s_hi:
-            raise ConfigError("pedestrian_speed_range must be positive and increasing")
-        if self.pedestrian_size <= 0:
-            raise ConfigError("pedestrian_size must be positive")
+        require(self, 0 < s_lo <= s_hi, ("pedestrian_speed_range",),
+                "pedestrian_speed_range must be positive and increasing (m/s)")
+        require(self, 0 < self.pedestrian_size <= 10, ("pedestrian_size",), "pedestrian_size must be in (0, 10] m")
+        require(self, 0 < self.walkway, ("walkway",), "walkway must be positive (m)")
+        require(self, 0 < self.ahead_half_angle <= math.pi, ("ahead_half_angle",), "ahead_half_angle must be in (0, pi] rad")
         c0, c1 = self.crosswalk_x
-        if not (self.x_start < c0 < c1 < self.x_start + self.road_length):
-            raise ConfigError("crosswalk_x must lie on the road")
-        if not isinstance(self.crosswalk_in_satnav, bool):
-            raise ConfigError(f"crosswalk_in_satnav must be True or False, got {self.crosswalk_in_satnav!r}")
-        if self.crosswalk_view <= 0:
-            raise ConfigError("crosswalk_view must be positive")
-        if c1 - c0 < self.pedestrian_size:
-            raise ConfigError("the crosswalk must be wider than a pedestrian")
-        if self.x_start + self.last_slot() + self.spawn_jitter + self.car_length / 2 >= c0:
-            raise ConfigError("spawn slots reach the crosswalk: fewer slots or a longer road")
+        require(self, self.x_start < c0 < c1 < self.x_start + self.road_length,
+                ("crosswalk_x", "x_start", "road_length"), "crosswalk_x must be increasing and lie on the road")
+        require(self, self.crosswalk_view > 0, ("crosswalk_view",), "crosswalk_view must be positive (m)")
+        require(self, c1 - c0 >= self.pedestrian_size, ("crosswalk_x", "pedestrian_size"),
+                "the crosswalk must be wider than a pedestrian")
+        require(self, self.x_start + self.last_slot() + self.spawn_jitter + self.car_length / 2 < c0,
+                ("spawn_slots", "spawn_slot_spacing", "x_start", "crosswalk_x"),
+                "spawn slots reach the crosswalk: fewer spawn_slots or a crosswalk farther along")
 
     def max_obstacle_speed(self) -> float:
         return self.pedestrian_speed_range[1]

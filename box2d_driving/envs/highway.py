@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from box2d_driving.config import ConfigError, DrivingConfig, accel_levels
+from box2d_driving.config import ConfigError, DrivingConfig, accel_levels, require
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
@@ -53,22 +53,30 @@ class HighwayConfig(DrivingConfig):
     goal_margin: float = 5.0
 
     def _validate(self) -> None:
-        if not isinstance(self.spawn_slots, int) or self.spawn_slots < 1:
-            raise ConfigError(f"spawn_slots must be an integer >= 1, got {self.spawn_slots!r}")
+        require(self, 1 <= self.spawn_slots <= 64, ("spawn_slots",), "spawn_slots must be in [1, 64]")
         lo, hi = self.rating_range
-        if not 0.0 < lo <= hi <= 1.0:
-            raise ConfigError(f"rating_range must satisfy 0 < low <= high <= 1, got {self.rating_range}")
+        require(self, 0.0 < lo <= hi <= 1.0, ("rating_range",), "rating_range must satisfy 0 < low <= high <= 1")
         super()._validate()
-        if self.spawn_slot_spacing - 2 * self.spawn_jitter <= self.car_length:
-            raise ConfigError("spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
-        if self.spawn_start - self.spawn_jitter < self.car_length / 2:
-            raise ConfigError("spawn_start - spawn_jitter must keep cars on the road")
-        if self.last_slot() + self.spawn_jitter + self.car_length >= self.road_length - self.goal_margin:
-            raise ConfigError("spawn slots reach past the goal: fewer slots or a longer road")
+        for name in ("road_length", "road_width", "spawn_slot_spacing"):
+            require(self, getattr(self, name) > 0, (name,), f"{name} must be positive (m)")
+        for name in ("spawn_jitter", "spawn_start", "goal_margin"):
+            require(self, getattr(self, name) >= 0, (name,), f"{name} must be >= 0 m")
+        require(self, self.road_width > 2 * self.car_width, ("road_width", "car_width"),
+                "road_width must exceed two car widths")
+        require(self, self.spawn_slot_spacing - 2 * self.spawn_jitter > self.car_length,
+                ("spawn_slot_spacing", "spawn_jitter", "car_length"),
+                "spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
+        require(self, self.spawn_start - self.spawn_jitter >= self.car_length / 2,
+                ("spawn_start", "spawn_jitter", "car_length"), "spawn_start - spawn_jitter must keep cars on the road")
+        require(self, self.last_slot() + self.spawn_jitter + self.car_length < self.road_length - self.goal_margin,
+                ("spawn_slots", "spawn_slot_spacing", "road_length", "goal_margin"),
+                "spawn slots reach past the goal: fewer spawn_slots or a longer road_length")
         lat_lo, lat_hi = self.lateral_range
         limit = 1.0 - self.car_width / self.road_width
-        if not -limit <= lat_lo <= lat_hi <= limit:
-            raise ConfigError(f"lateral_range must lie within +-{limit:.3f} to keep cars on the road")
+        require(self, -limit <= lat_lo <= lat_hi <= limit, ("lateral_range", "road_width", "car_width"),
+                f"lateral_range must be increasing within +-{limit:.3f} (1 - car_width / road_width) to keep cars on the road")
+
+    _SLOTS_SET_BY = "spawn_slots"
 
     def max_cars(self) -> int:
         return self.spawn_slots

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from box2d_driving.config import ConfigError
+from box2d_driving.config import ConfigError, require
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
 from box2d_driving.envs.spline import SplineStageMixin
 from box2d_driving.road.geometry import spline_path
@@ -43,15 +43,14 @@ class HighwaySplineConfig(HighwayConfig):
     def _validate(self) -> None:
         super()._validate()
         limit = 1.0 - self.car_width / self.road_width
-        if not 0.0 <= self.spline_lateral_limit <= limit:
-            raise ConfigError(f"spline_lateral_limit must lie in [0, {limit:.3f}] to keep cars on the road")
-        if self.lane_change_distance <= 0:
-            raise ConfigError("lane_change_distance must be positive")
+        require(self, 0.0 <= self.spline_lateral_limit <= limit, ("spline_lateral_limit", "road_width", "car_width"),
+                f"spline_lateral_limit must lie in [0, {limit:.3f}] to keep cars on the road")
+        require(self, self.lane_change_distance > 0, ("lane_change_distance",), "lane_change_distance must be positive (m)")
         goal = self.road_length - self.goal_margin
-        if self.last_slot() + self.spawn_jitter + self.lane_change_distance >= goal:
-            raise ConfigError("lane_change_distance reaches past the goal from the last spawn slot")
-        if not isinstance(self.spline_samples, int) or self.spline_samples < 4:
-            raise ConfigError("spline_samples must be an integer >= 4")
+        require(self, self.last_slot() + self.spawn_jitter + self.lane_change_distance < goal,
+                ("lane_change_distance", "spawn_slots", "road_length"),
+                "lane_change_distance reaches past the goal from the last spawn slot")
+        require(self, 4 <= self.spline_samples <= 1000, ("spline_samples",), "spline_samples must be in [4, 1000]")
 
 
 class HighwaySplineEnv(SplineStageMixin, HighwayEnv):

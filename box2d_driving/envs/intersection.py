@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from box2d_driving.config import ConfigError, DrivingConfig
+from box2d_driving.config import ConfigError, DrivingConfig, require
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
@@ -53,28 +53,32 @@ class IntersectionConfig(DrivingConfig):
     spawn_jitter: float = 1.0
 
     def _validate(self) -> None:
-        if not isinstance(self.slots_per_approach, int) or self.slots_per_approach < 1:
-            raise ConfigError(f"slots_per_approach must be an integer >= 1, got {self.slots_per_approach!r}")
+        require(self, 1 <= self.slots_per_approach <= 16, ("slots_per_approach",),
+                "slots_per_approach must be in [1, 16]")
         super()._validate()
         lo_l, hi_l = self.road_length_range
         lo_w, hi_w = self.road_width_range
-        if not (0 < lo_l < hi_l) or not (0 < lo_w < hi_w):
-            raise ConfigError("road_length_range and road_width_range must be increasing and positive")
-        if lo_w / 2 < self.car_width:
-            raise ConfigError("roads must be at least two car widths wide")
-        if self.spawn_first_slot - self.spawn_jitter < self.car_length / 2:
-            raise ConfigError("spawn_first_slot - spawn_jitter must leave the car behind the stop line")
-        if self.spawn_slot_spacing - 2 * self.spawn_jitter <= self.car_length:
-            raise ConfigError("spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
-        if self.farthest_spawn() + self.car_length / 2 > lo_l:
-            raise ConfigError(
-                f"the farthest spawn slot ({self.farthest_spawn():.1f} m before the stop line) "
-                f"does not fit on the shortest road ({lo_l} m)"
-            )
-        if not 0.0 <= self.lane_fraction <= 1.0 - self.car_width / lo_w:
-            raise ConfigError("lane_fraction must keep the track on the road")
-        if not 0.0 < self.goal_fraction <= 1.0:
-            raise ConfigError("goal_fraction must be in (0, 1]")
+        require(self, 0 < lo_l < hi_l, ("road_length_range",), "road_length_range must be increasing and positive (m)")
+        require(self, 0 < lo_w < hi_w, ("road_width_range",), "road_width_range must be increasing and positive (m)")
+        require(self, lo_w / 2 >= self.car_width, ("road_width_range", "car_width"),
+                "roads must be at least two car widths wide")
+        for name in ("spawn_jitter", "spawn_first_slot", "spawn_slot_spacing"):
+            require(self, getattr(self, name) >= 0, (name,), f"{name} must be >= 0 m")
+        require(self, self.spawn_first_slot - self.spawn_jitter >= self.car_length / 2,
+                ("spawn_first_slot", "spawn_jitter", "car_length"),
+                "spawn_first_slot - spawn_jitter must leave the car behind the stop line")
+        require(self, self.spawn_slot_spacing - 2 * self.spawn_jitter > self.car_length,
+                ("spawn_slot_spacing", "spawn_jitter", "car_length"),
+                "spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
+        require(self, self.farthest_spawn() + self.car_length / 2 <= lo_l,
+                ("slots_per_approach", "spawn_first_slot", "spawn_slot_spacing", "road_length_range"),
+                f"the farthest spawn slot ({self.farthest_spawn():.1f} m before the stop line) must fit "
+                f"on the shortest road")
+        require(self, 0.0 <= self.lane_fraction <= 1.0 - self.car_width / lo_w,
+                ("lane_fraction", "car_width", "road_width_range"), "lane_fraction must keep the track on the road")
+        require(self, 0.0 < self.goal_fraction <= 1.0, ("goal_fraction",), "goal_fraction must be in (0, 1]")
+
+    _SLOTS_SET_BY = "slots_per_approach, 4 approaches"
 
     def max_cars(self) -> int:
         return N_APPROACHES * self.slots_per_approach

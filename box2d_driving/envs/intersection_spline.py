@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from box2d_driving.config import ConfigError
+from box2d_driving.config import ConfigError, require
 from box2d_driving.envs.intersection import IntersectionConfig, IntersectionEnv
 from box2d_driving.envs.spline import SplineStageMixin
 from box2d_driving.road.geometry import spline_path
@@ -57,14 +57,13 @@ class IntersectionSplineConfig(IntersectionConfig):
     def _validate(self) -> None:
         super()._validate()
         limit = 1.0 - self.car_width / self.road_width_range[0]
-        if not self.spline_offsets or min(self.spline_offsets) < 0 or max(self.spline_offsets) > limit:
-            raise ConfigError(f"spline_offsets must lie in [0, {limit:.3f}] to keep cars on the road")
-        if self.spline_action not in ("per_waypoint", "joint"):
-            raise ConfigError(f"spline_action must be 'per_waypoint' or 'joint', got {self.spline_action!r}")
-        if not isinstance(self.spline_samples, int) or self.spline_samples < 4:
-            raise ConfigError("spline_samples must be an integer >= 4")
-        if self.spline_obs_scale <= 0:
-            raise ConfigError("spline_obs_scale must be positive")
+        require(self, bool(self.spline_offsets) and min(self.spline_offsets) >= 0 and max(self.spline_offsets) <= limit
+                and len(self.spline_offsets) <= 16, ("spline_offsets", "road_width_range", "car_width"),
+                f"spline_offsets must be 1 to 16 values in [0, {limit:.3f}] to keep cars on the road")
+        require(self, self.spline_action in ("per_waypoint", "joint"), ("spline_action",),
+                "spline_action must be 'per_waypoint' or 'joint'")
+        require(self, 4 <= self.spline_samples <= 1000, ("spline_samples",), "spline_samples must be in [4, 1000]")
+        require(self, self.spline_obs_scale > 0, ("spline_obs_scale",), "spline_obs_scale must be positive")
 
     @property
     def choices_per_waypoint(self) -> int:

@@ -78,6 +78,8 @@ class RealJunctionConfig(DrivingConfig):
         """Cars that fit on the map's spawn regions at ``spawn_spacing``."""
         return sum(self.slots(region.s_range) for region in roadmap.spawn_regions)
 
+    _SLOTS_SET_BY = "the smallest map's spawn regions at spawn_spacing"
+
     def max_cars(self) -> int:
         if self.spawn_spacing <= self.car_length:
             raise ConfigError(f"spawn_spacing must exceed car_length ({self.car_length}), got {self.spawn_spacing}")
