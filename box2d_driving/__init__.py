@@ -10,6 +10,7 @@ Quick start::
 __version__ = "0.1.0"
 
 from box2d_driving.config import ConfigError, DrivingConfig
+from box2d_driving.envs.base import ActionError
 from box2d_driving.registry import make, registry
 
-__all__ = ["ConfigError", "DrivingConfig", "make", "registry", "__version__"]
+__all__ = ["ActionError", "ConfigError", "DrivingConfig", "make", "registry", "__version__"]

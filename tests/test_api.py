@@ -147,12 +147,30 @@ def test_highway_and_crosswalk_limits():
 
 
 def test_step_rejects_bad_actions():
+    from box2d_driving import ActionError
+
     env = box2d_driving.make("intersection-v0", num_cars=2)
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="no action"):
+    with pytest.raises(ActionError, match="no action"):
         env.step({"car_0": 0})
-    with pytest.raises(ValueError, match="actions must be in"):
+    with pytest.raises(ActionError, match=r"car_1 must be in \[0, 13\), got 99"):
         env.step({"car_0": 0, "car_1": 99})
+    for bad in (1.7, 3.0, "3", True, np.bool_(True), float("inf"), 2**70, -1, None, [1], np.array([1, 2])):
+        with pytest.raises(ActionError, match="car_1"):
+            env.step({"car_0": 0, "car_1": bad})
+    with pytest.raises(ActionError, match="car_9"):
+        env.step({"car_0": 0, "car_1": 0, "car_9": 0})
+    with pytest.raises(ActionError, match="dict"):
+        env.step([0, 0])
+    # numpy integers of any width, and 0-d integer arrays, are actions
+    env.step({"car_0": np.int8(3), "car_1": np.array(12, dtype=np.uint16)})
+    # an agent that is done may not act again
+    env = box2d_driving.make("intersection-v0", num_cars=2, horizon=3)
+    env.reset(seed=0)
+    while env.agents:
+        env.step({a: 0 for a in env.agents})
+    with pytest.raises(ActionError, match="reset"):
+        env.step({"car_0": 0, "car_1": 0})
 
 
 def test_infos_carry_metric_facts():

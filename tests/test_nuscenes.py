@@ -73,7 +73,7 @@ def test_round_trip_and_driving_on_it(nus, tmp_path):
     for seed in range(40):
         obs, infos = env.reset(seed=seed)
         while env.agents:
-            obs, _, _, _, infos = env.step({a: 12 for a in obs})
+            obs, _, _, _, infos = env.step({a: 12 for a in env.agents})
         outcomes[(infos["car_0"]["arrived"], infos["car_0"]["collided_with"])] += 1
     assert outcomes == Counter({(True, None): 40})
 

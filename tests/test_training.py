@@ -267,7 +267,7 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     assert set(actions) == set(obs) and all(0 <= a < 13 for a in actions.values())
     assert policy.act(obs) == actions  # deterministic by default
     while env.agents:
-        obs, *_ = env.step(policy.act(obs))
+        obs, *_ = env.step(policy.act({a: obs[a] for a in env.agents}))
     with pytest.raises(ValueError, match="observation size"):
         policy.act({"car_0": np.zeros(7, np.float32)})
 

@@ -22,6 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from box2d_driving.road.layout import Layout
+from box2d_driving.envs.base import ActionError
 
 SplinePolicy = Callable[[np.ndarray], np.ndarray]
 
@@ -83,23 +84,33 @@ class SplineStageMixin:
         if isinstance(given, dict):
             missing = [a for a in self.possible_agents if a not in given]
             if missing:
-                raise ValueError(f"spline_actions: no stage-0 action for {missing}")
+                raise ActionError(f"spline_actions: no stage-0 action for {missing}")
             given = [given[a] for a in self.possible_agents]
         space = self.spline_action_space
-        actions = np.asarray(given, dtype=space.dtype)
+        try:
+            actions = np.asarray(given)
+        except (ValueError, TypeError) as exc:
+            raise ActionError(f"spline actions must be an array of numbers, got {given!r} ({exc})") from None
+        if isinstance(space, (spaces.Discrete, spaces.MultiDiscrete)) and actions.dtype.kind not in "iu":
+            raise ActionError(f"spline actions must be integers, got {actions.dtype} values {actions.tolist()}")
+        if actions.dtype.kind not in "iuf":
+            raise ActionError(f"spline actions must be numbers, got {actions.dtype} values {actions.tolist()}")
+        per_car = int(np.prod(space.shape))
+        if actions.size != n * per_car:
+            raise ActionError(f"spline actions must hold {per_car} value(s) for each of the {n} cars, "
+                              f"got shape {actions.shape}")
+        actions = actions.astype(space.dtype)
         if isinstance(space, spaces.Discrete):
             actions = actions.reshape(n)
             if actions.min() < 0 or actions.max() >= space.n:
-                raise ValueError(f"spline actions must be in [0, {space.n}), got {actions.tolist()}")
+                raise ActionError(f"spline actions must be in [0, {space.n}), got {actions.tolist()}")
         elif isinstance(space, spaces.MultiDiscrete):
-            if actions.size != n * len(space.nvec):
-                raise ValueError(f"spline actions must have shape ({n}, {len(space.nvec)}), got {actions.shape}")
             actions = actions.reshape((n,) + space.shape)
             if actions.min() < 0 or np.any(actions >= space.nvec):
-                raise ValueError(f"spline actions must be in [0, {space.nvec.tolist()}), got {actions.tolist()}")
+                raise ActionError(f"spline actions must be in [0, {space.nvec.tolist()}), got {actions.tolist()}")
         else:
             actions = actions.reshape((n,) + space.shape)
             if not np.all(np.isfinite(actions)):
-                raise ValueError("spline actions must be finite")
+                raise ActionError("spline actions must be finite")
             actions = np.clip(actions, space.low, space.high)  # as SB3 clips Box actions
         return actions

@@ -114,6 +114,6 @@ def run_episodes(env: Any, policy: Any, episodes: int, seed: int = 0,
         obs, infos = env.reset(seed=seed + ep)
         recorder.add(ep, infos)
         while env.agents:
-            obs, rewards, _, _, infos = env.step(policy.act(obs))
+            obs, rewards, _, _, infos = env.step(policy.act({a: obs[a] for a in env.agents}))
             recorder.add(ep, infos, rewards)
     return recorder.table()

@@ -79,7 +79,7 @@ def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = Non
             obs, _ = env.reset(seed=None if seed is None else seed + ep)
             emit()
             while env.agents:
-                obs, *_ = env.step(policy.act(obs))
+                obs, *_ = env.step(policy.act({a: obs[a] for a in env.agents}))
                 emit()
     except BaseException:
         if writer is not None:
