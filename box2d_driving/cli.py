@@ -31,9 +31,12 @@ def _parse_overrides(pairs: list[str]) -> dict:
         if "=" not in pair:
             raise ValueError(f"--set expects KEY=VALUE, got {pair!r}")
         key, value = pair.split("=", 1)
+        if value.strip().lower() in ("true", "false"):  # --set remove_collided=false means False
+            out[key] = value.strip().lower() == "true"
+            continue
         try:
             out[key] = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
+        except (ValueError, SyntaxError, MemoryError, RecursionError):
             out[key] = value
     return out
 
@@ -200,8 +203,13 @@ def _delegate(argv: list[str]) -> int:
     if argv[0] in ("evaluate", "convert-checkpoint"):
         module, rest = "training." + argv[0].replace("-", "_"), argv[1:]
     else:
+        if len(argv) >= 2 and argv[1] in ("-h", "--help"):
+            print(f"usage: box2d-driving train {{{','.join(TRAINERS)}}} [options]\n\n"
+                  f"Train a behaviour; `box2d-driving train BEHAVIOUR --help` lists its options.")
+            return 0
         if len(argv) < 2 or argv[1] not in TRAINERS:
-            print(f"box2d-driving: error: train needs a scenario: {', '.join(TRAINERS)}", file=sys.stderr)
+            print(f"box2d-driving: error: train needs a behaviour: {', '.join(TRAINERS)} "
+                  f"(got {argv[1] if len(argv) > 1 else 'none'!r})", file=sys.stderr)
             return 2
         module, rest = TRAINERS[argv[1]], argv[2:]
     try:

@@ -120,3 +120,18 @@ def coerce_fields(cfg: Any, error: Callable[[str], Exception],
         except FieldError as exc:
             raise error(f"{type(cfg).__name__}: {exc}") from None
         object.__setattr__(cfg, f.name, value)
+
+
+def check_bounds(cfg: Any, bounds: dict[str, tuple[Any, Any]], error: Callable[[str], Exception],
+                 above: tuple[str, ...] = ()) -> None:
+    """Every named field within its ``(low, high)`` (either may be None for no bound); fields in
+    ``above`` must be strictly greater than ``low``. A None value is skipped (Optional fields)."""
+    for name, (low, high) in bounds.items():
+        value = getattr(cfg, name)
+        if value is None:
+            continue
+        strict = name in above
+        if (low is not None and (value <= low if strict else value < low)) or (high is not None and value > high):
+            parts = ([f"> {low}" if strict else f">= {low}"] if low is not None else []) + \
+                    ([f"<= {high}"] if high is not None else [])
+            raise error(f"{type(cfg).__name__}: {name} must be {' and '.join(parts)}, got {value!r}")

@@ -218,7 +218,14 @@ def test_json_round_trip_and_no_silent_overwrite(junction, tmp_path):
     (lambda d: d.pop("format"), "not a box2d-driving-map"),
     (lambda d: d.update(version=99), "unsupported map version"),
     (lambda d: d["lanes"][0].update(arm=42), r"lanes\[0\].arm"),
-    (lambda d: d["lanes"][0].update(width=-1), "width must be positive"),
+    (lambda d: d["lanes"][0].update(width=-1), r"lanes\[0\].width must be"),
+    (lambda d: d["lanes"][0].update(width="wide"), r"lanes\[0\].width must be"),
+    (lambda d: d["lanes"][1]["centreline"][0].__setitem__(0, float("nan")), r"lanes\[1\].centreline: coordinates must be finite"),
+    (lambda d: d["edges"][2][0].__setitem__(1, 1e6), r"edges\[2\]: coordinates must lie within"),
+    (lambda d: d["lanes"].__setitem__(0, [1, 2]), r"lanes\[0\]: expected an object"),
+    (lambda d: d["arms"][0].update(cut=float("nan")), r"arms\[0\].cut must be true or false"),
+    (lambda d: d["stop_lines"][0].update(s=float("inf")), r"stop_lines\[0\].s must be"),
+    (lambda d: d.update(drivable="everywhere"), "drivable"),
     (lambda d: d["connectors"][0].update(movement="fly"), "movement must be one of"),
     (lambda d: d["connectors"][0].update(from_lane=d["connectors"][0]["to_lane"]), "inbound lane to an outbound"),
     (lambda d: d["arms"][0].update(centreline=[[0, 0]]), r"arms\[0\].centreline"),
@@ -232,6 +239,24 @@ def test_malformed_maps_are_refused_with_the_field_named(junction, tmp_path, bre
     path.write_text(json.dumps(data))
     with pytest.raises(MapError, match=message):
         load_map(path)
+
+
+def test_json_nested_too_deeply_is_a_map_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(MapError, match="nested too deeply"):
+        load_map(path)
+
+
+def test_osm_nodes_with_bad_coordinates_are_one_map_error(tmp_path):
+    import re
+
+    text = four_way(tmp_path / "a.osm").read_text()
+    for node, lat in (("2", "nan"), ("6", "nan"), ("6", "95.0"), ("2", "95.0")):
+        bad = tmp_path / f"bad_{node}_{lat}.osm"
+        bad.write_text(re.sub(rf'(<node id="{node}" version="1" )lat="[^"]*"', rf'\1lat="{lat}"', text))
+        with pytest.raises(MapError, match=re.escape(str(bad))):
+            import_junction(bad, 1)
 
 
 def test_not_json_is_refused(tmp_path):

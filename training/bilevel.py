@@ -41,6 +41,8 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import configure
 
 import box2d_driving
+from box2d_driving.config import ConfigError
+from box2d_driving.fields import check_bounds, coerce_fields
 from training.bandit import SplineBanditVecEnv
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
@@ -86,6 +88,25 @@ class BilevelConfig:
     checkpoint_every: int = 10
     max_minutes: Optional[float] = None
     spline_init_from: Optional[str] = None
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Kinds and ranges of every field (:class:`ConfigError` naming the first bad one)."""
+        if not isinstance(self.accel, TrainConfig):
+            raise ConfigError(f"BilevelConfig: accel must be a TrainConfig, got {type(self.accel).__name__}")
+        self.accel.validate()
+        coerce_fields(self, ConfigError, skip=("accel",))
+        check_bounds(self, {
+            "rounds": (1, None), "spline_samples": (1, None), "spline_updates_per_round": (1, None),
+            "accel_updates_per_round": (1, None), "spline_n_envs": (1, 4096), "spline_learning_rate": (0, None),
+            "spline_epochs": (1, 1000), "spline_minibatch": (1, None), "spline_ent_coef": (0, None),
+            "spline_clip_range": (0, None), "checkpoint_every": (1, None), "max_minutes": (0, None),
+        }, ConfigError, above=("spline_learning_rate", "spline_clip_range"))
+        if not self.spline_hidden or not all(1 <= h <= 4096 for h in self.spline_hidden):
+            raise ConfigError(f"BilevelConfig: spline_hidden must be 1 or more layer sizes in [1, 4096], "
+                              f"got {self.spline_hidden!r}")
 
 
 ROUND_FIELDS = ("round", "wall_s", "agent_steps", "bandit_return", "bandit_success", "bandit_collision",
@@ -186,6 +207,11 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
     from tqdm import tqdm
 
     out = Path(out)
+    config.validate()
+    try:  # a bad env setting is found before anything is written
+        box2d_driving.make(config.accel.env_id, **config.accel.env_overrides).close()
+    except ConfigError as exc:
+        raise ConfigError(f"env_overrides: {exc}") from None
     prepare_run_dir(out, resume, config)
     acfg = config.accel
     th.set_num_threads(acfg.threads)

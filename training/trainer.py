@@ -38,7 +38,9 @@ from box2d_driving.metrics.lights import violation_rate
 from training.buffer import MaskedRolloutBuffer
 from training.checkpoint import (FILE, CheckpointError, find_checkpoint, read_checkpoint,
                                  restore_model, save_model)
-from training.policy import CTDEPolicy, policy_kwargs_for
+from box2d_driving.config import ConfigError
+from box2d_driving.fields import check_bounds, coerce_fields
+from training.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.vec_env import SlotVecEnv
 from training.weights import WeightsError, source_fields, widen_state_dict
 
@@ -91,6 +93,24 @@ class TrainConfig:
     threads: int = 2
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check every field (kinds, then ranges); :class:`ConfigError` names the first bad one.
+        Called on construction and again by :func:`train` (fields may be set in between)."""
+        coerce_fields(self, ConfigError, skip=("env_overrides",))
+        if not isinstance(self.env_overrides, dict):
+            raise ConfigError(f"TrainConfig: env_overrides must be a dict, got {self.env_overrides!r}")
+        check_bounds(self, {  # timesteps 0: a bilevel run's acceleration stage (rounds decide)
+            "timesteps": (0, None), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
+            "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024),
+            "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
+            "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None),
+        }, ConfigError, above=("learning_rate", "clip_range", "target_kl"))
+        if self.critic not in CRITICS:
+            raise ConfigError(f"TrainConfig: critic must be one of {CRITICS}, got {self.critic!r}")
 
     def n_steps(self, n_cars: int) -> int:
         return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
@@ -299,6 +319,13 @@ def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
 def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
     """Train (or continue) a run in ``out``; returns the last rollout statistics."""
     out = Path(out)
+    config.validate()
+    if config.timesteps < 1:
+        raise ConfigError(f"TrainConfig: timesteps must be >= 1, got {config.timesteps}")
+    try:  # a bad env setting is found before anything is written
+        box2d_driving.make(config.env_id, **config.env_overrides).close()
+    except ConfigError as exc:
+        raise ConfigError(f"env_overrides: {exc}") from None
     prepare_run_dir(out, resume, config)
     th.set_num_threads(config.threads)
     venv = make_vec_env(config)

@@ -61,7 +61,7 @@ class RealJunctionConfig(DrivingConfig):
         try:
             maps = [get_map(n) for n in names]
         except MapError as exc:
-            raise ConfigError(f"map: {exc}") from None
+            raise MapError(f"map: {exc}") from None
         for name, m in zip(names, maps):
             if not m.spawn_regions or not m.connectors:
                 raise ConfigError(f"map {name!r} has no spawn regions or no connectors")

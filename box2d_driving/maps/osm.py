@@ -201,6 +201,19 @@ def import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[flo
     Raises :class:`MapError` naming the problem (no such node, not a junction, an arm too short, an
     unreadable file, ...). See the module docstring for how real-data quirks are handled.
     """
+    try:
+        return _import_junction(path, where, cfg, name)
+    except MapError:
+        raise
+    except (IndexError, KeyError, ValueError, TypeError, ZeroDivisionError, FloatingPointError) as exc:
+        # data the checks along the way do not foresee: still one MapError naming the file
+        file = path.path if isinstance(path, OsmData) else path
+        raise MapError(f"{file}: cannot import the junction at {where!r}: malformed data "
+                       f"({type(exc).__name__}: {exc})") from None
+
+
+def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[float, float]],
+                     cfg: Optional[ImportConfig], name: Optional[str]) -> RoadMap:
     cfg = cfg or ImportConfig()
     data = path if isinstance(path, OsmData) else read_osm(path, cfg.road_classes)
     if not isinstance(where, (int, np.integer)):

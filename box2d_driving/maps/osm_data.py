@@ -86,6 +86,9 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
         def node(self, n) -> None:
             tags = {t.k: t.v for t in n.tags}
             if tags.get("highway") == "traffic_signals" or _is_crossing_node(tags):
+                if not n.location.valid():
+                    raise MapError(f"{path}: node {n.id} has an invalid location "
+                                   f"(lat/lon out of range or not numbers)")
                 data.nodes[n.id] = (n.location.lat, n.location.lon, tags)
 
         def way(self, w) -> None:
@@ -105,8 +108,10 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
 
     try:
         Handler().apply_file(str(path), locations=True)
-    except RuntimeError as exc:
-        raise MapError(f"{path}: not a readable OSM file ({exc})") from None
+    except MapError:
+        raise
+    except Exception as exc:  # osmium's parse errors (e.g. InvalidLocationError) share no base class
+        raise MapError(f"{path}: not a readable OSM file ({type(exc).__name__}: {exc})") from None
     if not data.roads:
         raise MapError(f"{path}: no roads that carry cars (highway={', '.join(sorted(classes))})")
     return data

@@ -1,0 +1,85 @@
+"""Bad config values, training settings and CLI flags: one clear error of the package's own type
+that names the culprit, and nothing written."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from box2d_driving import ConfigError
+from box2d_driving.cli import _parse_overrides
+from box2d_driving.cli import main as cli
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("remove_collided", "false", "remove_collided must be True or False"),
+    ("remove_collided", 1, "remove_collided must be True or False"),
+    ("collision_reward", float("nan"), "collision_reward must be a finite number"),
+    ("collision_reward", "big", "collision_reward must be a finite number"),
+    ("accelerations", 3, "accelerations must be a sequence"),
+    ("accelerations", (0.0, math.inf), r"accelerations\[1\] must be a finite number"),
+    ("lidar_range", math.inf, "lidar_range must be a finite number"),
+    ("car_length", 1e300, "car_length must be a finite number"),
+    ("substeps", 10**9, r"substeps must be an integer in \[1, 1000\]"),
+    ("num_cars", 2.0, "num_cars must be an integer"),
+    ("num_cars", True, "num_cars must be an integer"),
+    ("spawn_jitter", -1.0, "spawn_jitter must be >= 0"),
+    ("light_period_range", (12.0,), "light_period_range must be a sequence of 2 values"),
+    ("render_size", (128, 1e9), r"render_size\[1\] must be an integer"),
+])
+def test_config_values_of_the_wrong_kind_name_the_field(field, value, message):
+    with pytest.raises(ConfigError, match=message):
+        box2d_driving.make("intersection-v0", **{field: value})
+
+
+def test_numpy_values_are_plain_values():
+    env = box2d_driving.make("intersection-v0", num_cars=np.int64(3), lidar_noise=np.float32(0.25),
+                             remove_collided=np.bool_(True), accelerations=np.array([-1.0, 0.0, 1.0]))
+    cfg = env.config
+    assert (cfg.num_cars, cfg.remove_collided, cfg.accelerations) == (3, True, (-1.0, 0.0, 1.0))
+    assert type(cfg.num_cars) is int and type(cfg.lidar_noise) is float
+
+
+def test_cross_field_rules_name_every_field_involved():
+    with pytest.raises(ConfigError, match=r"spawn_slot_spacing=.*spawn_jitter=.*car_length="):
+        box2d_driving.make("highway-v0", spawn_jitter=4.0)
+    with pytest.raises(ConfigError, match="spawn_slots"):
+        box2d_driving.make("highway-v0", spawn_slots=3)
+
+
+def test_cli_set_reads_true_and_false_as_booleans():
+    assert _parse_overrides(["remove_collided=false", "render_lidar=True", "num_cars=8", "map=helsinki"]) == \
+        {"remove_collided": False, "render_lidar": True, "num_cars": 8, "map": "helsinki"}
+
+
+training = pytest.importorskip("training.trainer")
+
+
+@pytest.mark.parametrize("field, value", [
+    ("threads", 0), ("n_envs", 0), ("epochs", 0), ("timesteps", -5), ("learning_rate", float("nan")),
+    ("gamma", 1.5), ("critic", "median"), ("seed", "one"), ("target_kl", -1.0), ("minibatch", 2.5),
+])
+def test_train_config_names_the_bad_field(field, value):
+    with pytest.raises(ConfigError, match=f"TrainConfig: {field} must be"):
+        training.TrainConfig(**{field: value})
+
+
+@pytest.mark.parametrize("flags", [["--threads", "0"], ["--n-envs", "0"], ["--epochs", "0"],
+                                   ["--timesteps", "-5"], ["--timesteps", "0"], ["--num-cars", "99"],
+                                   ["--lidar-noise", "2"]])
+def test_bad_training_flags_exit_2_and_write_nothing(tmp_path, capsys, flags):
+    out = tmp_path / "run"
+    assert cli(["train", "lights", "--out", str(out), *flags]) == 2
+    err = capsys.readouterr().err
+    assert "error:" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_train_help_and_unknown_behaviour(capsys):
+    assert cli(["train", "--help"]) == 0
+    assert "lights" in capsys.readouterr().out
+    assert cli(["train", "flying"]) == 2
+    assert "flying" in capsys.readouterr().err
