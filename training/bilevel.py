@@ -43,6 +43,7 @@ from stable_baselines3.common.logger import configure
 import box2d_driving
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
+from box2d_driving.outputs import GracefulStop
 from training.bandit import SplineBanditVecEnv
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
@@ -154,6 +155,10 @@ def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
         return
     if out.exists() and any(out.iterdir()):
         raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+
+
+def start_run_dir(out: Path, config: BilevelConfig) -> None:
+    """Create a new run's folders and configs (after every check has passed)."""
     (out / "accel").mkdir(parents=True, exist_ok=True)
     (out / "spline").mkdir(exist_ok=True)
     (out / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2))
@@ -243,6 +248,7 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
             except CheckpointError as exc:
                 raise RunError(f"--spline-init-from: {exc}") from None
             spline.num_timesteps = spline._n_updates = 0
+        start_run_dir(out, config)
         accel.set_logger(configure(str(out / "accel"), ["csv", "tensorboard"]))
         spline.set_logger(configure(str(out / "spline"), ["csv"]))
     set_minibatching(accel, acfg, accel_venv.n_cars)
@@ -255,17 +261,20 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
     new_file = not rounds_csv.exists()
     row: dict[str, Any] = {}
     bar = tqdm(total=config.rounds, initial=state["round"], unit="round", dynamic_ncols=True)
-    with rounds_csv.open("a", newline="") as fh:
+    stop = GracefulStop()  # Ctrl-C / SIGTERM: the acceleration updates of this round end early,
+    # the round is saved, and the loop ends (a second signal stops at once)
+    with stop.installed(), rounds_csv.open("a", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=ROUND_FIELDS)
         if new_file:
             writer.writeheader()
-        while state["round"] < config.rounds and state["wall_s"] < max_seconds:
+        while state["round"] < config.rounds and state["wall_s"] < max_seconds and not stop.requested:
             t0 = time.perf_counter()
             stats = BanditStats()
             spline.learn(config.spline_updates_per_round * spline.n_steps * bandit.num_envs,
                          callback=stats, reset_num_timesteps=False)
             metrics = RolloutMetrics(out / "accel", math.inf, state["wall_s"], state["agent_steps"],
-                                     checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False)
+                                     checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False,
+                                     stop=stop)
             accel.learn(config.accel_updates_per_round * accel.n_steps * accel_venv.num_envs,
                         callback=metrics, reset_num_timesteps=False)
             state = {"round": state["round"] + 1, "wall_s": state["wall_s"] + time.perf_counter() - t0,
@@ -289,4 +298,6 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
     bar.close()
     accel_venv.close()
     bandit.close()
+    if stop.requested:
+        row = {**row, "interrupted_by_signal": stop.signum}
     return row

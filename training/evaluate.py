@@ -64,11 +64,23 @@ class Args:
 
 
 def evaluate(args: Args) -> dict:
+    """Evaluate into ``args.out``: everything is written to a hidden sibling folder that replaces
+    ``args.out`` whole when the report is complete (``--overwrite`` leaves no stale files; an error
+    or an interruption leaves the earlier report untouched and nothing half-written)."""
+    from box2d_driving.outputs import fresh_dir
+
     out = Path(args.out)
     if out.exists() and any(out.iterdir()) and not args.overwrite:
         raise FileExistsError(f"{out} exists and is not empty; choose another --out or pass --overwrite")
     if args.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
+    if args.video < 0:
+        raise ValueError(f"--video must be >= 0, got {args.video}")
+    with fresh_dir(out, args.overwrite) as tmp:
+        return _evaluate_into(tmp, args)
+
+
+def _evaluate_into(out: Path, args: Args) -> dict:
     extra = {k: v for k, v in (("num_cars", args.num_cars), ("lidar_noise", args.lidar_noise))
              if v is not None}
     if args.remove_collided is not None:
@@ -95,7 +107,6 @@ def evaluate(args: Args) -> dict:
         path = Path(args.checkpoint)
         run_dir = path if path.is_dir() else path.parent
         source = {"checkpoint": str(path), "trained_on": policy.config["env_overrides"]}
-    out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     table = run_episodes(env, policy, args.episodes, seed=args.seed)
     seconds = time.perf_counter() - t0

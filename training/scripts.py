@@ -100,9 +100,14 @@ def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: st
     except (RunError, ValueError) as exc:
         print(f"{name}: error: {exc}", file=sys.stderr)
         return 2
+    signum = stats.pop("interrupted_by_signal", None)
     print("last update:", {k.split("/")[-1]: round(v, 4) if isinstance(v, float) else v
                            for k, v in stats.items()})
     print(f"checkpoint: {Path(args.out) / 'model.safetensors'}")
+    if signum is not None:
+        print(f"{name}: interrupted by signal {signum}: checkpoint saved; continue with "
+              f"--resume --out {args.out}", file=sys.stderr)
+        return 128 + signum
     return 0
 
 
@@ -159,6 +164,11 @@ def run_bilevel_script(env_id: str, args_class: type, argv: Optional[list[str]],
     except (RunError, ValueError) as exc:
         print(f"{name}: error: {exc}", file=sys.stderr)
         return 2
+    signum = row.pop("interrupted_by_signal", None)
     print("last round:", {k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()})
     print(f"checkpoints: {Path(args.out) / 'accel'} and {Path(args.out) / 'spline'}")
+    if signum is not None:
+        print(f"{name}: interrupted by signal {signum}: round saved; continue with "
+              f"--resume --out {args.out}", file=sys.stderr)
+        return 128 + signum
     return 0

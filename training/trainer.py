@@ -40,6 +40,7 @@ from training.checkpoint import (FILE, CheckpointError, find_checkpoint, read_ch
                                  restore_model, save_model)
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
+from box2d_driving.outputs import GracefulStop
 from training.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.vec_env import SlotVecEnv
 from training.weights import WeightsError, source_fields, widen_state_dict
@@ -121,7 +122,8 @@ class RunError(RuntimeError):
 
 
 def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
-    """Create ``out`` for a new run, or check it for ``--resume``; never overwrite silently."""
+    """Check ``out`` for a new run (absent or empty) or for ``--resume``; writes nothing (a new
+    run's folder is created by :func:`start_run_dir` once its model is built)."""
     if resume:
         if not (out / "config.json").exists():
             raise RunError(f"--resume: no checkpoint in {out} ({FILE}, config.json and state.json needed)")
@@ -135,6 +137,10 @@ def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
         return
     if out.exists() and any(out.iterdir()):
         raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+
+
+def start_run_dir(out: Path, config: TrainConfig) -> None:
+    """Create a new run's folder and its ``config.json`` (after every check has passed)."""
     out.mkdir(parents=True, exist_ok=True)
     write_config(out / "config.json", config)
 
@@ -178,8 +184,10 @@ class RolloutMetrics(BaseCallback):
     agent-steps (padding excluded), throughput; logged to CSV/TensorBoard; progress bar."""
 
     def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
-                 checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True) -> None:
+                 checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True,
+                 stop: Optional[GracefulStop] = None) -> None:
         super().__init__()
+        self.stop = stop
         self.show_bar = show_bar
         self.max_seconds = max_seconds
         self.out, self.total = out, total
@@ -223,7 +231,7 @@ class RolloutMetrics(BaseCallback):
                 self.ped_hits += info["collided_with"] == "pedestrian"
                 self.prev_light[slot], self.prev_inside[slot] = 0.75, False
         self.bar.update(self.training_env.num_envs)
-        return self.wall < self.max_seconds
+        return self.wall < self.max_seconds and not (self.stop is not None and self.stop.requested)
 
     def _on_rollout_end(self) -> None:
         self.agent_steps += self.rollout_agent_steps
@@ -354,14 +362,21 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
         return {}
     if resume:  # config.json stays the run's first config; record what this leg was given
         write_config(out / f"config.resumed_{model.num_timesteps:012d}.json", config)
+    else:
+        start_run_dir(out, config)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
                      _append_logger(out, model.num_timesteps))
+    stop = GracefulStop()
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
-                              max_seconds)
-    model.learn(remaining, callback=callback, reset_num_timesteps=False)
+                              max_seconds, stop=stop)
+    with stop.installed():  # Ctrl-C / SIGTERM: end the decision in progress, then save below
+        model.learn(remaining, callback=callback, reset_num_timesteps=False)
     save_checkpoint(model, out, callback.wall, callback.agent_steps)
     venv.close()
-    return getattr(callback, "last_stats", {})
+    stats = dict(getattr(callback, "last_stats", {}))
+    if stop.requested:
+        stats["interrupted_by_signal"] = stop.signum
+    return stats
 
 
 def set_minibatching(model: PPO, config: TrainConfig, n_cars: int) -> None:

@@ -38,10 +38,6 @@ def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = Non
            overwrite: bool = False) -> Recording:
     """Run ``episodes`` episodes of ``env`` (``render_mode="rgb_array"``) with ``policy.act`` and
     write every decision's frame to ``video`` and/or ``frames_dir/frame_00000.png``..."""
-    import time
-
-    import imageio.v2 as imageio
-
     if env.render_mode != "rgb_array":
         raise ValueError("record() needs an env made with render_mode='rgb_array'")
     if episodes < 1:
@@ -49,6 +45,24 @@ def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = Non
     video = Path(video) if video is not None else None
     frames_dir = Path(frames_dir) if frames_dir is not None else None
     check_outputs(video, frames_dir, overwrite)
+    if frames_dir is None:
+        return _record(env, policy, episodes, video, None, frames_dir, seed, fps)
+    from box2d_driving.outputs import fresh_dir
+
+    # frames go to a hidden sibling folder that replaces frames_dir whole at the end (no stale
+    # frames of a longer earlier recording; nothing half-written after an interruption)
+    with fresh_dir(frames_dir, overwrite) as tmp_frames:
+        return _record(env, policy, episodes, video, tmp_frames, frames_dir, seed, fps)
+
+
+def _record(env: Any, policy: Any, episodes: int, video: Optional[Path], frames_tmp: Optional[Path],
+            frames_dir: Optional[Path], seed: Optional[int], fps: Optional[float]) -> Recording:
+    import time
+
+    import imageio.v2 as imageio
+
+    from box2d_driving.outputs import terminate_as_interrupt
+
     fps = fps or env.config.render_fps
     writer = None
     if video is not None:
@@ -59,8 +73,6 @@ def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = Non
                                         pixelformat="yuv420p", macro_block_size=16)
         else:
             writer = imageio.get_writer(tmp, mode="I", duration=1000.0 / fps, loop=0)
-    if frames_dir is not None:
-        frames_dir.mkdir(parents=True, exist_ok=True)
     count, drawing = 0, 0.0
 
     def emit() -> None:
@@ -70,17 +82,18 @@ def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = Non
         drawing += time.perf_counter() - t0
         if writer is not None:
             writer.append_data(frame)
-        if frames_dir is not None:
-            imageio.imwrite(frames_dir / f"frame_{count:05d}.png", frame)
+        if frames_tmp is not None:
+            imageio.imwrite(frames_tmp / f"frame_{count:05d}.png", frame)
         count += 1
 
     try:
-        for ep in range(episodes):
-            obs, _ = env.reset(seed=None if seed is None else seed + ep)
-            emit()
-            while env.agents:
-                obs, *_ = env.step(policy.act({a: obs[a] for a in env.agents}))
+        with terminate_as_interrupt():  # SIGTERM, too, removes the partial video below
+            for ep in range(episodes):
+                obs, _ = env.reset(seed=None if seed is None else seed + ep)
                 emit()
+                while env.agents:
+                    obs, *_ = env.step(policy.act({a: obs[a] for a in env.agents}))
+                    emit()
     except BaseException:
         if writer is not None:
             writer.close()
