@@ -177,8 +177,9 @@ class DrivingConfig:
         ped_closing = step + self.max_obstacle_speed() * self.dt
         if ped_closing >= car + self.min_obstacle_size():
             raise ConfigError(
-                f"a car and a pedestrian close {ped_closing:.2f} m per physics step (v_lim, dt and "
-                f"the pedestrian speed): they could tunnel through each other; lower v_lim or dt"
+                f"a car and a pedestrian close {ped_closing:.2f} m per physics step (v_lim={self.v_lim!r}, "
+                f"dt={self.dt!r} and pedestrian_speed_range), more than a car and a pedestrian "
+                f"(pedestrian_size) are wide: they could tunnel through each other; lower v_lim or dt"
             )
 
     # -- derived ------------------------------------------------------------------------------

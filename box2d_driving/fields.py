@@ -70,7 +70,10 @@ def coerce(name: str, value: Any, kind: Any, max_magnitude: float = MAX_MAGNITUD
     if kind is float:
         if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
             raise bad()
-        out = float(value)
+        try:
+            out = float(value) + 0.0  # + 0.0 turns -0.0 into 0.0 (numpy's uniform(0.0, -0.0) fails)
+        except OverflowError:  # an integer beyond float range
+            raise bad(f" within ±{max_magnitude:g}") from None
         if not math.isfinite(out) or abs(out) > max_magnitude:
             raise bad(f" within ±{max_magnitude:g}")
         return out

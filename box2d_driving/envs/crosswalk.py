@@ -80,7 +80,7 @@ class CrosswalkConfig(HighwayConfig):
         require(self, c1 - c0 >= self.pedestrian_size, ("crosswalk_x", "pedestrian_size"),
                 "the crosswalk must be wider than a pedestrian")
         require(self, self.x_start + self.last_slot() + self.spawn_jitter + self.car_length / 2 < c0,
-                ("spawn_slots", "spawn_slot_spacing", "x_start", "crosswalk_x"),
+                ("spawn_slots", "spawn_start", "spawn_slot_spacing", "spawn_jitter", "x_start", "crosswalk_x"),
                 "spawn slots reach the crosswalk: fewer spawn_slots or a crosswalk farther along")
 
     def max_obstacle_speed(self) -> float:

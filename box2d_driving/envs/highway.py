@@ -69,7 +69,8 @@ class HighwayConfig(DrivingConfig):
         require(self, self.spawn_start - self.spawn_jitter >= self.car_length / 2,
                 ("spawn_start", "spawn_jitter", "car_length"), "spawn_start - spawn_jitter must keep cars on the road")
         require(self, self.last_slot() + self.spawn_jitter + self.car_length < self.road_length - self.goal_margin,
-                ("spawn_slots", "spawn_slot_spacing", "road_length", "goal_margin"),
+                ("spawn_slots", "spawn_start", "spawn_slot_spacing", "spawn_jitter", "car_length", "road_length",
+                 "goal_margin"),
                 "spawn slots reach past the goal: fewer spawn_slots or a longer road_length")
         lat_lo, lat_hi = self.lateral_range
         limit = 1.0 - self.car_width / self.road_width

@@ -48,7 +48,8 @@ class HighwaySplineConfig(HighwayConfig):
         require(self, self.lane_change_distance > 0, ("lane_change_distance",), "lane_change_distance must be positive (m)")
         goal = self.road_length - self.goal_margin
         require(self, self.last_slot() + self.spawn_jitter + self.lane_change_distance < goal,
-                ("lane_change_distance", "spawn_slots", "road_length"),
+                ("lane_change_distance", "spawn_slots", "spawn_start", "spawn_slot_spacing", "spawn_jitter",
+                 "road_length", "goal_margin"),
                 "lane_change_distance reaches past the goal from the last spawn slot")
         require(self, 4 <= self.spline_samples <= 1000, ("spline_samples",), "spline_samples must be in [4, 1000]")
 

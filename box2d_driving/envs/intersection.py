@@ -71,7 +71,8 @@ class IntersectionConfig(DrivingConfig):
                 ("spawn_slot_spacing", "spawn_jitter", "car_length"),
                 "spawn_slot_spacing - 2 * spawn_jitter must exceed car_length (no overlap)")
         require(self, self.farthest_spawn() + self.car_length / 2 <= lo_l,
-                ("slots_per_approach", "spawn_first_slot", "spawn_slot_spacing", "road_length_range"),
+                ("slots_per_approach", "spawn_first_slot", "spawn_slot_spacing", "spawn_jitter", "car_length",
+                 "road_length_range"),
                 f"the farthest spawn slot ({self.farthest_spawn():.1f} m before the stop line) must fit "
                 f"on the shortest road")
         require(self, 0.0 <= self.lane_fraction <= 1.0 - self.car_width / lo_w,
