@@ -35,7 +35,7 @@ def agent_steps_at(run: Path, decisions: np.ndarray) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("run", type=Path, help="run folder with checkpoints/model_<decisions>.zip")
+    parser.add_argument("run", type=Path, help="run folder with checkpoints/model_<decisions>.safetensors")
     parser.add_argument("--episodes", type=int, default=20, help="episodes per checkpoint")
     parser.add_argument("--seed", type=int, default=10_000, help="first evaluation seed")
     parser.add_argument("--out", type=Path, help="output folder (default RUN/checkpoint_curve)")
@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists() and any(out.iterdir()) and not args.overwrite:
         print(f"checkpoint_curve: error: {out} is not empty; pass --overwrite", file=sys.stderr)
         return 2
-    ckpts = sorted(args.run.glob("checkpoints/model_*.zip"), key=lambda p: int(re.findall(r"\d+", p.stem)[-1]))
+    ckpts = sorted(args.run.glob("checkpoints/model_*.safetensors"), key=lambda p: int(re.findall(r"\d+", p.stem)[-1]))
     if not ckpts:
         print(f"checkpoint_curve: error: no checkpoints in {args.run / 'checkpoints'}", file=sys.stderr)
         return 2
