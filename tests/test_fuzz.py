@@ -178,7 +178,8 @@ FLAG_VALUES = st.one_of(st.sampled_from(["0", "-5", "1e9", "nan", "inf", "abc", 
 @FUZZ
 @given(st.lists(st.tuples(st.sampled_from(["--threads", "--n-envs", "--epochs", "--timesteps", "--num-cars",
                                            "--lidar-noise", "--ent-coef", "--batch-decisions", "--seed",
-                                           "--max-minutes", "--horizon", "--collision-reward", "--critic"]),
+                                           "--max-minutes", "--horizon", "--collision-reward", "--critic",
+                                           "--num-cpus", "--device"]),
                           FLAG_VALUES), min_size=1, max_size=4))
 def test_training_flags_parse_to_a_valid_config_or_exit_2(flags):
     """The training CLI up to the point a run would start: flags -> TrainConfig -> env check."""
@@ -197,7 +198,8 @@ def test_training_flags_parse_to_a_valid_config_or_exit_2(flags):
     except ConfigError as exc:
         assert "must" in str(exc) or "exceeds" in str(exc), str(exc)
         return
-    assert config.threads >= 1 and config.n_envs >= 1 and config.epochs >= 1 and config.timesteps >= 0
+    assert (config.threads is None or config.threads >= 1) and config.n_envs >= 1 and config.epochs >= 1
+    assert config.timesteps >= 0 and config.num_cpus >= 0
 
 
 @FUZZ

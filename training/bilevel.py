@@ -48,7 +48,8 @@ from training.bandit import SplineBanditVecEnv
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
 from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
-                              check_same_run, load_weights, make_vec_env, resumed_config,
+                              check_same_run, load_weights, make_vec_env, resolve_device, resumed_config,
+                              torch_threads,
                               set_minibatching, write_json_atomic)
 
 
@@ -98,6 +99,10 @@ class BilevelConfig:
         if not isinstance(self.accel, TrainConfig):
             raise ConfigError(f"BilevelConfig: accel must be a TrainConfig, got {type(self.accel).__name__}")
         self.accel.validate()
+        if self.accel.num_cpus:
+            raise ConfigError("BilevelConfig: bilevel training steps its envs in the learner's process "
+                              f"(--num-cpus 0): the live spline policy picks each episode's paths there "
+                              f"(got num_cpus={self.accel.num_cpus})")
         coerce_fields(self, ConfigError, skip=("accel",))
         check_bounds(self, {
             "rounds": (1, None), "spline_samples": (1, None), "spline_updates_per_round": (1, None),
@@ -185,7 +190,7 @@ def build_spline_model(config: BilevelConfig, bandit: SplineBanditVecEnv) -> PPO
         n_epochs=config.spline_epochs, learning_rate=config.spline_learning_rate, gamma=0.0,
         gae_lambda=0.0, clip_range=config.spline_clip_range, ent_coef=config.spline_ent_coef,
         policy_kwargs={"net_arch": list(config.spline_hidden)}, seed=config.accel.seed + 1,
-        device="cpu", verbose=0,
+        device=resolve_device(config.accel.device), verbose=0,
     )
 
 
@@ -219,7 +224,7 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
         raise ConfigError(f"env_overrides: {exc}") from None
     prepare_run_dir(out, resume, config)
     acfg = config.accel
-    th.set_num_threads(acfg.threads)
+    th.set_num_threads(torch_threads(acfg))
     accel_venv = make_vec_env(acfg)
     state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}
     if resume:

@@ -69,7 +69,7 @@ class TrainedPolicy:
 @th.no_grad()
 def actor_actions(policy: Any, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
     """Actions ``(M,)`` of a CTDE policy's actor for own observations ``(M, D)`` (no team block)."""
-    latent = policy.mlp_extractor.forward_actor(th.as_tensor(np.asarray(obs, dtype=np.float32)))
+    latent = policy.mlp_extractor.forward_actor(th.as_tensor(np.asarray(obs, dtype=np.float32), device=policy.device))
     dist = policy.action_dist.proba_distribution(action_logits=policy.action_net(latent))
     actions = dist.mode() if deterministic else dist.sample()
     return actions.cpu().numpy().astype(np.int64)

@@ -27,7 +27,9 @@ class CommonArgs:
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update
     minibatch_by_step: minibatches of whole env steps (the critic encodes each step's team once)
-    threads: torch CPU threads
+    threads: torch CPU threads (default: the cores the env workers leave free)
+    num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way)
+    device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     horizon: episode horizon in decisions (default: the scenario's)
@@ -47,7 +49,9 @@ class CommonArgs:
     batch_decisions: int = 32_000
     epochs: int = 4
     minibatch_by_step: bool = False
-    threads: int = 2
+    threads: Optional[int] = None
+    num_cpus: int = 0
+    device: str = "auto"
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
     horizon: Optional[int] = None
@@ -80,7 +84,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
         minibatch_by_step=args.minibatch_by_step,
-        critic=args.critic, threads=args.threads, max_minutes=args.max_minutes,
+        critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,
+        max_minutes=args.max_minutes,
         init_from=args.init_from,
         ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
     )

@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import shutil
 import sys
 import time
@@ -42,7 +43,7 @@ from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
 from training.policy import CRITICS, CTDEPolicy, policy_kwargs_for
-from training.vec_env import SlotVecEnv
+from training.vec_env import SlotVecEnv, make_vec_env_from
 from training.weights import WeightsError, source_fields, widen_state_dict
 
 
@@ -67,7 +68,10 @@ class TrainConfig:
         ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
         checkpoint_every: updates between checkpoints.
-        threads: torch CPU threads.
+        threads: torch CPU threads (None: the cores the env worker processes leave free).
+        num_cpus: worker processes stepping the env instances (0: all in the learner's process).
+            Rollouts are identical whatever the number, for the same seed and ``n_envs``.
+        device: where the networks run: ``auto`` (CUDA when torch sees a GPU), ``cpu`` or ``cuda``.
         max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
             ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
         init_from: start from the weights of this checkpoint (e.g. a 4-car policy fine-tuned
@@ -91,7 +95,9 @@ class TrainConfig:
     ent_coef: float = 0.01
     critic: str = "mean"
     checkpoint_every: int = 10
-    threads: int = 2
+    threads: Optional[int] = None
+    num_cpus: int = 0
+    device: str = "auto"
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
 
@@ -106,15 +112,38 @@ class TrainConfig:
             raise ConfigError(f"TrainConfig: env_overrides must be a dict, got {self.env_overrides!r}")
         check_bounds(self, {  # timesteps 0: a bilevel run's acceleration stage (rounds decide)
             "timesteps": (0, None), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
-            "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024),
+            "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
             "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
             "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None),
         }, ConfigError, above=("learning_rate", "clip_range", "target_kl"))
+        if self.device not in DEVICES:
+            raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
         if self.critic not in CRITICS:
             raise ConfigError(f"TrainConfig: critic must be one of {CRITICS}, got {self.critic!r}")
 
     def n_steps(self, n_cars: int) -> int:
         return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
+
+
+DEVICES = ("auto", "cpu", "cuda")
+
+
+def resolve_device(device: str) -> str:
+    """``auto``: CUDA when torch sees a GPU, else the CPU. Asking for ``cuda`` without one is an
+    error (not a silent fall-back)."""
+    if device == "auto":
+        return "cuda" if th.cuda.is_available() else "cpu"
+    if device == "cuda" and not th.cuda.is_available():
+        raise ConfigError("TrainConfig: device='cuda' but torch sees no GPU (a CPU-only torch build, "
+                          "or no driver); use --device auto or cpu")
+    return device
+
+
+def torch_threads(config: "TrainConfig") -> int:
+    """Torch threads for the learner: as configured, else the cores the env workers leave free."""
+    if config.threads is not None:
+        return config.threads
+    return max(1, (os.cpu_count() or 1) - config.num_cpus)
 
 
 class RunError(RuntimeError):
@@ -159,13 +188,12 @@ def check_same_run(saved: dict, config: TrainConfig) -> None:
 
 
 def make_vec_env(config: TrainConfig) -> SlotVecEnv:
-    def factory():
-        return box2d_driving.make(config.env_id, **config.env_overrides)
-    return SlotVecEnv([factory for _ in range(config.n_envs)])
+    """The run's slot vector env: ``n_envs`` instances over ``num_cpus`` worker processes."""
+    return make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus)
 
 
 def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
-    probe = venv.envs[0]
+    probe = venv.probe.env
     n_cars = len(probe.possible_agents)
     n_steps = config.n_steps(n_cars)
     return PPO(
@@ -175,7 +203,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
         target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
         rollout_buffer_class=MaskedRolloutBuffer,
         rollout_buffer_kwargs={"alive_index": venv.layout.self_alive},
-        seed=config.seed, device="cpu", verbose=0,
+        seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
 
 
@@ -303,7 +331,7 @@ def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     known = {f.name for f in dataclasses.fields(TrainConfig)}
     first = TrainConfig(**{k: v for k, v in saved.items() if k in known})
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
-                               threads=config.threads)
+                               threads=config.threads, num_cpus=config.num_cpus, device=config.device)
 
 
 def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
@@ -335,7 +363,8 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     except ConfigError as exc:
         raise ConfigError(f"env_overrides: {exc}") from None
     prepare_run_dir(out, resume, config)
-    th.set_num_threads(config.threads)
+    resolve_device(config.device)  # a missing GPU is found before anything is written
+    th.set_num_threads(torch_threads(config))
     venv = make_vec_env(config)
     wall, agent_steps = 0.0, 0
     if resume:
@@ -397,7 +426,7 @@ def load_weights(model: PPO, checkpoint: Path) -> None:
         raise RunError(f"--init-from: {path} has a different network (critic variant?)")
     bad = [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad:
-        env = model.get_env().envs[0]
+        env = model.get_env().probe.env
         try:
             theirs = widen_state_dict(mine, theirs, src_fields=source_fields(path.parent),
                                       dst_fields=env.observation_layout.satnav_fields,

@@ -1,11 +1,6 @@
 """One SB3 ``VecEnv`` slot per car: the parameter-shared multi-agent env as a batch of
-single-agent transitions, with done on the right step and the team block for the critic.
-
-Why not SuperSuit (see ``docs/training.md``): its ``pettingzoo_env_to_vec_env_v1`` refuses envs
-whose agents finish at different times unless ``black_death_v3`` pads them, and ``black_death_v3``
-ends episodes on ``terminated AND truncated``, never reports an agent's own termination and steps
-the env with ``{}`` once every agent is gone; SB3 would also see truncations as terminations and
-cannot seed it. This class does the same job in one place, correctly:
+single-agent transitions, with done on the right step and the team block for the critic,
+vectorised by SuperSuit in the learner's process or across worker processes.
 
 * slot ``k * N + i`` is car ``i`` of env instance ``k``;
 * a car's slot reports ``done`` on exactly the decision its trajectory ends, with its real last
@@ -18,12 +13,20 @@ cannot seed it. This class does the same job in one place, correctly:
   their alive mask, so the centralised critic sees the team while PPO shuffles single transitions
   (the actor is built blind to it).
 
+:class:`InstanceSlots` does this for one instance; :class:`SlotVecEnv` concatenates instances with
+SuperSuit and adapts the result to SB3 (see its docstring for what the adapter fixes). SuperSuit's
+own PettingZoo path (``pettingzoo_env_to_vec_env_v1`` + ``black_death_v3``) is not used: it needs
+``black_death_v3`` for cars that finish at different times, which ends episodes on ``terminated
+AND truncated`` and never reports a car's own termination.
+
 Layout of a slot observation (``TeamLayout``): ``[own obs (D) | team obs (N x D) | alive (N) |
 own alive (1)]``.
 """
 
 from __future__ import annotations
 
+import functools
+import weakref
 from dataclasses import dataclass
 from typing import Any, Callable, Optional, Sequence
 
@@ -98,91 +101,226 @@ class CarSlots:
         return [False for _ in self._get_indices(indices)]
 
 
-class SlotVecEnv(CarSlots, VecEnv):
-    """``len(env_fns) * num_cars`` slots over parameter-shared driving envs (one process)."""
+class InstanceSlots(gym.vector.VectorEnv):
+    """The car slots of one env instance as a Gymnasium-style vector env (``num_envs`` = cars),
+    the unit SuperSuit concatenates, in the learner's process or in its worker processes.
 
-    def __init__(self, env_fns: Sequence[Callable[[], Any]]) -> None:
-        self.envs = [fn() for fn in env_fns]
-        first = self.envs[0]
-        self.agents = list(first.possible_agents)
+    As SuperSuit's concatenation expects, ``observation_space`` / ``action_space`` are one slot's.
+    ``step`` returns per slot: termination (a goal or a crash) and truncation (the horizon) apart,
+    each finishing car's real last observation in ``infos[i]["terminal_observation"]`` with
+    ``"TimeLimit.truncated"``, and padding (zero observation and reward, empty info) after a car is
+    done until every car is, when the instance resets itself. ``index`` is the instance's place in
+    the whole vector: its first episode's seed is ``seed_base + index`` whatever process it runs in.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+    render_mode = None
+
+    def __init__(self, env_fn: Callable[[], Any], index: int) -> None:
+        self.env = env_fn()
+        self.index = index
+        self.agents = list(self.env.possible_agents)
         self.n_cars = len(self.agents)
-        for e in self.envs[1:]:
-            if list(e.possible_agents) != self.agents:
-                raise ValueError("all env instances must have the same agents")
-        base_space = first.observation_space(self.agents[0])
+        base_space = self.env.observation_space(self.agents[0])
         self.layout = TeamLayout(int(np.prod(base_space.shape)), self.n_cars)
-        super().__init__(len(self.envs) * self.n_cars, slot_observation_space(base_space, self.n_cars),
-                         first.action_space(self.agents[0]))
-        self._obs = np.zeros((self.num_envs, self.layout.size), dtype=np.float32)
-        self._actions: Optional[np.ndarray] = None
+        self.num_envs = self.n_cars
+        self.observation_space = self.single_observation_space = slot_observation_space(base_space, self.n_cars)
+        self.action_space = self.single_action_space = self.env.action_space(self.agents[0])
+        self._obs = np.zeros((self.n_cars, self.layout.size), dtype=np.float32)
 
-    # -- helpers ------------------------------------------------------------------------------
-    def _write_instance(self, k: int, obs: dict[str, np.ndarray], out: np.ndarray) -> None:
-        """Slot observations of instance ``k`` from the agents' observation dict (padding for
-        agents absent from ``obs``) into ``out`` rows ``k*N .. k*N+N-1``."""
-        lay, n = self.layout, self.n_cars
-        rows = out[k * n:(k + 1) * n]
-        rows[:] = 0.0
-        team = np.zeros((n, lay.obs_dim), dtype=np.float32)
-        alive = np.zeros(n, dtype=np.float32)
+    def _write(self, obs: dict[str, np.ndarray], out: np.ndarray) -> None:
+        """Slot observations from the agents' observation dict (padding for absent agents)."""
+        lay = self.layout
+        out[:] = 0.0
+        team = np.zeros((self.n_cars, lay.obs_dim), dtype=np.float32)
+        alive = np.zeros(self.n_cars, dtype=np.float32)
         for i, agent in enumerate(self.agents):
             if agent in obs:
                 team[i] = obs[agent]
                 alive[i] = 1.0
-        rows[:, lay.team] = team.reshape(-1)
-        rows[:, lay.alive] = alive
-        rows[:, lay.own] = team
-        rows[:, lay.self_alive] = alive
+        out[:, lay.team] = team.reshape(-1)
+        out[:, lay.alive] = alive
+        out[:, lay.own] = team
+        out[:, lay.self_alive] = alive
 
-    def _reset_instance(self, k: int, seed: Optional[int]) -> dict[str, np.ndarray]:
-        options = self._options[k * self.n_cars]
-        obs, _ = self.envs[k].reset(seed=seed, **({"options": options} if options else {}))
-        return obs
+    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+        # SuperSuit adds worker and position offsets to ``seed``; the one that counts comes in options
+        options = dict(options or {})
+        base = options.pop("slot_seed_base", None)
+        obs, _ = self.env.reset(seed=None if base is None else base + self.index,
+                                **({"options": options} if options else {}))
+        self._write(obs, self._obs)
+        return self._obs.copy(), [{} for _ in range(self.n_cars)]
+
+    def step(self, actions):
+        n = self.n_cars
+        actions = np.asarray(actions).reshape(n)
+        rewards = np.zeros(n, dtype=np.float32)
+        terms = np.zeros(n, dtype=bool)
+        truncs = np.zeros(n, dtype=bool)
+        infos: list[dict[str, Any]] = [{} for _ in range(n)]  # distinct dicts
+        env = self.env
+        acts = {a: int(actions[i]) for i, a in enumerate(self.agents) if a in env.agents}
+        obs, rew, term, trunc, info = env.step(acts)
+        final = np.zeros((n, self.layout.size), dtype=np.float32)
+        self._write(obs, final)
+        for i, agent in enumerate(self.agents):
+            if agent not in obs:
+                continue
+            rewards[i] = rew[agent]
+            slot_info = dict(info[agent])
+            if term[agent] or trunc[agent]:
+                terms[i] = bool(term[agent])
+                truncs[i] = bool(trunc[agent] and not term[agent])
+                slot_info["terminal_observation"] = final[i].copy()
+                slot_info["TimeLimit.truncated"] = bool(truncs[i])
+            infos[i] = slot_info
+        if env.agents:
+            self._write({a: o for a, o in obs.items() if a in env.agents}, self._obs)
+        else:
+            self._write(env.reset()[0], self._obs)
+        return self._obs.copy(), rewards, terms, truncs, infos
+
+    def close(self, **kwargs: Any) -> None:
+        self.env.close()
+
+    def env_is_wrapped(self, wrapper_class: type, indices=None) -> list[bool]:
+        return [False] * self.n_cars
+
+
+class SlotVecEnv(VecEnv):
+    """``len(env_fns) * num_cars`` slots over parameter-shared driving envs, as an SB3 ``VecEnv``.
+
+    Built on SuperSuit: each instance is an :class:`InstanceSlots`, concatenated by SuperSuit's
+    ``MakeCPUAsyncConstructor`` (what ``supersuit.concat_vec_envs_v1`` uses) in the learner's
+    process (``num_cpus=0``) or in ``num_cpus`` worker processes that step their instances and
+    write observations to shared memory. This adapter fixes what SuperSuit's SB3 wrapper gets
+    wrong for us (each fix has a test in ``tests/test_vec_env.py``):
+
+    * seeding: ``seed(s)`` gives instance ``k`` the seed ``s + k`` at the next reset, whatever the
+      number of workers (SuperSuit's ``reset(seed)`` adds worker and position offsets, so seeds
+      would collide and depend on the worker count; its SB3 wrapper has no ``seed`` at all);
+    * truncations stay truncations (``TimeLimit.truncated``, set per slot by ``InstanceSlots``);
+    * every slot gets its own info dict (SuperSuit's worker path shares one ``{}`` among slots);
+    * ``get_attr`` / ``set_attr`` / ``env_method`` reach the env instances in-process; with workers,
+      ``get_attr`` answers from a local probe instance (static attributes: config, layout) and the
+      others raise, since a live object cannot be set in another process;
+    * ``close()`` ends the workers, and is also called when the adapter is garbage-collected or
+      the interpreter exits, so a forgotten ``close()`` cannot hang the interpreter.
+
+    ``black_death_v3`` is not used: it ends an episode on ``terminated AND truncated`` and never
+    reports a car's own termination; :class:`InstanceSlots` pads finished cars itself.
+    """
+
+    def __init__(self, env_fns: Sequence[Callable[[], Any]], num_cpus: int = 0) -> None:
+        from supersuit.vector import MakeCPUAsyncConstructor
+
+        if isinstance(num_cpus, bool) or not isinstance(num_cpus, int) or num_cpus < 0:
+            raise ValueError(f"num_cpus must be an integer >= 0, got {num_cpus!r}")
+        self.num_cpus = min(num_cpus, len(env_fns))
+        self.probe = InstanceSlots(env_fns[0], 0)  # spaces, layout and static attributes
+        self.agents, self.n_cars, self.layout = self.probe.agents, self.probe.n_cars, self.probe.layout
+        fns = [functools.partial(InstanceSlots, fn, k) for k, fn in enumerate(env_fns)]
+        if self.num_cpus == 0:
+            from supersuit.vector import ConcatVecEnv
+
+            self._inner = ConcatVecEnv(fns, self.probe.observation_space, self.probe.action_space)
+        else:
+            # SuperSuit keeps 1 CPU in-process; with --num-cpus 1 the user asked for one worker
+            self._inner = MakeCPUAsyncConstructor(max(self.num_cpus, 2))(
+                fns, self.probe.observation_space, self.probe.action_space) if self.num_cpus > 1 \
+                else _one_worker(fns, self.probe)
+        agents = [list(e.env.possible_agents) for e in self._local_instances()] if self.num_cpus == 0 else []
+        if any(a != self.agents for a in agents):
+            raise ValueError("all env instances must have the same agents")
+        super().__init__(len(env_fns) * self.n_cars, self.probe.observation_space, self.probe.action_space)
+        self._seed_base: Optional[int] = None
+        self._actions: Optional[np.ndarray] = None
+        self._finalizer = weakref.finalize(self, _close_inner, self._inner)
+
+    # -- instances ----------------------------------------------------------------------------
+    def _local_instances(self) -> list[InstanceSlots]:
+        if self.num_cpus:
+            raise RuntimeError("the env instances live in worker processes (--num-cpus > 0); "
+                               "this needs them in the learner's process (--num-cpus 0)")
+        return list(self._inner.vec_envs)
+
+    @property
+    def envs(self) -> list:
+        """The env instances (in the learner's process only)."""
+        return [inst.env for inst in self._local_instances()]
 
     # -- VecEnv API ---------------------------------------------------------------------------
+    def seed(self, seed: Optional[int] = None) -> list[Optional[int]]:
+        self._seed_base = seed
+        n_instances = self.num_envs // self.n_cars
+        return [None if seed is None else seed + k for k in range(n_instances)]
+
     def reset(self):
-        for k in range(len(self.envs)):
-            obs = self._reset_instance(k, self._seeds[k * self.n_cars])
-            self._write_instance(k, obs, self._obs)
-        self._reset_seeds()
-        self._reset_options()
-        return self._obs.copy()
+        options = None if self._seed_base is None else {"slot_seed_base": self._seed_base}
+        obs, _ = self._inner.reset(seed=None, options=options)
+        self._seed_base = None
+        return np.asarray(obs, dtype=np.float32)
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions).reshape(self.num_envs)
+        self._inner.step_async(self._actions)
 
     def step_wait(self):
-        n = self.n_cars
-        rewards = np.zeros(self.num_envs, dtype=np.float32)
-        dones = np.zeros(self.num_envs, dtype=bool)
-        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]  # distinct dicts
-        final = np.zeros((n, self.layout.size), dtype=np.float32)
-        for k, env in enumerate(self.envs):
-            acts = {a: int(self._actions[k * n + i]) for i, a in enumerate(self.agents)
-                    if a in env.agents}
-            obs, rew, term, trunc, info = env.step(acts)
-            self._write_instance(0, obs, final)
-            for i, agent in enumerate(self.agents):
-                if agent not in obs:
-                    continue
-                slot = k * n + i
-                rewards[slot] = rew[agent]
-                slot_info = dict(info[agent])
-                if term[agent] or trunc[agent]:
-                    dones[slot] = True
-                    slot_info["terminal_observation"] = final[i].copy()
-                    slot_info["TimeLimit.truncated"] = bool(trunc[agent] and not term[agent])
-                infos[slot] = slot_info
-            if env.agents:
-                live = {a: o for a, o in obs.items() if a in env.agents}
-                self._write_instance(k, live, self._obs)
-            else:
-                self._write_instance(k, self._reset_instance(k, None), self._obs)
-        return self._obs.copy(), rewards, dones, infos
+        obs, rewards, terms, truncs, infos = self._inner.step_wait()
+        dones = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
+        infos = [dict(info) for info in infos]  # one dict per slot, never shared
+        return np.asarray(obs, dtype=np.float32), np.asarray(rewards, dtype=np.float32), dones, infos
+
+    def close(self) -> None:
+        self._finalizer()
+        self.probe.close()
+
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        if self.num_cpus:
+            return [getattr(self.probe.env, attr_name) for _ in self._get_indices(indices)]
+        envs = self.envs
+        return [getattr(envs[i // self.n_cars], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        envs = self.envs
+        for k in sorted({i // self.n_cars for i in self._get_indices(indices)}):
+            setattr(envs[k], attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
+        envs = self.envs
+        return [getattr(envs[i // self.n_cars], method_name)(*args, **kwargs) for i in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
 
 
-def make_slot_vec_env(env_id: str, n_envs: int, **overrides: Any) -> SlotVecEnv:
-    """``n_envs`` instances of a registered env as one :class:`SlotVecEnv`."""
+def _close_inner(inner: Any) -> None:
+    inner.close()
+
+
+def _one_worker(fns: list, probe: InstanceSlots) -> Any:
+    """All instances in one worker process (SuperSuit's constructor runs 1 CPU in-process)."""
+    from supersuit.vector import ConcatVecEnv, ProcConcatVec
+
+    from supersuit.vector.constructors import call_wrap
+
+    return ProcConcatVec([call_wrap(ConcatVecEnv, fns)], probe.observation_space, probe.action_space,
+                         len(fns) * probe.n_cars, probe.metadata)
+
+
+def make_vec_env_from(env_id: str, overrides: dict, n_envs: int, num_cpus: int = 0) -> SlotVecEnv:
+    """``n_envs`` instances of a registered env as one :class:`SlotVecEnv` (module-level factory:
+    worker processes receive it pickled)."""
+    return SlotVecEnv([functools.partial(_make_env, env_id, overrides) for _ in range(n_envs)], num_cpus)
+
+
+def _make_env(env_id: str, overrides: dict) -> Any:
     import box2d_driving
 
-    return SlotVecEnv([lambda: box2d_driving.make(env_id, **overrides) for _ in range(n_envs)])
+    return box2d_driving.make(env_id, **overrides)
+
+
+def make_slot_vec_env(env_id: str, n_envs: int, num_cpus: int = 0, **overrides: Any) -> SlotVecEnv:
+    """``n_envs`` instances of a registered env as one :class:`SlotVecEnv`."""
+    return make_vec_env_from(env_id, overrides, n_envs, num_cpus)

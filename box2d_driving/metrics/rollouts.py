@@ -102,7 +102,7 @@ def save_table(table: dict[str, np.ndarray], path: Path) -> None:
 
 
 def load_table(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path) as data:
+    with np.load(path, allow_pickle=False) as data:  # a rollout file never unpickles
         return {k: data[k] for k in data.files}
 
 

@@ -1,0 +1,161 @@
+"""The SuperSuit-backed slot vector env: the same rollouts in the learner's process and across
+worker processes, done on the right decision, truncations as truncations, one info dict per
+slot, seeding, attributes, and no process left behind."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytest.importorskip("supersuit")
+
+import box2d_driving  # noqa: E402
+from training.vec_env import make_vec_env_from  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+KW = {"num_cars": 3, "horizon": 6}
+
+
+def _rollout(num_cpus: int, steps: int = 30, seed: int = 5):
+    venv = make_vec_env_from("intersection-v0", KW, 4, num_cpus)
+    try:
+        venv.seed(seed)
+        obs = [venv.reset()]
+        rng = np.random.default_rng(0)
+        rewards, dones, infos = [], [], []
+        for _ in range(steps):
+            o, r, d, i = venv.step(rng.integers(0, 13, venv.num_envs))
+            obs.append(o), rewards.append(r), dones.append(d), infos.append(i)
+        return np.array(obs), np.array(rewards), np.array(dones), infos
+    finally:
+        venv.close()
+
+
+def _same_infos(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        assert x.keys() == y.keys()
+        for k in x:
+            if isinstance(x[k], np.ndarray):
+                assert np.array_equal(x[k], y[k]), k
+            elif k != "reward_terms":
+                assert x[k] == y[k] or (x[k] != x[k] and y[k] != y[k]), k
+
+
+@pytest.mark.parametrize("num_cpus", [1, 2])
+def test_same_rollouts_whatever_the_number_of_workers(num_cpus):
+    local, workers = _rollout(0), _rollout(num_cpus)
+    for a, b in zip(local[:3], workers[:3]):
+        assert np.array_equal(a, b)
+    for a, b in zip(local[3], workers[3]):
+        _same_infos(a, b)
+    assert local[2].any()  # cars finished within the rollout
+
+
+def test_seed_gives_instance_k_the_seed_plus_k():
+    venv = make_vec_env_from("intersection-v0", KW, 3, 2)
+    try:
+        venv.seed(11)
+        obs = venv.reset()
+    finally:
+        venv.close()
+    lay = venv.layout
+    for k in range(3):
+        own, _ = box2d_driving.make("intersection-v0", **KW).reset(seed=11 + k)
+        assert np.array_equal(obs[k * 3:(k + 1) * 3, lay.own], np.stack(list(own.values())))
+
+
+def test_done_on_the_right_decision_with_truncation_flags_and_terminal_observations():
+    venv = make_vec_env_from("intersection-v0", {"num_cars": 2, "horizon": 4}, 2, 2)
+    try:
+        venv.seed(0)
+        venv.reset()
+        zero = level = 6  # acceleration 0: nobody arrives in 4 decisions
+        for t in range(1, 5):
+            _, _, dones, infos = venv.step(np.full(venv.num_envs, zero))
+            if t < 4:
+                assert not dones.any()
+        assert dones.all()  # the horizon ends every car on decision 4 ...
+        for info in infos:  # ... as a truncation, with the real last observation
+            assert info["TimeLimit.truncated"] is True
+            assert info["terminal_observation"].shape == venv.observation_space.shape
+            assert info["terminal_observation"][venv.layout.self_alive] == 1.0
+        assert len({id(i) for i in infos}) == len(infos)  # one dict per slot
+        _, _, _, infos = venv.step(np.full(venv.num_envs, level))  # instances reset themselves
+        infos[0]["marker"] = 1
+        assert all("marker" not in i for i in infos[1:])
+    finally:
+        venv.close()
+
+
+def test_a_crash_is_a_termination_not_a_truncation():
+    venv = make_vec_env_from("intersection-v0", {"num_cars": 4, "horizon": 40}, 1, 2)
+    try:
+        venv.seed(3)
+        venv.reset()
+        seen = []
+        for _ in range(40):
+            _, _, dones, infos = venv.step(np.full(venv.num_envs, 12))  # full throttle
+            seen += [i for d, i in zip(dones, infos) if d]
+    finally:
+        venv.close()
+    crashed = [i for i in seen if i["collided"]]
+    assert crashed and all(i["TimeLimit.truncated"] is False for i in crashed)
+
+
+def test_attributes_with_workers_and_in_process():
+    local = make_vec_env_from("intersection-v0", KW, 2, 0)
+    remote = make_vec_env_from("intersection-v0", KW, 2, 2)
+    try:
+        assert [c.num_cars for c in remote.get_attr("config")] == [3] * 6
+        assert local.get_attr("config") == remote.get_attr("config")
+        local.set_attr("spline_policy", None)
+        with pytest.raises(RuntimeError, match="worker processes"):
+            remote.set_attr("spline_policy", None)
+        assert remote.env_is_wrapped(object) == [False] * 6
+    finally:
+        local.close()
+        remote.close()
+
+
+def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpreter():
+    venv = make_vec_env_from("intersection-v0", KW, 4, 2)
+    procs = list(venv._inner.procs)
+    assert all(p.is_alive() for p in procs)
+    venv.close()
+    assert not any(p.is_alive() for p in procs)
+    script = textwrap.dedent("""
+        from training.vec_env import make_vec_env_from
+        venv = make_vec_env_from("intersection-v0", {"num_cars": 2}, 2, 2)
+        venv.seed(0); venv.reset()
+        print("done")
+    """)
+    run = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and "done" in run.stdout, run.stderr
+
+
+def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
+    from training.trainer import TrainConfig, train
+
+    def cfg(num_cpus, timesteps=160):
+        return TrainConfig(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=timesteps, n_envs=2,
+                           batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=1, threads=1,
+                           num_cpus=num_cpus, device="cpu")
+
+    train(cfg(0), tmp_path / "local")
+    train(cfg(2), tmp_path / "workers")
+    a = json.loads((tmp_path / "local" / "state.json").read_text())
+    b = json.loads((tmp_path / "workers" / "state.json").read_text())
+    assert a["agent_steps"] == b["agent_steps"]  # the same episodes, so the same live cars
+    from training.checkpoint import read_checkpoint
+    wa, wb = read_checkpoint(tmp_path / "local").policy, read_checkpoint(tmp_path / "workers").policy
+    assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)  # the same learning
+    train(cfg(2, timesteps=320), tmp_path / "workers", resume=True)
+    assert json.loads((tmp_path / "workers" / "state.json").read_text())["decisions"] == 320
