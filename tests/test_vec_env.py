@@ -159,3 +159,19 @@ def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
     assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)  # the same learning
     train(cfg(2, timesteps=320), tmp_path / "workers", resume=True)
     assert json.loads((tmp_path / "workers" / "state.json").read_text())["decisions"] == 320
+
+
+def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
+    from box2d_driving.bench import main as bench
+
+    out = tmp_path / "train.json"
+    assert bench(["--train", "--cars", "2", "--n-envs", "2", "--batch-decisions", "160", "--warmup", "1",
+                  "--updates", "1", "--num-cpus", "0", "2", "--devices", "cpu", "--json", str(out)]) == 0
+    assert "| env workers | device |" in capsys.readouterr().out
+    rows = json.loads(out.read_text())["rows"]
+    assert [r["num_cpus"] for r in rows] == [0, 2]
+    for r in rows:
+        assert r["agent_steps"] > 0 and r["agent_steps_per_s"] > 0
+        assert abs(r["env_share"] + r["inference_share"] + r["update_share"] - 1.0) < 0.05
+    with pytest.raises(SystemExit):  # never replaces a table
+        bench(["--train", "--json", str(out)])

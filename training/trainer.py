@@ -209,7 +209,9 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
 
 class RolloutMetrics(BaseCallback):
     """Per update: success, collision and red-light violation rates of the episodes that ended,
-    agent-steps (padding excluded), throughput; logged to CSV/TensorBoard; progress bar."""
+    agent-steps (padding excluded), throughput (``time/agent_steps_per_s`` includes the PPO update
+    before the rollout, ``time/rollout_agent_steps_per_s`` is collection only); logged to
+    CSV/TensorBoard; progress bar."""
 
     def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
                  checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True,
@@ -230,7 +232,7 @@ class RolloutMetrics(BaseCallback):
         n = self.training_env.num_envs
         self.prev_light = np.full(n, 0.75)
         self.prev_inside = np.zeros(n, dtype=bool)
-        self.t0 = time.perf_counter()
+        self.t0 = self.prev_rollout_end = time.perf_counter()
         self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
                         dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0,
                         disable=not self.show_bar)
@@ -262,6 +264,7 @@ class RolloutMetrics(BaseCallback):
         return self.wall < self.max_seconds and not (self.stop is not None and self.stop.requested)
 
     def _on_rollout_end(self) -> None:
+        now = time.perf_counter()
         self.agent_steps += self.rollout_agent_steps
         v = violation_rate(np.array(self.entry_lights))
         cars = max(self.done_cars, 1)
@@ -275,8 +278,12 @@ class RolloutMetrics(BaseCallback):
             "rollout/cars_done": self.done_cars,
             "time/agent_steps": self.agent_steps,
             "time/wall_s": self.wall,
-            "time/agent_steps_per_s": self.rollout_agent_steps / max(time.perf_counter() - self.rollout_t0, 1e-9),
+            # with the PPO update before this rollout: what training runs at
+            "time/agent_steps_per_s": self.rollout_agent_steps / max(now - self.prev_rollout_end, 1e-9),
+            # collecting the rollout only (env stepping and inference, no update)
+            "time/rollout_agent_steps_per_s": self.rollout_agent_steps / max(now - self.rollout_t0, 1e-9),
         }
+        self.prev_rollout_end = now
         buf = self.model.rollout_buffer
         if isinstance(buf, MaskedRolloutBuffer):  # SB3's own figure includes the padding
             live = buf.mask
