@@ -25,7 +25,6 @@ Output folder::
 from __future__ import annotations
 
 import csv
-import dataclasses
 import json
 import math
 import shutil
@@ -47,10 +46,10 @@ from box2d_driving.outputs import GracefulStop
 from training.bandit import SplineBanditVecEnv
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
-from training.trainer import (RolloutMetrics, RunError, TrainConfig, _append_logger, build_model,
-                              check_same_run, load_weights, make_vec_env, resolve_device, resumed_config,
-                              torch_threads,
-                              set_minibatching, write_json_atomic)
+from training.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
+                              write_config, write_json_atomic)
+from training.trainer import (RolloutMetrics, TrainConfig, build_model, load_weights, make_vec_env,
+                              resolve_device, resumed_config, set_minibatching, torch_threads)
 
 
 @dataclass
@@ -149,25 +148,18 @@ class BanditStats(BaseCallback):
 
 def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
     if resume:
-        for need in ("config.json", "state.json", f"accel/{FILE}", f"spline/{FILE}"):
-            if not (out / need).exists():
-                legacy = out / need.replace(FILE, "model.zip")
-                if legacy != out / need and legacy.exists():
-                    raise RunError(f"--resume: {out / need} is missing and {legacy} is a pickled "
-                                   f"SB3 file; convert it first (box2d-driving convert-checkpoint)")
-                raise RunError(f"--resume: {out / need} is missing")
+        check_resumable(out, ("config.json", "state.json", f"accel/{FILE}", f"spline/{FILE}"))
         check_same_run(json.loads((out / "config.json").read_text())["accel"], config.accel)
         return
-    if out.exists() and any(out.iterdir()):
-        raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+    check_new(out)
 
 
 def start_run_dir(out: Path, config: BilevelConfig) -> None:
     """Create a new run's folders and configs (after every check has passed)."""
     (out / "accel").mkdir(parents=True, exist_ok=True)
     (out / "spline").mkdir(exist_ok=True)
-    (out / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2))
-    (out / "accel" / "config.json").write_text(json.dumps(dataclasses.asdict(config.accel), indent=2))
+    write_config(out / "config.json", config)
+    write_config(out / "accel" / "config.json", config.accel)
 
 
 def make_bandit(config: BilevelConfig, accel_model: PPO) -> SplineBanditVecEnv:
@@ -237,8 +229,8 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
             restore_model(spline, read_checkpoint(out / "spline"))
         except CheckpointError as exc:
             raise RunError(f"--resume: {exc}") from None
-        accel.set_logger(_append_logger(out / "accel", accel.num_timesteps))
-        spline.set_logger(_append_logger(out / "spline", spline.num_timesteps))
+        accel.set_logger(append_logger(out / "accel", accel.num_timesteps))
+        spline.set_logger(append_logger(out / "spline", spline.num_timesteps))
     else:
         accel = build_model(acfg, accel_venv)
         if acfg.init_from:

@@ -37,12 +37,14 @@ from stable_baselines3.common.utils import explained_variance
 import box2d_driving
 from box2d_driving.metrics.lights import violation_rate
 from training.buffer import MaskedRolloutBuffer
-from training.checkpoint import (FILE, CheckpointError, find_checkpoint, read_checkpoint,
+from training.checkpoint import (FILE, CheckpointError, read_checkpoint,
                                  restore_model, save_model)
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
 from training.policy import CRITICS, CTDEPolicy, policy_kwargs_for
+from training.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
+                              write_config, write_json_atomic)
 from training.vec_env import SlotVecEnv, make_vec_env_from
 from training.weights import WeightsError, source_fields, widen_state_dict
 
@@ -146,45 +148,22 @@ def torch_threads(config: "TrainConfig") -> int:
     return max(1, (os.cpu_count() or 1) - config.num_cpus)
 
 
-class RunError(RuntimeError):
-    """A run folder cannot be used as asked (exists, missing, incompatible)."""
-
-
 def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
     """Check ``out`` for a new run (absent or empty) or for ``--resume``; writes nothing (a new
     run's folder is created by :func:`start_run_dir` once its model is built)."""
     if resume:
         if not (out / "config.json").exists():
             raise RunError(f"--resume: no checkpoint in {out} ({FILE}, config.json and state.json needed)")
-        try:
-            find_checkpoint(out)
-        except CheckpointError as exc:
-            raise RunError(f"--resume: {exc}") from None
-        if not (out / "state.json").exists():
-            raise RunError(f"--resume: {out / 'state.json'} is missing (training time and agent-steps so far)")
+        check_resumable(out, ("config.json", FILE, "state.json"))
         check_same_run(json.loads((out / "config.json").read_text()), config)
         return
-    if out.exists() and any(out.iterdir()):
-        raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+    check_new(out)
 
 
 def start_run_dir(out: Path, config: TrainConfig) -> None:
     """Create a new run's folder and its ``config.json`` (after every check has passed)."""
     out.mkdir(parents=True, exist_ok=True)
     write_config(out / "config.json", config)
-
-
-def write_config(path: Path, config: TrainConfig) -> None:
-    """The full config as JSON (``config.json``, and ``config.resumed_*.json`` on each resume)."""
-    path.write_text(json.dumps(dataclasses.asdict(config), indent=2))
-
-
-def check_same_run(saved: dict, config: TrainConfig) -> None:
-    """Refuse to resume a checkpoint (its saved TrainConfig as a dict) under another env or critic."""
-    for key in ("env_id", "env_overrides", "critic"):
-        if saved[key] != json.loads(json.dumps(getattr(config, key))):
-            raise RunError(f"--resume: {key} differs from the checkpoint's "
-                           f"({saved[key]!r} vs {getattr(config, key)!r})")
 
 
 def make_vec_env(config: TrainConfig) -> SlotVecEnv:
@@ -325,12 +304,6 @@ def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> P
     return path
 
 
-def write_json_atomic(path: Path, data: Any) -> None:
-    tmp = path.with_name(path.name + ".partial")
-    tmp.write_text(json.dumps(data, indent=2))
-    tmp.replace(path)
-
-
 def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
     bonus and the number of env instances given now."""
@@ -401,7 +374,7 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     else:
         start_run_dir(out, config)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
-                     _append_logger(out, model.num_timesteps))
+                     append_logger(out, model.num_timesteps))
     stop = GracefulStop()
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
                               max_seconds, stop=stop)
@@ -443,12 +416,3 @@ def load_weights(model: PPO, checkpoint: Path) -> None:
                            f"(e.g. {bad[0]}: {tuple(theirs[bad[0]].shape)} vs {tuple(mine[bad[0]].shape)}; "
                            f"{exc})") from None
     model.policy.load_state_dict(theirs)
-
-
-def _append_logger(out: Path, decisions: int):
-    """On resume, log to a new CSV named after the decision it resumes from (earlier logs are
-    kept) and to the same TensorBoard folder."""
-    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
-
-    csv = CSVOutputFormat(str(out / f"progress.resumed_{decisions:012d}.csv"))
-    return Logger(str(out), [csv, TensorBoardOutputFormat(str(out))])

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from box2d_driving.config import ConfigError, accel_levels, require
+from box2d_driving.config import accel_levels, require
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
 from box2d_driving.road.geometry import wrap_angle

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from box2d_driving.config import ConfigError, DrivingConfig, accel_levels, require
+from box2d_driving.config import DrivingConfig, accel_levels, require
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from box2d_driving.config import ConfigError, require
+from box2d_driving.config import require
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
 from box2d_driving.envs.spline import SplineStageMixin
 from box2d_driving.road.geometry import spline_path

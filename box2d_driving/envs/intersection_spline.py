@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from box2d_driving.config import ConfigError, require
+from box2d_driving.config import require
 from box2d_driving.envs.intersection import IntersectionConfig, IntersectionEnv
 from box2d_driving.envs.spline import SplineStageMixin
 from box2d_driving.road.geometry import spline_path
