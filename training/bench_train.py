@@ -156,7 +156,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--num-cpus", type=int, nargs="+", help="worker counts (default 0, 1, 2, 4, ... cores)")
     p.add_argument("--devices", nargs="+", choices=("cpu", "cuda"),
                    help="devices (default: cpu, and cuda when torch sees a GPU)")
-    p.add_argument("--minibatch-by-step", action="store_true", help="minibatches of whole env steps")
+    p.add_argument("--minibatch-by-step", action=argparse.BooleanOptionalAction, default=True,
+                   help="minibatches of whole env steps (default; --no-minibatch-by-step: by transition)")
     p.add_argument("--json", help="also write the table to this JSON file (must not exist)")
     args = p.parse_args(argv)
     if min(args.cars, args.n_envs, args.batch_decisions, args.updates) < 1 or args.warmup < 0:

@@ -26,7 +26,7 @@ class CommonArgs:
     n_envs: env instances simulated side by side
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update
-    minibatch_by_step: minibatches of whole env steps (the critic encodes each step's team once)
+    minibatch_by_step: minibatches of whole env steps: the critic encodes each step's team once, about 1.7x faster training at equal sample efficiency (--no-minibatch-by-step: minibatches of single transitions, the default before)
     threads: torch CPU threads (default: the cores the env workers leave free)
     num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way)
     device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
@@ -48,7 +48,7 @@ class CommonArgs:
     n_envs: int = 16
     batch_decisions: int = 32_000
     epochs: int = 4
-    minibatch_by_step: bool = False
+    minibatch_by_step: bool = True
     threads: Optional[int] = None
     num_cpus: int = 0
     device: str = "auto"

@@ -65,7 +65,8 @@ class TrainConfig:
         epochs: PPO epochs per update.
         minibatch_by_step: draw minibatches by env step (all live cars of an instance at one step
             together) instead of by single transition, so the centralised critic encodes each
-            step's team once instead of once per car (see ``training/buffer.py``).
+            step's team once instead of once per car (see ``training/buffer.py``). The default
+            since it trained the 4-car lights policy as well per sample, 1.7x faster (docs/benchmarks.md).
         learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
         ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
@@ -88,7 +89,7 @@ class TrainConfig:
     batch_decisions: int = 32_000
     minibatch: int = 4_000
     epochs: int = 4
-    minibatch_by_step: bool = False
+    minibatch_by_step: bool = True
     learning_rate: float = 1e-3
     gamma: float = 0.99
     gae_lambda: float = 0.97
@@ -308,6 +309,7 @@ def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
     bonus and the number of env instances given now."""
     saved = json.loads((out / "config.json").read_text())
+    saved.setdefault("minibatch_by_step", False)  # runs from before it was the default
     known = {f.name for f in dataclasses.fields(TrainConfig)}
     first = TrainConfig(**{k: v for k, v in saved.items() if k in known})
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
