@@ -309,7 +309,6 @@ def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
     bonus and the number of env instances given now."""
     saved = json.loads((out / "config.json").read_text())
-    saved.setdefault("minibatch_by_step", False)  # runs from before it was the default
     known = {f.name for f in dataclasses.fields(TrainConfig)}
     first = TrainConfig(**{k: v for k, v in saved.items() if k in known})
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
