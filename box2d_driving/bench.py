@@ -1,4 +1,4 @@
-"""World speed benchmark (SPEC 7): agent-steps per second on the intersection.
+"""World speed benchmark: agent-steps per second on the intersection.
 
 One agent-step is one decision of one car with the paper's settings (1 s decision = 10 physics
 steps of 0.1 s, 100 LiDAR rays, 5-frame history), random actions, one process, no rendering,

@@ -145,6 +145,7 @@ def _map_output_arguments(p: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="box2d-driving",
                      description="Multi-agent Box2D driving worlds in which road rules emerge.")
+    parser.add_argument("--version", action="version", version=f"box2d-driving {box2d_driving.__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("list", help="list the registered scenarios").set_defaults(func=_list)
 
@@ -218,7 +219,12 @@ def _delegate(argv: list[str]) -> int:
         print(f"box2d-driving: error: {argv[0]} needs the train extra "
               f"(pip install -c constraints-cpu.txt -e \".[train]\"): {exc}", file=sys.stderr)
         return 2
-    return script.main(rest)
+    # usage lines and error prefixes name the command the user typed, not the script's file
+    saved, sys.argv[0] = sys.argv[0], "box2d-driving " + " ".join(argv[:1] if argv[0] != "train" else argv[:2])
+    try:
+        return script.main(rest)
+    finally:
+        sys.argv[0] = saved
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -83,3 +83,15 @@ def test_train_help_and_unknown_behaviour(capsys):
     assert "lights" in capsys.readouterr().out
     assert cli(["train", "flying"]) == 2
     assert "flying" in capsys.readouterr().err
+
+
+def test_cli_version_and_subcommand_usage_lines(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli(["--version"])
+    assert exc.value.code == 0 and box2d_driving.__version__ in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        cli(["train", "lights", "--help"])
+    out = capsys.readouterr().out
+    assert exc.value.code == 0 and out.startswith("usage: box2d-driving train lights")
+    assert all(line.count("(default") <= 1 for line in out.split("--"))  # said once per option
+    assert "SPEC" not in out

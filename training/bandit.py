@@ -1,4 +1,4 @@
-"""The spline stage as a one-step env (SPEC 5, "spline stage as a one-step bandit").
+"""The spline stage as a one-step env (the paper's bilevel scheme: the spline stage as a one-step bandit).
 
 :class:`SplineBanditVecEnv` has one slot per car of ``len(env_fns)`` spline-env instances. Its
 observation is each car's stage-0 observation; ``step(actions)`` builds the paths those actions

@@ -28,7 +28,8 @@ def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str =
         flag = "--" + f.name.replace("_", "-")
         kind = hints[f.name]
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-        help_text = f"{docs.get(f.name, '')} (default: {default})"
+        doc = docs.get(f.name, "")
+        help_text = doc if "default" in doc else f"{doc} (default: {default})"
         if kind is bool or kind == Optional[bool]:  # Optional: None when neither flag is given
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=default, help=help_text)
         else:

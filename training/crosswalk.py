@@ -1,4 +1,4 @@
-"""Pedestrians: cars learn to slow down at the crosswalk (SPEC 6.7) on ``crosswalk-v0``.
+"""Pedestrians: cars learn to slow down at the crosswalk on ``crosswalk-v0``.
 
     python training/crosswalk.py --timesteps 3000000 --out runs/crosswalk
     python training/crosswalk.py --quick --out runs/crosswalk_quick

@@ -1,4 +1,4 @@
-"""Evaluate a checkpoint (or a scripted policy): rollouts, SPEC 6.1 metrics, plots, a video.
+"""Evaluate a checkpoint (or a scripted policy): rollouts, the rule metrics (docs/), plots, a video.
 
     python training/evaluate.py --checkpoint runs/lights4 --episodes 200 --out runs/lights4/eval
     python training/evaluate.py --checkpoint rule --episodes 200 --out runs/rule_eval

@@ -1,4 +1,4 @@
-"""Fast lanes emerge on the highway (SPEC 6.5): bilevel training on ``highway-spline-v0``.
+"""Fast lanes emerge on the highway: bilevel training on ``highway-spline-v0``.
 
 Each car sees its acceleration rating, picks a lateral target, then drives; the paper: faster
 cars settle on one side.

@@ -1,4 +1,4 @@
-"""Lanes emerge at the junction (SPEC 6.2): bilevel training on ``intersection-spline-v0``.
+"""Lanes emerge at the junction: bilevel training on ``intersection-spline-v0``.
 
 Each car first picks its path (216 offsets of its route's three waypoints), then drives it; lanes
 are never given. The paper: with 8 cars and noisy LiDAR, cars settle on one side.

@@ -1,4 +1,4 @@
-"""The paper's actor and centralised critic as an SB3 policy (SPEC 5).
+"""The paper's actor and centralised critic as an SB3 policy (docs/training.md).
 
 * Actor: LiDAR history ``(H, n_rays)`` -> two circular 1-D convolutions -> average pool to 25
   features; concatenated with the sat-nav history; MLP [256, 256] tanh -> action logits. It reads

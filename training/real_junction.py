@@ -1,4 +1,4 @@
-"""Right of way, turn signals and safe following distance on real junctions (SPEC 6.3, 6.4, 6.6):
+"""Right of way, turn signals and safe following distance on real junctions:
 train cars on ``real-junction-v0`` (the shipped Helsinki junctions, one sampled per episode).
 
     python training/real_junction.py --num-cars 8 --timesteps 3000000 --out runs/real_junction
@@ -28,7 +28,7 @@ class Args(ScriptArgs):
     """Train cars through real junctions on real-junction-v0.
 
     communication: each car also sends one bit per decision (the turn-signal option)
-    comm_fallback: with communication, what a car hearing no other car receives: zero (SPEC) or own (its own last bit)
+    comm_fallback: with communication, what a car hearing no other car receives: zero (the default) or own (its own last bit)
     map: one shipped map name or a map JSON file (default: all shipped maps, one per episode)
     """
 

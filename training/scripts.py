@@ -34,7 +34,7 @@ class CommonArgs:
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     horizon: episode horizon in decisions (default: the scenario's)
     collision_reward: reward on a car's first collision (default: the scenario's, -1 as in the paper)
-    remove_collided: take a collided car out of the world instead of leaving it as a wreck (SPEC 2 option)
+    remove_collided: take a collided car out of the world instead of leaving it as a wreck
     """
 
     num_cars: int = 4

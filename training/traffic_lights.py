@@ -1,4 +1,4 @@
-"""Traffic lights emerge at the junction (SPEC 6.1): train cars on ``intersection-v0``.
+"""Traffic lights emerge at the junction: train cars on ``intersection-v0``.
 
     python training/traffic_lights.py --num-cars 4 --timesteps 3000000 --out runs/lights4
     python training/traffic_lights.py --quick --out runs/quick        # a real, short run
