@@ -16,6 +16,7 @@ import pytest
 th = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
+from tests.helpers import tiny_train_config  # noqa: E402
 from training.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
 from training.inference import load_policy  # noqa: E402
 from training.trainer import RunError, TrainConfig, build_model, load_ppo, make_vec_env, train  # noqa: E402
@@ -32,10 +33,7 @@ class _Payload:
 
 
 def _tiny(**kw) -> TrainConfig:
-    base = dict(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=160, n_envs=2,
-                batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=1, threads=1)
-    base.update(kw)
-    return TrainConfig(**base)
+    return tiny_train_config(**{"timesteps": 160, "checkpoint_every": 1, **kw})
 
 
 @pytest.fixture(scope="module")

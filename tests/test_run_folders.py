@@ -20,16 +20,14 @@ pytest.importorskip("stable_baselines3")
 import box2d_driving  # noqa: E402
 from box2d_driving.policies import make_policy  # noqa: E402
 from box2d_driving.render.video import record  # noqa: E402
+from tests.helpers import tiny_train_config  # noqa: E402
 from training.trainer import RunError, TrainConfig, train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _tiny(**kw) -> TrainConfig:
-    base = dict(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=160, n_envs=2,
-                batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=2, threads=1)
-    base.update(kw)
-    return TrainConfig(**base)
+    return tiny_train_config(**{"timesteps": 160, **kw})
 
 
 def test_a_run_that_fails_its_checks_writes_nothing(tmp_path):

@@ -15,7 +15,7 @@ from training.inference import load_policy  # noqa: E402
 from training.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
 from training.trainer import RunError, TrainConfig, build_model, train  # noqa: E402
 from training.vec_env import SlotVecEnv  # noqa: E402
-from tests.helpers import hand_env, level_index, straight_car  # noqa: E402
+from tests.helpers import hand_env, level_index, straight_car, tiny_train_config  # noqa: E402
 
 
 def _two_car_env():
@@ -221,11 +221,7 @@ def test_model_save_load_round_trip(tmp_path):
             assert th.equal(value, theirs["state"][idx][name]), (idx, name)
 
 
-def _tiny(**kw):
-    base = dict(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=320, n_envs=2,
-                batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=2, threads=1)
-    base.update(kw)
-    return TrainConfig(**base)
+_tiny = tiny_train_config
 
 
 def test_train_writes_checkpoints_logs_and_resumes(tmp_path):

@@ -142,12 +142,11 @@ def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpre
 
 
 def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
-    from training.trainer import TrainConfig, train
+    from tests.helpers import tiny_train_config
+    from training.trainer import train
 
     def cfg(num_cpus, timesteps=160):
-        return TrainConfig(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=timesteps, n_envs=2,
-                           batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=1, threads=1,
-                           num_cpus=num_cpus, device="cpu")
+        return tiny_train_config(timesteps=timesteps, checkpoint_every=1, num_cpus=num_cpus, device="cpu")
 
     train(cfg(0), tmp_path / "local")
     train(cfg(2), tmp_path / "workers")

@@ -210,10 +210,6 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
 
     out = Path(out)
     config.validate()
-    try:  # a bad env setting is found before anything is written
-        box2d_driving.make(config.accel.env_id, **config.accel.env_overrides).close()
-    except ConfigError as exc:
-        raise ConfigError(f"env_overrides: {exc}") from None
     prepare_run_dir(out, resume, config)
     acfg = config.accel
     th.set_num_threads(torch_threads(acfg))

@@ -87,7 +87,7 @@ def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPo
         policy.attach_spline(_load_spline_policy(path))
         return policy
     ckpt = read_checkpoint(path)
-    config_path = _find_config(ckpt.path)
+    config_path = find_config(ckpt.path)
     config = _read_json(config_path)
     net = build_ctde_policy(config, config_path)
     load_policy_weights(net, ckpt)
@@ -141,7 +141,7 @@ def _read_json(path: Path) -> dict:
     return data
 
 
-def _find_config(model_path: Path) -> Path:
+def find_config(model_path: Path) -> Path:
     for folder in (model_path.parent, model_path.parent.parent):
         if (folder / "config.json").exists():
             return folder / "config.json"

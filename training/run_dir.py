@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 from typing import Any, Iterable
 
-from training.checkpoint import FILE, LEGACY_FILE
+from training.checkpoint import FILE, LEGACY_FILE, legacy_message
 
 
 class RunError(RuntimeError):
@@ -35,9 +35,7 @@ def check_resumable(out: Path, needed: Iterable[str]) -> None:
             continue
         legacy = out / need.replace(FILE, LEGACY_FILE)
         if legacy != out / need and legacy.exists():
-            raise RunError(f"--resume: {out / need} is missing and {legacy} is a pickled SB3 file, "
-                           f"which is never loaded; if it is your own, convert it first: "
-                           f"box2d-driving convert-checkpoint {legacy.parent} --trust-pickle")
+            raise RunError(f"--resume: {legacy_message(legacy)}")
         raise RunError(f"--resume: {out / need} is missing (a run folder needs {', '.join(needed)})")
 
 

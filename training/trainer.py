@@ -34,11 +34,10 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.utils import explained_variance
 
-import box2d_driving
 from box2d_driving.metrics.lights import violation_rate
 from training.buffer import MaskedRolloutBuffer
-from training.checkpoint import (FILE, CheckpointError, read_checkpoint,
-                                 restore_model, save_model)
+from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
+from training.inference import find_config
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
@@ -305,12 +304,18 @@ def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> P
     return path
 
 
+def read_train_config(path: Path) -> TrainConfig:
+    """A saved ``config.json`` as a :class:`TrainConfig` (fields a later release added take their
+    defaults; fields it dropped are ignored)."""
+    saved = json.loads(Path(path).read_text())
+    known = {f.name for f in dataclasses.fields(TrainConfig)}
+    return TrainConfig(**{k: v for k, v in saved.items() if k in known})
+
+
 def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
     bonus and the number of env instances given now."""
-    saved = json.loads((out / "config.json").read_text())
-    known = {f.name for f in dataclasses.fields(TrainConfig)}
-    first = TrainConfig(**{k: v for k, v in saved.items() if k in known})
+    first = read_train_config(out / "config.json")
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
                                threads=config.threads, num_cpus=config.num_cpus, device=config.device)
 
@@ -320,14 +325,8 @@ def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
     ``config.json``): the model is built from the config and the weights, and where saved the
     optimiser state and counters, are copied in; nothing is unpickled. ``env`` defaults to the
     run's own :class:`SlotVecEnv`. The result can ``predict``, ``learn`` or ``save`` as any PPO."""
-    run = Path(run)
-    ckpt = read_checkpoint(run)
-    cfg_path = ckpt.path.parent / "config.json"
-    if not cfg_path.exists():
-        raise CheckpointError(f"no config.json beside {ckpt.path}: cannot rebuild the model")
-    saved = json.loads(cfg_path.read_text())
-    known = {f.name for f in dataclasses.fields(TrainConfig)}
-    config = TrainConfig(**{k: v for k, v in saved.items() if k in known})
+    ckpt = read_checkpoint(Path(run))
+    config = read_train_config(find_config(ckpt.path))
     model = build_model(config, env if env is not None else make_vec_env(config))
     restore_model(model, ckpt, optimizer=ckpt.optimizer is not None)
     return model
@@ -339,14 +338,10 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
     config.validate()
     if config.timesteps < 1:
         raise ConfigError(f"TrainConfig: timesteps must be >= 1, got {config.timesteps}")
-    try:  # a bad env setting is found before anything is written
-        box2d_driving.make(config.env_id, **config.env_overrides).close()
-    except ConfigError as exc:
-        raise ConfigError(f"env_overrides: {exc}") from None
     prepare_run_dir(out, resume, config)
     resolve_device(config.device)  # a missing GPU is found before anything is written
     th.set_num_threads(torch_threads(config))
-    venv = make_vec_env(config)
+    venv = make_vec_env(config)  # bad env overrides raise here, still before anything is written
     wall, agent_steps = 0.0, 0
     if resume:
         model = build_model(resumed_config(out, config), venv)

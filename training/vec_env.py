@@ -188,7 +188,7 @@ class InstanceSlots(gym.vector.VectorEnv):
         return [False] * self.n_cars
 
 
-class SlotVecEnv(VecEnv):
+class SlotVecEnv(CarSlots, VecEnv):
     """``len(env_fns) * num_cars`` slots over parameter-shared driving envs, as an SB3 ``VecEnv``.
 
     Built on SuperSuit: each instance is an :class:`InstanceSlots`, concatenated by SuperSuit's
@@ -221,21 +221,20 @@ class SlotVecEnv(VecEnv):
         self.probe = InstanceSlots(env_fns[0], 0)  # spaces, layout and static attributes
         self.agents, self.n_cars, self.layout = self.probe.agents, self.probe.n_cars, self.probe.layout
         fns = [functools.partial(InstanceSlots, fn, k) for k, fn in enumerate(env_fns)]
+        spaces_ = (self.probe.observation_space, self.probe.action_space)
         if self.num_cpus == 0:
             from supersuit.vector import ConcatVecEnv
 
-            self._inner = ConcatVecEnv(fns, self.probe.observation_space, self.probe.action_space)
+            fns[0] = functools.partial(_same, self.probe)  # in-process, the probe is instance 0
+            self._inner = ConcatVecEnv(fns, *spaces_)
+            if any(list(inst.agents) != self.agents for inst in self._inner.vec_envs):
+                raise ValueError("all env instances must have the same agents")
+        elif self.num_cpus == 1:  # SuperSuit keeps 1 CPU in-process; the user asked for one worker
+            self._inner = _one_worker(fns, self.probe)
         else:
-            # SuperSuit keeps 1 CPU in-process; with --num-cpus 1 the user asked for one worker
-            self._inner = MakeCPUAsyncConstructor(max(self.num_cpus, 2))(
-                fns, self.probe.observation_space, self.probe.action_space) if self.num_cpus > 1 \
-                else _one_worker(fns, self.probe)
-        agents = [list(e.env.possible_agents) for e in self._local_instances()] if self.num_cpus == 0 else []
-        if any(a != self.agents for a in agents):
-            raise ValueError("all env instances must have the same agents")
-        super().__init__(len(env_fns) * self.n_cars, self.probe.observation_space, self.probe.action_space)
+            self._inner = MakeCPUAsyncConstructor(self.num_cpus)(fns, *spaces_)
+        super().__init__(len(env_fns) * self.n_cars, *spaces_)
         self._seed_base: Optional[int] = None
-        self._actions: Optional[np.ndarray] = None
         self._finalizer = weakref.finalize(self, _close_inner, self._inner)
 
     # -- instances ----------------------------------------------------------------------------
@@ -263,8 +262,7 @@ class SlotVecEnv(VecEnv):
         return np.asarray(obs, dtype=np.float32)
 
     def step_async(self, actions: np.ndarray) -> None:
-        self._actions = np.asarray(actions).reshape(self.num_envs)
-        self._inner.step_async(self._actions)
+        self._inner.step_async(np.asarray(actions).reshape(self.num_envs))
 
     def step_wait(self):
         obs, rewards, terms, truncs, infos = self._inner.step_wait()
@@ -277,22 +275,13 @@ class SlotVecEnv(VecEnv):
         self.probe.close()
 
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        if self.num_cpus:
+        if self.num_cpus:  # static attributes: every instance has the probe's
             return [getattr(self.probe.env, attr_name) for _ in self._get_indices(indices)]
-        envs = self.envs
-        return [getattr(envs[i // self.n_cars], attr_name) for i in self._get_indices(indices)]
+        return super().get_attr(attr_name, indices)
 
-    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        envs = self.envs
-        for k in sorted({i // self.n_cars for i in self._get_indices(indices)}):
-            setattr(envs[k], attr_name, value)
 
-    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
-        envs = self.envs
-        return [getattr(envs[i // self.n_cars], method_name)(*args, **kwargs) for i in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]
+def _same(obj: Any) -> Any:
+    return obj
 
 
 def _close_inner(inner: Any) -> None:
