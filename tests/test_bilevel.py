@@ -97,25 +97,54 @@ def test_bilevel_resume_refuses_missing_or_different_runs(tmp_path):
         train_bilevel(other, out, resume=True)
 
 
-def test_bilevel_spline_policy_is_installed_live_in_the_acceleration_envs(tmp_path):
-    """After training, every acceleration-stage env uses the (greedy) spline policy object
-    that was just updated, not a copy."""
-    from training.bilevel import build_spline_model, install_spline_policy, make_bandit
+@pytest.mark.parametrize("env_id", ["intersection-spline-v0", "highway-spline-v0"])
+def test_shared_spline_picker_gives_the_greedy_actions_of_the_latest_weights(env_id):
+    """The acceleration stage's path picker answers what SB3's deterministic predict answers,
+    and follows the spline policy after every ``load`` (the weights live in shared memory)."""
+    import torch
+
+    from training.bilevel import build_spline_model, make_bandit, make_picker
     from training.trainer import build_model, make_vec_env
 
-    cfg = _config()
-    venv = make_vec_env(cfg.accel)
-    accel = build_model(cfg.accel, venv)
-    spline = build_spline_model(cfg, make_bandit(cfg, accel))
-    install_spline_policy(venv, spline)
-    obs0 = np.random.default_rng(0).normal(size=(4, 7)).astype(np.float32)
-    before = venv.envs[0].spline_policy(obs0)
-    with __import__("torch").no_grad():
-        for p in spline.policy.action_net.parameters():
-            p.zero_()
-        spline.policy.action_net.bias[[1, 6 + 4, 12 + 2]] = 100.0  # greedy choices 1, 4, 2
-    assert np.array_equal(venv.envs[1].spline_policy(obs0), np.tile([1, 4, 2], (4, 1)))
-    assert before.shape == (4, 3)
+    cfg = _config(env_id)
+    picker = make_picker(cfg)
+    venv = make_vec_env(cfg.accel, spline_policy=picker)
+    spline = build_spline_model(cfg, make_bandit(cfg, build_model(cfg.accel, venv)))
+    space = venv.envs[0].spline_observation_space
+    rng = np.random.default_rng(0)
+    obs0 = rng.uniform(0, 1, size=(64,) + space.shape).astype(np.float32)
+    for trial in range(3):
+        with torch.no_grad():
+            for p in spline.policy.parameters():
+                p.normal_(0, 2.0 if trial else 0.5)
+        picker.load(spline.policy)
+        expected = spline.policy.predict(obs0, deterministic=True)[0]
+        got = venv.envs[1].spline_policy(obs0)  # the env's picker is the shared one
+        assert got.shape == expected.shape and got.dtype.kind == np.asarray(expected).dtype.kind
+        if env_id == "intersection-spline-v0":
+            assert np.array_equal(got, expected)
+        else:
+            assert np.allclose(got, expected, atol=1e-5) and (np.abs(got) <= 1).all()
+    venv.close()
+
+
+def test_bilevel_with_env_workers_trains_exactly_as_in_process(tmp_path):
+    """With ``num_cpus=2`` the acceleration envs step in worker processes that pick paths from the
+    shared spline weights: same rounds, same weights as in the learner's process."""
+    from training.checkpoint import read_checkpoint
+
+    for name, num_cpus in (("local", 0), ("workers", 2)):
+        cfg = _config(rounds=2)
+        cfg.accel.num_cpus = num_cpus
+        train_bilevel(cfg, tmp_path / name)
+    rows = [list(csv.DictReader((tmp_path / n / "rounds.csv").open())) for n in ("local", "workers")]
+    for a, b in zip(*rows):
+        a.pop("wall_s"), b.pop("wall_s")
+        assert a == b
+    for stage in ("accel", "spline"):
+        wa = read_checkpoint(tmp_path / "local" / stage).policy
+        wb = read_checkpoint(tmp_path / "workers" / stage).policy
+        assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa), stage
 
 
 @pytest.mark.parametrize("script,report", [("lanes", "lane_histogram.png"),

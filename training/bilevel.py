@@ -4,10 +4,12 @@ the acceleration sub-policy (CTDE PPO) on a spline scenario.
 Each round: (1) ``spline_updates_per_round`` times, collect ``spline_samples`` car samples on
 :class:`SplineBanditVecEnv` with the acceleration policy greedy and make one single-step PPO
 update of the spline policy; (2) collect
-``accel_updates_per_round * batch_decisions`` slot-decisions on the :class:`SlotVecEnv` with the
-spline policy greedy (installed as each env's ``spline_policy``), as many PPO updates of the
-acceleration policy and its centralised critic. Both hooks call the live policy objects, so the
-frozen side is always the latest one. Learning rates and clip ranges are constants: SB3 restarts
+``accel_updates_per_round * batch_decisions`` slot-decisions on the :class:`SlotVecEnv` (in the
+learner's process or ``--num-cpus`` workers) with the spline policy greedy (each env's
+``spline_policy`` is a :class:`~training.shared_policy.SharedSplinePicker`, whose shared weights
+are refreshed after every spline update), as many PPO updates of the acceleration policy and its
+centralised critic. The bandit calls the live acceleration policy, so the frozen side is always
+the latest one; the bandit's envs step in the learner's process. Learning rates and clip ranges are constants: SB3 restarts
 its progress schedule at every ``learn(reset_num_timesteps=False)`` call, which would otherwise
 reset annealed values each round. No observation normalisation is used.
 
@@ -46,6 +48,7 @@ from box2d_driving.outputs import GracefulStop
 from training.bandit import SplineBanditVecEnv
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
+from training.shared_policy import SharedSplinePicker
 from training.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
                               write_config, write_json_atomic)
 from training.trainer import (RolloutMetrics, TrainConfig, build_model, load_weights, make_vec_env,
@@ -98,10 +101,6 @@ class BilevelConfig:
         if not isinstance(self.accel, TrainConfig):
             raise ConfigError(f"BilevelConfig: accel must be a TrainConfig, got {type(self.accel).__name__}")
         self.accel.validate()
-        if self.accel.num_cpus:
-            raise ConfigError("BilevelConfig: bilevel training steps its envs in the learner's process "
-                              f"(--num-cpus 0): the live spline policy picks each episode's paths there "
-                              f"(got num_cpus={self.accel.num_cpus})")
         coerce_fields(self, ConfigError, skip=("accel",))
         check_bounds(self, {
             "rounds": (1, None), "spline_samples": (1, None), "spline_updates_per_round": (1, None),
@@ -186,11 +185,14 @@ def build_spline_model(config: BilevelConfig, bandit: SplineBanditVecEnv) -> PPO
     )
 
 
-def install_spline_policy(accel_venv, spline_model: PPO) -> None:
-    """Every acceleration-stage env picks its paths with the live spline policy, greedily."""
-    def choose(obs0: np.ndarray) -> np.ndarray:
-        return spline_model.policy.predict(obs0, deterministic=True)[0]
-    accel_venv.set_attr("spline_policy", choose)
+def make_picker(config: BilevelConfig) -> SharedSplinePicker:
+    """The acceleration stage's path picker (greedy spline policy), shared with env workers."""
+    acfg = config.accel
+    env = box2d_driving.make(acfg.env_id, **acfg.env_overrides)
+    try:
+        return SharedSplinePicker(env.spline_observation_space, env.spline_action_space, config.spline_hidden)
+    finally:
+        env.close()
 
 
 def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> None:
@@ -213,7 +215,8 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
     prepare_run_dir(out, resume, config)
     acfg = config.accel
     th.set_num_threads(torch_threads(acfg))
-    accel_venv = make_vec_env(acfg)
+    picker = make_picker(config)  # every acceleration-stage episode's paths, greedily
+    accel_venv = make_vec_env(acfg, spline_policy=picker)
     state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}
     if resume:
         state = json.loads((out / "state.json").read_text())
@@ -247,7 +250,7 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
     set_minibatching(accel, acfg, accel_venv.n_cars)
     accel_venv.seed(acfg.seed + 1000 * state["round"])
     bandit.seed(acfg.seed + 10**6 + 1000 * state["round"])
-    install_spline_policy(accel_venv, spline)
+    picker.load(spline.policy)
 
     max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
     rounds_csv = out / "rounds.csv"
@@ -265,6 +268,7 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
             stats = BanditStats()
             spline.learn(config.spline_updates_per_round * spline.n_steps * bandit.num_envs,
                          callback=stats, reset_num_timesteps=False)
+            picker.load(spline.policy)  # the acceleration stage drives the latest paths
             metrics = RolloutMetrics(out / "accel", math.inf, state["wall_s"], state["agent_steps"],
                                      checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False,
                                      stop=stop)

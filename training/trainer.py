@@ -166,9 +166,10 @@ def start_run_dir(out: Path, config: TrainConfig) -> None:
     write_config(out / "config.json", config)
 
 
-def make_vec_env(config: TrainConfig) -> SlotVecEnv:
-    """The run's slot vector env: ``n_envs`` instances over ``num_cpus`` worker processes."""
-    return make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus)
+def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
+    """The run's slot vector env: ``n_envs`` instances over ``num_cpus`` worker processes
+    (``spline_policy``: the path picker of spline scenarios, as in ``make_vec_env_from``)."""
+    return make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy)
 
 
 def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:

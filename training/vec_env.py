@@ -298,16 +298,22 @@ def _one_worker(fns: list, probe: InstanceSlots) -> Any:
                          len(fns) * probe.n_cars, probe.metadata)
 
 
-def make_vec_env_from(env_id: str, overrides: dict, n_envs: int, num_cpus: int = 0) -> SlotVecEnv:
+def make_vec_env_from(env_id: str, overrides: dict, n_envs: int, num_cpus: int = 0,
+                      spline_policy: Optional[Callable[[np.ndarray], np.ndarray]] = None) -> SlotVecEnv:
     """``n_envs`` instances of a registered env as one :class:`SlotVecEnv` (module-level factory:
-    worker processes receive it pickled)."""
-    return SlotVecEnv([functools.partial(_make_env, env_id, overrides) for _ in range(n_envs)], num_cpus)
+    worker processes receive it pickled). ``spline_policy`` becomes every spline scenario
+    instance's path picker; with workers it must be callable there (see ``training.shared_policy``)."""
+    factory = functools.partial(_make_env, env_id, overrides, spline_policy)
+    return SlotVecEnv([factory] * n_envs, num_cpus)
 
 
-def _make_env(env_id: str, overrides: dict) -> Any:
+def _make_env(env_id: str, overrides: dict, spline_policy: Any = None) -> Any:
     import box2d_driving
 
-    return box2d_driving.make(env_id, **overrides)
+    env = box2d_driving.make(env_id, **overrides)
+    if spline_policy is not None:
+        env.spline_policy = spline_policy
+    return env
 
 
 def make_slot_vec_env(env_id: str, n_envs: int, num_cpus: int = 0, **overrides: Any) -> SlotVecEnv:
