@@ -33,7 +33,7 @@ import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 import torch as th
@@ -48,6 +48,7 @@ from box2d_driving.outputs import GracefulStop
 from training.bandit import SplineBanditVecEnv
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import actor_actions
+from training.seeds import check_training_seeds
 from training.shared_policy import SharedSplinePicker
 from training.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
                               write_config, write_json_atomic)
@@ -103,7 +104,7 @@ class BilevelConfig:
         self.accel.validate()
         coerce_fields(self, ConfigError, skip=("accel",))
         check_bounds(self, {
-            "rounds": (1, None), "spline_samples": (1, None), "spline_updates_per_round": (1, None),
+            "rounds": (1, 100_000), "spline_samples": (1, None), "spline_updates_per_round": (1, None),
             "accel_updates_per_round": (1, None), "spline_n_envs": (1, 4096), "spline_learning_rate": (0, None),
             "spline_epochs": (1, 1000), "spline_minibatch": (1, None), "spline_ent_coef": (0, None),
             "spline_clip_range": (0, None), "checkpoint_every": (1, None), "max_minutes": (0, None),
@@ -206,8 +207,10 @@ def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> N
             shutil.copyfile(out / stage / FILE, ck / f"round_{state['round']:04d}_{stage}.safetensors")
 
 
-def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dict[str, Any]:
-    """Run (or continue) the alternation in ``out``; returns the last round's row."""
+def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
+                  on_checkpoint: Optional[Callable[[dict], None]] = None) -> dict[str, Any]:
+    """Run (or continue) the alternation in ``out``; returns the last round's row.
+    ``on_checkpoint(row)`` is called after every round is saved."""
     from tqdm import tqdm
 
     out = Path(out)
@@ -249,7 +252,9 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
         spline.set_logger(configure(str(out / "spline"), ["csv"]))
     set_minibatching(accel, acfg, accel_venv.n_cars)
     accel_venv.seed(acfg.seed + 1000 * state["round"])
-    bandit.seed(acfg.seed + 10**6 + 1000 * state["round"])
+    bandit_seed = acfg.seed + 10**6 + 1000 * state["round"]
+    check_training_seeds(bandit_seed, bandit.num_envs)
+    bandit.seed(bandit_seed)
     picker.load(spline.policy)
 
     max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
@@ -289,6 +294,8 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False) -> dic
             writer.writerow(row)
             fh.flush()
             save_round(out, accel, spline, state, keep=state["round"] % config.checkpoint_every == 0)
+            if on_checkpoint is not None:
+                on_checkpoint(dict(row))
             bar.update(1)
             bar.set_postfix(ret=f"{row['bandit_return']:.2f}", right=f"{row['right_share']:.2f}",
                             success=f"{row['accel_success']:.2f}", refresh=False)

@@ -19,6 +19,8 @@ if __package__ in (None, ""):  # run as a script: make the repository importable
 
 from training.scripts import ScriptArgs, run_script  # noqa: E402
 
+ENV_ID = "crosswalk-v0"
+
 
 @dataclass
 class Args(ScriptArgs):
@@ -37,7 +39,7 @@ class Args(ScriptArgs):
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    return run_script("crosswalk-v0", Args, argv, __doc__)
+    return run_script(ENV_ID, Args, argv, __doc__)
 
 
 if __name__ == "__main__":

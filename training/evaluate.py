@@ -14,6 +14,7 @@ speed/distance plots. ``--video N`` also records N episodes to ``OUT/episodes.mp
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import time
@@ -31,6 +32,7 @@ from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
 from training import plots  # noqa: E402
 from training.reports import REPORTS, add_collisions  # noqa: E402
 from training.cli_args import parse  # noqa: E402
+from training.seeds import REPORT  # noqa: E402
 
 
 @dataclass
@@ -41,7 +43,7 @@ class Args:
     env_id: env for scripted policies (trained ones use the env they were trained on)
     episodes: evaluation episodes
     out: output folder (must not exist unless --overwrite)
-    seed: seed of the first episode
+    seed: seed of the first episode; every episode seed must be a report seed, never seen in training or checkpoint selection (default: the first report seed, 1,500,000,000)
     num_cars: cars (default: as trained; scripted: 4)
     lidar_noise: LiDAR noise (default: as trained; scripted: 0)
     stochastic: sample actions instead of taking the most likely one
@@ -54,7 +56,7 @@ class Args:
     env_id: str = "intersection-v0"
     episodes: int = 200
     out: str = "runs/eval"
-    seed: int = 10_000
+    seed: Optional[int] = None
     num_cars: Optional[int] = None
     lidar_noise: Optional[float] = None
     stochastic: bool = False
@@ -76,6 +78,8 @@ def evaluate(args: Args) -> dict:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
     if args.video < 0:
         raise ValueError(f"--video must be >= 0, got {args.video}")
+    seeds = REPORT.episodes(args.episodes, args.seed)  # reports only ever on report seeds
+    args = dataclasses.replace(args, seed=seeds.start)
     with fresh_dir(out, args.overwrite) as tmp:
         return _evaluate_into(tmp, args)
 
@@ -116,7 +120,7 @@ def _evaluate_into(out: Path, args: Args) -> dict:
                else outcome_rates(table))
     add_collisions(metrics, table, out)
     metrics.update(source)
-    metrics.update(episodes=args.episodes, seed=args.seed, deterministic=not args.stochastic,
+    metrics.update(episodes=args.episodes, seed=args.seed, seed_set=REPORT.name, deterministic=not args.stochastic,
                    env_id=env_id, env_config={
                        "num_cars": env.config.num_cars, "lidar_noise": env.config.lidar_noise,
                        "remove_collided": env.config.remove_collided},

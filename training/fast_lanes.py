@@ -22,6 +22,8 @@ if __package__ in (None, ""):  # run as a script: make the repository importable
 
 from training.scripts import BilevelArgs, run_bilevel_script  # noqa: E402
 
+ENV_ID = "highway-spline-v0"
+
 
 @dataclass
 class Args(BilevelArgs):
@@ -32,7 +34,7 @@ class Args(BilevelArgs):
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    return run_bilevel_script("highway-spline-v0", Args, argv, __doc__)
+    return run_bilevel_script(ENV_ID, Args, argv, __doc__)
 
 
 if __name__ == "__main__":

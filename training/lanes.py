@@ -23,6 +23,8 @@ if __package__ in (None, ""):  # run as a script: make the repository importable
 
 from training.scripts import BilevelArgs, run_bilevel_script  # noqa: E402
 
+ENV_ID = "intersection-spline-v0"
+
 
 @dataclass
 class Args(BilevelArgs):
@@ -34,7 +36,7 @@ class Args(BilevelArgs):
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    return run_bilevel_script("intersection-spline-v0", Args, argv, __doc__)
+    return run_bilevel_script(ENV_ID, Args, argv, __doc__)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 import torch as th
@@ -42,6 +42,7 @@ from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
 from training.policy import CRITICS, CTDEPolicy, policy_kwargs_for
+from training.seeds import MAX_RUN_SEED, TRAINING
 from training.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
                               write_config, write_json_atomic)
 from training.vec_env import SlotVecEnv, make_vec_env_from
@@ -113,7 +114,7 @@ class TrainConfig:
         if not isinstance(self.env_overrides, dict):
             raise ConfigError(f"TrainConfig: env_overrides must be a dict, got {self.env_overrides!r}")
         check_bounds(self, {  # timesteps 0: a bilevel run's acceleration stage (rounds decide)
-            "timesteps": (0, None), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
+            "timesteps": (0, 100_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
             "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
             "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
             "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None),
@@ -169,7 +170,9 @@ def start_run_dir(out: Path, config: TrainConfig) -> None:
 def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
     """The run's slot vector env: ``n_envs`` instances over ``num_cpus`` worker processes
     (``spline_policy``: the path picker of spline scenarios, as in ``make_vec_env_from``)."""
-    return make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy)
+    venv = make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy)
+    venv.seed_range = TRAINING  # episodes held out for selection and reports are never trained on
+    return venv
 
 
 def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
@@ -195,8 +198,10 @@ class RolloutMetrics(BaseCallback):
 
     def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
                  checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True,
-                 stop: Optional[GracefulStop] = None) -> None:
+                 stop: Optional[GracefulStop] = None,
+                 on_checkpoint: Optional[Callable[[dict], None]] = None) -> None:
         super().__init__()
+        self.on_checkpoint = on_checkpoint
         self.stop = stop
         self.show_bar = show_bar
         self.max_seconds = max_seconds
@@ -281,10 +286,17 @@ class RolloutMetrics(BaseCallback):
     def _on_rollout_start(self) -> None:
         if self.updates and self.updates % self.checkpoint_every == 0:
             save_checkpoint(self.model, self.out, self.wall, self.agent_steps)
+            if self.on_checkpoint is not None:
+                self.on_checkpoint(self.progress())
         self.rollout_t0 = time.perf_counter()
 
     def _on_training_end(self) -> None:
         self.bar.close()
+
+    def progress(self) -> dict:
+        """The last rollout's statistics and the run's counters (what a checkpoint hook gets)."""
+        return {**getattr(self, "last_stats", {}), "time/decisions": self.num_timesteps,
+                "time/agent_steps": self.agent_steps, "time/wall_s": self.wall}
 
     @property
     def wall(self) -> float:
@@ -333,8 +345,11 @@ def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
     return model
 
 
-def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any]:
-    """Train (or continue) a run in ``out``; returns the last rollout statistics."""
+def train(config: TrainConfig, out: Path, resume: bool = False,
+          on_checkpoint: Optional[Callable[[dict], None]] = None) -> dict[str, Any]:
+    """Train (or continue) a run in ``out``; returns the last rollout statistics.
+    ``on_checkpoint(progress)`` is called after every checkpoint is written, the last one included
+    (the sweep reports each to Ray Tune with the run folder)."""
     out = Path(out)
     config.validate()
     if config.timesteps < 1:
@@ -374,10 +389,12 @@ def train(config: TrainConfig, out: Path, resume: bool = False) -> dict[str, Any
                      append_logger(out, model.num_timesteps))
     stop = GracefulStop()
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
-                              max_seconds, stop=stop)
+                              max_seconds, stop=stop, on_checkpoint=on_checkpoint)
     with stop.installed():  # Ctrl-C / SIGTERM: end the decision in progress, then save below
         model.learn(remaining, callback=callback, reset_num_timesteps=False)
     save_checkpoint(model, out, callback.wall, callback.agent_steps)
+    if on_checkpoint is not None:
+        on_checkpoint(callback.progress())
     venv.close()
     stats = dict(getattr(callback, "last_stats", {}))
     if stop.requested:

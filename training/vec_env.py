@@ -235,6 +235,7 @@ class SlotVecEnv(CarSlots, VecEnv):
             self._inner = MakeCPUAsyncConstructor(self.num_cpus)(fns, *spaces_)
         super().__init__(len(env_fns) * self.n_cars, *spaces_)
         self._seed_base: Optional[int] = None
+        self.seed_range: Any = None  # a training.seeds.SeedRange every seed must lie in, if set
         self._finalizer = weakref.finalize(self, _close_inner, self._inner)
 
     # -- instances ----------------------------------------------------------------------------
@@ -251,8 +252,10 @@ class SlotVecEnv(CarSlots, VecEnv):
 
     # -- VecEnv API ---------------------------------------------------------------------------
     def seed(self, seed: Optional[int] = None) -> list[Optional[int]]:
-        self._seed_base = seed
         n_instances = self.num_envs // self.n_cars
+        if seed is not None and self.seed_range is not None:
+            self.seed_range.episodes(n_instances, seed)
+        self._seed_base = seed
         return [None if seed is None else seed + k for k in range(n_instances)]
 
     def reset(self):

@@ -21,6 +21,7 @@ from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
 from training import plots  # noqa: E402
 from training.inference import load_policy  # noqa: E402
 from training.reports import junction_summary  # noqa: E402
+from training.seeds import SELECTION  # noqa: E402
 
 FIELDS = ("decisions", "agent_steps", "success_rate", "collision_rate", "fifo_share", "safe_share")
 
@@ -37,10 +38,17 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("run", type=Path, help="run folder with checkpoints/model_<decisions>.safetensors")
     parser.add_argument("--episodes", type=int, default=20, help="episodes per checkpoint")
-    parser.add_argument("--seed", type=int, default=10_000, help="first evaluation seed")
+    parser.add_argument("--seed", type=int, default=SELECTION.start,
+                        help="first episode seed: selection seeds (choosing a checkpoint is a selection; "
+                             "report the chosen one with evaluate, on report seeds)")
     parser.add_argument("--out", type=Path, help="output folder (default RUN/checkpoint_curve)")
     parser.add_argument("--overwrite", action="store_true")
     args = parser.parse_args(argv)
+    try:
+        SELECTION.episodes(args.episodes, args.seed)
+    except ValueError as exc:
+        print(f"checkpoint_curve: error: {exc}", file=sys.stderr)
+        return 2
     import torch
 
     torch.set_num_threads(1)

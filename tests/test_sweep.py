@@ -1,0 +1,139 @@
+"""``box2d-driving sweep``: grid validation, and a real Ray Tune sweep on this machine that is
+interrupted, continued, isolates a failing trial and summarises every trial on report seeds."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from training.seeds import REPORT
+from training.sweep import prepare_out
+from training.sweep_spec import SweepError, SweepSpec, check_spec, parse_pairs
+
+ROOT = Path(__file__).resolve().parent.parent
+SHIPPED = ROOT / "assets" / "policies" / "traffic_lights_4cars"
+
+
+@pytest.mark.parametrize("spec,match", [
+    (SweepSpec("flying"), "unknown behaviour"),
+    (SweepSpec("lights", grid={"colour": ["red"]}), "'colour' is not an option"),
+    (SweepSpec("lights", grid={"seed": ["1", "2"]}), "seeds come from --seeds"),
+    (SweepSpec("lights", grid={"num_cars": ["4", "x"]}), "do not parse"),
+    (SweepSpec("lights", grid={"n_envs": ["0"]}), "n_envs"),
+    (SweepSpec("lights", grid={"remove_collided": ["maybe"]}), "true or false"),
+    (SweepSpec("lanes", timesteps=1000), "rounds"),
+    (SweepSpec("lights", grid={"num_cars": ["4"]}, fixed={"num_cars": "8"}), "both in --grid and --set"),
+    (SweepSpec("lights", seeds=0), "--seeds"),
+])
+def test_bad_sweeps_are_refused_naming_the_culprit(spec, match):
+    with pytest.raises(SweepError, match=match):
+        check_spec(spec)
+
+
+def test_grid_and_set_pairs_parse_or_name_the_bad_pair():
+    assert parse_pairs(["lidar-noise=0,0.5", "num_cars=4"], "--grid", many=True) == {
+        "lidar_noise": ["0", "0.5"], "num_cars": ["4"]}
+    for bad in (["noise"], ["noise="], ["a=1,1"], ["a=1,,2"], ["a=1", "a=2"]):
+        with pytest.raises(SweepError):
+            parse_pairs(bad, "--grid", many=True)
+
+
+def test_every_trial_runs_the_behaviours_own_options():
+    spec = SweepSpec("lights", grid={"lidar_noise": ["0", "0.5"], "num_cars": ["1", "4"]}, seeds=2,
+                     fixed={"remove_collided": "true"}, timesteps=1000)
+    trials = spec.trials()
+    assert len(trials) == 8 and len({t["name"] for t in trials}) == 8
+    first = trials[0]
+    assert first["argv"] == ["--seed", "0", "--remove-collided", "--lidar-noise", "0", "--num-cars", "1",
+                             "--timesteps", "1000"]
+    check_spec(spec)
+
+
+def test_a_different_sweep_or_a_foreign_folder_is_refused(tmp_path):
+    spec = SweepSpec("lights", grid={"lidar_noise": ["0"]})
+    assert prepare_out(tmp_path / "s", spec) is False
+    assert prepare_out(tmp_path / "s", spec) is False  # same sweep, nothing run yet
+    with pytest.raises(SweepError, match="different sweep"):
+        prepare_out(tmp_path / "s", SweepSpec("lights", grid={"lidar_noise": ["0.5"]}))
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("mine")
+    with pytest.raises(SweepError, match="holds no sweep"):
+        prepare_out(tmp_path / "other", spec)
+    assert (tmp_path / "other" / "notes.txt").read_text() == "mine"
+
+
+def _sweep(out: Path, timesteps: int) -> list[str]:
+    return [sys.executable, "-m", "box2d_driving", "sweep", "lights",
+            "--grid", f"init_from={SHIPPED},{out.parent / 'no_such_run'}", "--seeds", "1",
+            "--timesteps", str(timesteps), "--episodes", "3",
+            "--set", "n_envs=2", "batch_decisions=80", "epochs=1", "--out", str(out)]
+
+
+def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_report_seeds(tmp_path):
+    out = tmp_path / "sweep"
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "RAY_DEDUP_LOGS": "0"}
+    good = "lights_init_from=" + str(SHIPPED).replace("/", "-") + "_seed=0"
+    proc = subprocess.Popen(_sweep(out, 4000), cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    deadline = time.time() + 240
+    while time.time() < deadline and not list((out / "tune" / good).glob("checkpoint_*")):
+        time.sleep(0.2)  # wait for the good trial's first checkpoint (after 10 updates)
+    assert list((out / "tune" / good).glob("checkpoint_*")), "no checkpoint within 4 minutes"
+    os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C, as a user stops it
+    log = proc.communicate(timeout=180)[0]
+    first = json.loads(next((out / "tune" / good).glob("checkpoint_*/state.json")).read_text())
+    assert first["decisions"] < 4000, log[-3000:]
+
+    run = subprocess.run(_sweep(out, 4000), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
+    assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-3000:]  # one trial failed
+    assert "1 of 2 trials done" in run.stdout
+    rows = {r["trial"]: r for r in csv.DictReader((out / "summary.csv").open())}
+    assert rows[good]["status"] == "done" and int(rows[good]["decisions"]) == 4000
+    bad = next(r for name, r in rows.items() if name != good)
+    assert bad["status"] == "error" and "no_such_run" in bad["error"]
+    # the good trial continued from its checkpoint rather than starting again
+    final = Path(rows[good]["run"])
+    assert list(final.glob("config.resumed_*.json")), sorted(p.name for p in final.iterdir())
+    metrics = json.loads((final / "eval" / "metrics.json").read_text())
+    assert metrics["seed_set"] == "report" and metrics["seed"] in REPORT and metrics["episodes"] == 3
+    assert float(rows[good]["success_rate"]) == metrics["success_rate"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["sweep"]["grid"]["init_from"][0] == str(SHIPPED)
+    assert int(rows[good]["report_first_seed"]) in REPORT
+
+    # a finished sweep, run again: nothing is retrained or re-evaluated
+    stamp = (final / "eval" / "metrics.json").stat().st_mtime_ns
+    again = subprocess.run(_sweep(out, 4000), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
+    assert "1 of 2 trials done" in again.stdout, again.stderr[-3000:]
+    rows2 = {r["trial"]: r for r in csv.DictReader((out / "summary.csv").open())}
+    assert Path(rows2[good]["run"]) == final and (final / "eval" / "metrics.json").stat().st_mtime_ns == stamp
+
+    # on another machine: a new folder that reuses the committed summary trains only what is missing
+    moved = tmp_path / "elsewhere"
+    reuse = subprocess.run(_sweep(moved, 4000) + ["--reuse", str(out / "summary.json")], cwd=ROOT, env=env,
+                           capture_output=True, text=True, timeout=400)
+    assert "1 of 2 trials done" in reuse.stdout, reuse.stderr[-3000:]
+    rows3 = {r["trial"]: r for r in csv.DictReader((moved / "summary.csv").open())}
+    assert rows3[good] == rows2[good]  # taken as it was: same metrics, same run folder named
+    assert not list((moved / "tune" / good).glob("checkpoint_*"))  # nothing trained for it
+
+
+def test_reuse_refuses_another_sweeps_summary(tmp_path):
+    from training.sweep_summary import reusable_rows, write_summary
+
+    spec = SweepSpec("lights", grid={"lidar_noise": ["0"]})
+    write_summary(tmp_path, spec, [{"trial": "t", "behaviour": "lights", "seed": 0, "status": "done"}])
+    assert set(reusable_rows(tmp_path / "summary.json", spec)) == {"t"}
+    with pytest.raises(SweepError, match="another sweep"):
+        reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0.5"]}))
+    (tmp_path / "bad.json").write_text("[1, 2]")
+    with pytest.raises(SweepError, match="not a sweep summary"):
+        reusable_rows(tmp_path / "bad.json", spec)
