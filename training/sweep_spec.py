@@ -50,7 +50,7 @@ class SweepSpec:
         return [{"behaviour": self.behaviour, "point": point, "seed": seed,
                  "argv": self.trial_argv(point, seed) + list(extra_argv), "episodes": self.episodes,
                  "name": trial_name(self.behaviour, point, seed), "reuse": None}
-                for point in self.points() for seed in range(self.seeds)]
+                for seed in range(self.seeds) for point in self.points()]  # a whole grid per seed first
 
     def trial_argv(self, point: dict[str, str], seed: int) -> list[str]:
         """The trial's options; paths that exist here are made absolute (trials run elsewhere)."""
