@@ -3,7 +3,7 @@
 Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
 world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
 OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
-``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep`` and
+``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep``, ``reproduce`` and
 ``convert-checkpoint`` (the training scripts).
 Bad arguments print one line and exit with status 2.
 """
@@ -188,6 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
                    add_help=False)
     sub.add_parser("sweep", add_help=False,
                    help="a grid of settings x seeds on Ray Tune, evaluated on report seeds (`sweep --help`)")
+    sub.add_parser("reproduce", add_help=False,
+                   help="write docs/results.md and its figures from sweep summaries (`reproduce --help`)")
     sub.add_parser("convert-checkpoint", add_help=False,
                    help="convert an older pickled model.zip of your own to model.safetensors "
                         "(`convert-checkpoint --help`)")
@@ -203,7 +205,7 @@ def _delegate(argv: list[str]) -> int:
     """``train`` and ``evaluate`` run the training scripts (they need the train extra)."""
     import importlib
 
-    if argv[0] in ("evaluate", "convert-checkpoint", "sweep"):
+    if argv[0] in ("evaluate", "convert-checkpoint", "sweep", "reproduce"):
         module, rest = "training." + argv[0].replace("-", "_"), argv[1:]
     else:
         if len(argv) >= 2 and argv[1] in ("-h", "--help"):
@@ -234,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "bench":
         from box2d_driving import bench
         return bench.main(argv[1:])
-    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep"):
+    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce"):
         return _delegate(argv)
     args = build_parser().parse_args(argv)
     try:

@@ -95,3 +95,20 @@ def test_cli_version_and_subcommand_usage_lines(capsys):
     assert exc.value.code == 0 and out.startswith("usage: box2d-driving train lights")
     assert all(line.count("(default") <= 1 for line in out.split("--"))  # said once per option
     assert "SPEC" not in out
+
+
+@pytest.mark.parametrize("command", ["sweep", "reproduce", "evaluate"])
+def test_every_delegated_command_answers_help_with_its_own_usage_line(capsys, command):
+    with pytest.raises(SystemExit) as exc:
+        cli([command, "--help"])
+    assert exc.value.code == 0 and capsys.readouterr().out.startswith(f"usage: box2d-driving {command}")
+
+
+def test_sweep_flags_are_checked_before_anything_is_written(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    assert cli(["sweep", "lights", "--grid", "lidar_noise=0,x", "--out", str(out)]) == 2
+    assert cli(["sweep", "lights", "--grid", "lidar_noise", "--out", str(out)]) == 2
+    assert cli(["sweep", "lights", "--set", "threads=two", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("box2d-driving sweep: error:") >= 2 and "Traceback" not in err
+    assert not out.exists()

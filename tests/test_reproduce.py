@@ -1,0 +1,81 @@
+"""``box2d-driving reproduce``: the results page from a small hand-built sweep summary."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from training.reproduce import ResultsError, main
+from training.seeds import REPORT, SELECTION
+from training.stats import mean_ci, t95
+
+
+def _summary(path, violations, first_seed=REPORT.start, statuses=None):
+    """A lights sweep over noise {0, 0.5} x cars {1, 4}, 3 seeds, with given violation rates."""
+    trials = []
+    for (noise, cars), values in violations.items():
+        for seed, v in enumerate(values):
+            name = f"lights_lidar_noise={noise}_num_cars={cars}_seed={seed}"
+            trials.append({"trial": name, "behaviour": "lights", "seed": seed, "lidar_noise": noise,
+                           "num_cars": cars, "status": (statuses or {}).get(name, "done"), "error": "",
+                           "report_episodes": 200, "report_first_seed": first_seed,
+                           "red_light_violation_rate": v, "success_rate": 0.9, "collision_rate": 0.05})
+    sweep = {"behaviour": "lights", "grid": {"lidar_noise": ["0", "0.5"], "num_cars": ["1", "4"]},
+             "seeds": 3, "fixed": {}, "timesteps": 991552, "minutes": None, "episodes": 200, "quick": False}
+    path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    return path
+
+
+VIOLATIONS = {("0", "1"): [0.40, 0.47, 0.50], ("0", "4"): [0.10, 0.12, 0.08],
+              ("0.5", "1"): [0.30, 0.35, 0.40], ("0.5", "4"): [0.05, 0.07, 0.06]}
+
+
+def test_mean_and_interval_match_a_hand_computation():
+    e = mean_ci([0.10, 0.12, 0.08])
+    sd = math.sqrt(((0.0) ** 2 + 0.02 ** 2 + 0.02 ** 2) / 2)
+    assert e.mean == pytest.approx(0.10) and e.high - e.mean == pytest.approx(4.303 * sd / math.sqrt(3))
+    assert mean_ci([0.3]).low is None and mean_ci([]).n == 0 and mean_ci([1.0, float("nan")]).n == 1
+    assert t95(2) == 4.303 and t95(22) == t95(20) and t95(1000) == 1.96
+
+
+def test_page_shows_means_intervals_seeds_statements_and_the_figure(tmp_path):
+    summary = _summary(tmp_path / "lights.json", VIOLATIONS,
+                       statuses={"lights_lidar_noise=0.5_num_cars=4_seed=2": "error"})
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(summary), "--out", str(page)]) == 0
+    text = page.read_text()
+    e = mean_ci([0.10, 0.12, 0.08])
+    assert f"| 0 | 4 | 3 | {e.format()} (0.100, 0.120, 0.080)" in text
+    assert "| 0.5 | 4 | 2 |" in text  # the failed seed is left out and listed
+    assert "`lights_lidar_noise=0.5_num_cars=4_seed=2` (error)" in text
+    assert "the light is ignored, as in the paper" in text  # 0.45 inside the 1-car interval at noise 0
+    assert "fewer violations with more cars, intervals apart" in text
+    assert "11 of 12 planned trials done" in text
+    assert (tmp_path / "docs" / "images" / "results" / "traffic-lights.png").stat().st_size > 10_000
+    assert "![Stopping at red lights](images/results/traffic-lights.png)" in text
+    for rule in ("## Lanes", "## Right of way", "## Turn signals", "## Fast lanes", "## Slowing down"):
+        section = text.split(rule, 1)[1].split("\n## ", 1)[0]
+        assert "Not run yet" in section and "box2d-driving sweep" in section
+
+
+def test_a_summary_evaluated_off_report_seeds_is_refused(tmp_path, capsys):
+    summary = _summary(tmp_path / "s.json", VIOLATIONS, first_seed=SELECTION.start)
+    assert main([str(summary), "--out", str(tmp_path / "r.md")]) == 2
+    assert "not on report seeds" in capsys.readouterr().err and not (tmp_path / "r.md").exists()
+    (tmp_path / "junk.json").write_text("{}")
+    with pytest.raises(ResultsError):
+        from training.reproduce import load_summary
+        load_summary(tmp_path / "junk.json")
+
+
+def test_the_paper_comparison_says_inside_or_outside(tmp_path):
+    from training.reproduce import SECTIONS, Group, _comparison
+
+    section = next(s for s in SECTIONS if s.key == "right-of-way")
+    groups = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.90, 0.91, 0.92]),
+                                    "safety_distance.safe_share": mean_ci([0.95, 0.96, 0.94])})]
+    lines = "\n".join(_comparison(section, groups))
+    assert "our mean is inside the paper's interval" in lines  # 0.91 within 0.8525 +- 0.089
+    assert "the paper's value lies outside our interval" in lines  # 0.9845 vs 0.95 +- 0.025
