@@ -75,6 +75,10 @@ class DrivingConfig:
         render_size: frame ``(width, height)`` in pixels.
         render_lidar: draw LiDAR rays (dropped rays in a different colour).
         render_fps: frames per second of ``human`` playback and recorded videos.
+        render_stop_value: the light value drawn red, 1.0 (red) or 0.0 (green). The two light
+            groups are symmetric, so a trained policy may adopt either value as "stop"; when one is
+            shown, the value it stops on is drawn red and the other green (yellow stays yellow),
+            and the picture's legend says so.
     """
 
     num_cars: int = 4
@@ -107,6 +111,7 @@ class DrivingConfig:
     render_size: tuple[int, int] = (768, 768)
     render_lidar: bool = False
     render_fps: float = 4.0
+    render_stop_value: float = 1.0
 
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
@@ -145,6 +150,9 @@ class DrivingConfig:
         if any(not 16 <= v <= 8192 for v in self.render_size):
             raise ConfigError(f"render_size must be two integers in [16, 8192], got {self.render_size!r}")
         _positive(self, "render_fps")
+        if self.render_stop_value not in (0.0, 1.0):
+            raise ConfigError(f"render_stop_value must be 0.0 or 1.0 (the light value drawn red), "
+                              f"got {self.render_stop_value!r}")
         if self.light_yellow < 0:
             raise ConfigError(f"light_yellow must be >= 0 s, got {self.light_yellow!r}")
         if not 0.0 < self.comm_half_angle <= math.pi:

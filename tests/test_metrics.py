@@ -88,3 +88,28 @@ def test_recorder_rows_match_decisions():
         for car in (0, 1):
             d = table["decision"][(table["episode"] == ep) & (table["car"] == car)]
             assert d[0] == 0 and np.all(np.diff(d) == 1)
+
+
+@pytest.mark.parametrize("stop_value", [0.0, 1.0])
+def test_acceleration_by_light_keeps_each_values_colour_whatever_the_stop_value(tmp_path, monkeypatch, stop_value):
+    import matplotlib
+    from matplotlib.colors import to_rgba
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from training import plots
+
+    figures = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figures.append(fig))
+    n = 60
+    table = {"episode": np.zeros(n, int), "car": np.repeat([0, 1, 2], n // 3),
+             "decision": np.tile(np.arange(n // 3), 3), "light": np.tile([0.0, 0.5, 1.0], n // 3),
+             "stop_line_distance": np.linspace(1, 45, n), "acceleration": np.linspace(-1, 1, n)}
+    plots.acceleration_by_light(table, tmp_path / "a.png", stop_value=stop_value)
+    legend = figures[0].axes[0].get_legend()
+    labels = {t.get_text(): to_rgba(h.get_color()) for t, h in zip(legend.get_texts(), legend.legend_handles)}
+    stop_label = f"light {stop_value} (stop)"
+    assert labels[stop_label][:3] == to_rgba(plots.LIGHT_VALUE_COLOURS[stop_value])[:3]
+    go = 1.0 - stop_value
+    assert labels[f"light {go} (go)"][:3] == to_rgba(plots.LIGHT_VALUE_COLOURS[go])[:3]

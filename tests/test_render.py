@@ -9,7 +9,8 @@ import box2d_driving
 from box2d_driving.cli import main as cli
 from box2d_driving.policies import LightRulePolicy, RandomPolicy
 from box2d_driving.render.video import record
-from box2d_driving.render.viewer import COLLIDED_BORDER, COLLIDED_FILL, LIGHT_COLOURS, car_colour
+from box2d_driving.render.viewer import (COLLIDED_CROSS, COLLIDED_FILL, GREEN_RGB, LIGHT_COLOURS, RED_RGB,
+                                         car_colour)
 from box2d_driving.road.lights import GREEN, RED
 from tests.helpers import hand_env, level_index, straight_car
 
@@ -65,8 +66,45 @@ def test_collided_cars_look_different():
     while env.agents:
         env.step({a: up for a in env.agents})
     frame = env.render()
-    p = env.world.positions[0] + np.array([-1.2, 0.5])
-    assert _pixel(frame, env._viewer, p) in (COLLIDED_FILL, COLLIDED_BORDER)
+    viewer = env._viewer
+    p, h = env.world.positions[0], env.world.headings[0]
+    # grey body (as the docs say) with a red cross through its centre
+    side = p + 0.35 * env.config.car_width * np.array([-math.sin(h), math.cos(h)])
+    assert _pixel(frame, viewer, side) == COLLIDED_FILL
+    assert _pixel(frame, viewer, p) == COLLIDED_CROSS
+    body = [np.array(_pixel(frame, viewer, p + np.array([dx, dy])))
+            for dx in np.linspace(-2, 2, 9) for dy in np.linspace(-0.9, 0.9, 7)]
+    reddish = sum(int(c[0]) > 200 and int(c[1]) < 80 for c in body)
+    assert reddish < len(body) / 3  # mostly grey, not a red car
+
+
+@pytest.mark.parametrize("stop_value", [RED, GREEN])
+def test_the_light_value_a_policy_stops_on_is_drawn_red_and_said_in_the_legend(stop_value):
+    env = box2d_driving.make("intersection-v0", render_mode="rgb_array", render_stop_value=stop_value)
+    for seed in range(100):
+        env.reset(seed=seed)
+        if env.layout.lights.values(0.0)[0] == GREEN:
+            break
+    frame = env.render()
+    where = env._viewer.light_positions(env)
+    expected = RED_RGB if stop_value == GREEN else GREEN_RGB
+    assert _pixel(frame, env._viewer, where[0]) == expected
+    plain = box2d_driving.make("intersection-v0", render_mode="rgb_array")
+    plain.reset(seed=seed)
+    legend = (slice(0, 60), slice(0, 500))  # the HUD's second line names the convention
+    assert (frame[legend] != plain.render()[legend]).any() == (stop_value == GREEN)
+    with pytest.raises(box2d_driving.ConfigError, match="render_stop_value"):
+        box2d_driving.make("intersection-v0", render_stop_value=0.5)
+
+
+def test_a_trained_policy_is_drawn_in_the_convention_it_adopted():
+    from training import load_policy
+
+    policy = load_policy("assets/policies/traffic_lights_4cars_noise05")
+    assert policy.stop_value == 0.0  # its evaluation report: it stops on 0.0
+    assert policy.make_env(render_mode="rgb_array").config.render_stop_value == 0.0
+    assert policy.make_env().config.render_stop_value == 1.0  # not drawn: nothing changes
+    assert load_policy("assets/policies/crosswalk_4cars_satnav").stop_value is None  # no lights
 
 
 def test_render_without_mode_returns_none():
@@ -139,3 +177,24 @@ def test_cli_bad_arguments_give_one_clear_line(tmp_path, capsys, argv, needle):
 def test_cli_list(capsys):
     assert cli(["list"]) == 0
     assert "intersection-v0" in capsys.readouterr().out
+
+
+def test_long_roads_are_drawn_large_enough_to_see_and_the_view_follows_the_traffic():
+    env = box2d_driving.make("highway-v0", render_mode="rgb_array")
+    env.reset(seed=1)
+    frame = env.render()
+    viewer = env._viewer
+    assert frame.shape[:2] == (400, 1280) and viewer.follow
+    assert viewer.scale * env.config.car_length >= 40  # a car is at least 40 px long
+    fast = env.action_space(env.agents[0]).n - 1
+    for _ in range(12):
+        if not env.agents:
+            break
+        env.step({a: fast for a in env.agents})
+        frame = env.render()
+        live = np.flatnonzero(env.world.status == 0)
+        if len(live):
+            xs = viewer.to_pixels(env.world.positions[live])[:, 0]
+            assert 0 <= np.median(xs) < frame.shape[1]  # the view keeps up with the cars
+    lo, hi = viewer.bounds
+    assert viewer.to_pixels(np.array([hi[0], 0.0]))[0] >= frame.shape[1] - 1  # never beyond the road's end

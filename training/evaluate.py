@@ -138,7 +138,11 @@ def _evaluate_into(out: Path, args: Args) -> dict:
     if args.video > 0:
         from box2d_driving.render.video import record
 
-        video_env = make_env(render_mode="rgb_array")  # the evaluated settings, drawn
+        drawn = {"render_mode": "rgb_array"}  # the evaluated settings, drawn
+        if args.checkpoint not in SCRIPTED and metrics.get("stop_value") in (0.0, 1.0):
+            # a trained policy: the value it stopped on in these episodes is drawn red
+            drawn["render_stop_value"] = float(metrics["stop_value"])
+        video_env = make_env(**drawn)
         record(video_env, policy, episodes=args.video, video=out / "episodes.mp4", seed=args.seed)
     return metrics
 

@@ -26,6 +26,7 @@ class TrainedPolicy:
         self.deterministic = deterministic
         self.obs_dim = self.policy.mlp_extractor.obs_dim
         self.spline_policy: Any = None
+        self.run_dir: Any = None  # the folder it was loaded from (its evaluation report, if any)
 
     def attach_spline(self, spline_policy: Any) -> None:
         """Use ``spline_policy`` (a bilevel run's stage-0 SB3 policy) to pick each car's path;
@@ -45,10 +46,31 @@ class TrainedPolicy:
     def env_overrides(self) -> dict:
         return dict(self.config["env_overrides"])
 
+    @property
+    def stop_value(self) -> Any:
+        """The light value this policy stops on (0.0 or 1.0), from its evaluation report
+        (``eval/metrics.json`` beside the checkpoint); None where unknown. The two light groups
+        are symmetric, so training may settle on either value as "stop"."""
+        if self.run_dir is None:
+            return None
+        for folder in (self.run_dir, self.run_dir.parent):  # a bilevel run keeps eval/ above accel/
+            report = folder / "eval" / "metrics.json"
+            if report.is_file():
+                try:
+                    value = json.loads(report.read_text()).get("stop_value")
+                except (OSError, ValueError):
+                    return None
+                return float(value) if value in (0.0, 1.0) else None
+        return None
+
     def make_env(self, **extra: Any):
-        """A fresh env with the settings the policy was trained on (``extra`` overrides them)."""
+        """A fresh env with the settings the policy was trained on (``extra`` overrides them).
+        A rendering env draws the light value the policy stops on red (``render_stop_value``)."""
         import box2d_driving
 
+        if extra.get("render_mode") is not None and "render_stop_value" not in extra \
+                and self.stop_value is not None:
+            extra["render_stop_value"] = self.stop_value
         env = box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
         if self.spline_policy is not None:
             env.spline_policy = self.choose_paths
@@ -91,7 +113,9 @@ def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPo
     config = _read_json(config_path)
     net = build_ctde_policy(config, config_path)
     load_policy_weights(net, ckpt)
-    return TrainedPolicy(net, config, deterministic)
+    policy = TrainedPolicy(net, config, deterministic)
+    policy.run_dir = config_path.parent
+    return policy
 
 
 def build_ctde_policy(config: dict, where: Path) -> Any:

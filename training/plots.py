@@ -67,10 +67,14 @@ def learning_curves(progress: dict[str, np.ndarray], path: Path,
     plt.close(fig)
 
 
+LIGHT_VALUE_COLOURS = {0.0: "tab:blue", 0.5: "tab:orange", 1.0: "tab:purple"}  # fixed per value
+
+
 def acceleration_by_light(table: dict[str, np.ndarray], path: Path, stop_value: float = 1.0,
                           bins=(0, 10, 20, 30, 50)) -> None:
     """Box plots of the acceleration chosen against distance to the stop line, per light seen.
-    Colours follow the policy's adopted convention: its stop value red, the other green."""
+    Each light value keeps its colour in every run (neutral ones: a policy may adopt either
+    extreme as "stop"); the legend says which value this policy stops on."""
     plt = _plt()
     # the action at decision t responds to the observation at t-1: pair them per car
     order = np.lexsort((table["decision"], table["car"], table["episode"]))
@@ -83,7 +87,7 @@ def acceleration_by_light(table: dict[str, np.ndarray], path: Path, stop_value: 
     values = [v for v in (0.0, 0.5, 1.0) if np.any(np.isclose(light, v))]
     width = 0.8 / max(len(values), 1)
     go_value = 1.0 - stop_value
-    colours = {stop_value: "tab:red", go_value: "tab:green", 0.5: "tab:orange"}
+    colours = LIGHT_VALUE_COLOURS
     names = {stop_value: f"{stop_value} (stop)", go_value: f"{go_value} (go)", 0.5: "0.5"}
     for j, v in enumerate(values):
         data, pos = [], []

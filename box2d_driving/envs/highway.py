@@ -51,6 +51,7 @@ class HighwayConfig(DrivingConfig):
     spawn_jitter: float = 2.0
     lateral_range: tuple[float, float] = (-0.75, 0.75)
     goal_margin: float = 5.0
+    render_size: tuple[int, int] = (1280, 400)  # a long road: a wide frame that follows the traffic
 
     def _validate(self) -> None:
         require(self, 1 <= self.spawn_slots <= 64, ("spawn_slots",), "spawn_slots must be in [1, 64]")

@@ -32,12 +32,21 @@ JUNCTION = (84, 84, 92)
 STOP_LINE = (250, 250, 250)
 CROSSWALK = (215, 215, 215)
 PEDESTRIAN = (255, 140, 0)
-COLLIDED_FILL = (60, 60, 60)
-COLLIDED_BORDER = (230, 30, 30)
+COLLIDED_FILL = (150, 150, 150)  # grey body, dark outline, red cross: reads as grey, not red
+COLLIDED_OUTLINE = (40, 40, 40)
+COLLIDED_CROSS = (230, 30, 30)
 RAY = (255, 255, 120)
 RAY_DROPPED = (200, 60, 200)
 HUD_TEXT = (255, 255, 255)
-LIGHT_COLOURS = {GREEN: (30, 220, 60), YELLOW: (250, 200, 20), RED: (235, 30, 30)}
+GREEN_RGB, YELLOW_RGB, RED_RGB = (30, 220, 60), (250, 200, 20), (235, 30, 30)
+LIGHT_COLOURS = {GREEN: GREEN_RGB, YELLOW: YELLOW_RGB, RED: RED_RGB}
+
+
+def light_colours(stop_value: float = RED) -> dict[float, tuple[int, int, int]]:
+    """Colour of each light value when ``stop_value`` is the one drawn red: the other extreme is
+    drawn green, yellow stays yellow (the scenario's own convention is ``stop_value=RED``)."""
+    go = GREEN if stop_value == RED else RED
+    return {stop_value: RED_RGB, go: GREEN_RGB, YELLOW: YELLOW_RGB}
 CAR_PALETTE = [(31, 119, 180), (255, 127, 14), (148, 103, 189), (23, 190, 207), (227, 119, 194),
                (188, 189, 34), (140, 86, 75), (127, 127, 255), (255, 187, 120), (152, 223, 138),
                (197, 176, 213), (158, 218, 229), (247, 182, 210), (219, 219, 141), (196, 156, 148),
@@ -51,13 +60,16 @@ def car_colour(i: int) -> tuple[int, int, int]:
 
 @dataclass(frozen=True)
 class ViewerConfig:
-    """Frame size (pixels), margin around the map (m), light disc radius (m), HUD font size."""
+    """Frame size (pixels), margin around the map (m), light disc radius (m), HUD font size, and
+    for long roads (much longer than the frame's shape) the stretch of road shown (m): the view
+    then fills the frame's height with the road and pans with the live cars."""
 
     width: int = 768
     height: int = 768
     margin: float = 4.0
     light_radius: float = 1.6
     font_size: int = 18
+    follow_span: float = 120.0
 
 
 class Viewer:
@@ -80,16 +92,36 @@ class Viewer:
 
     # -- coordinates --------------------------------------------------------------------------
     def _fit(self, env: "DrivingEnv") -> None:
-        """Scale and offset so the whole map fits the frame (world y up, pixels y down)."""
+        """Scale and offset so the whole map fits the frame (world y up, pixels y down); a road
+        much longer than the frame is wide is shown a stretch at a time (:meth:`_follow`)."""
         lay = env.layout
         pts = [np.asarray(p) for p in lay.drivable] + [np.asarray(lay.edges).reshape(-1, 2)]
         pts = np.vstack([p for p in pts if len(p)])
         lo, hi = pts.min(axis=0) - self.config.margin, pts.max(axis=0) + self.config.margin
         w, h = self.config.width, self.config.height
-        self.scale = min(w / (hi[0] - lo[0]), h / (hi[1] - lo[1]))
-        centre = (lo + hi) / 2
-        self.offset = np.array([w / 2 - centre[0] * self.scale, h / 2 + centre[1] * self.scale])
+        size = hi - lo
+        self.bounds = (lo, hi)
+        self.follow = size[0] > self.config.follow_span and size[0] / size[1] > 2.0 * w / h
+        if self.follow:  # fixed zoom for the episode; the view pans
+            self.scale = min(h / size[1], w / self.config.follow_span)
+        else:
+            self.scale = min(w / size[0], h / size[1])
+        self._centre(env, (lo + hi) / 2)
         self._view_for = lay
+
+    def _centre(self, env: "DrivingEnv", centre: np.ndarray) -> None:
+        w, h = self.config.width, self.config.height
+        self.offset = np.array([w / 2 - centre[0] * self.scale, h / 2 + centre[1] * self.scale])
+
+    def _follow(self, env: "DrivingEnv") -> None:
+        """Pan along a long road to the middle of the cars still driving (all cars once none is),
+        never beyond the road's ends."""
+        lo, hi = self.bounds
+        live = env.world.status == 0
+        xs = env.world.positions[live if live.any() else slice(None), 0]
+        half = self.config.width / self.scale / 2
+        x = float(np.clip((xs.min() + xs.max()) / 2, lo[0] + half, hi[0] - half))
+        self._centre(env, np.array([x, (lo[1] + hi[1]) / 2]))
 
     def to_pixels(self, points: np.ndarray) -> np.ndarray:
         """World points ``(..., 2)`` (m) to pixel coordinates ``(..., 2)``."""
@@ -104,6 +136,8 @@ class Viewer:
     def draw(self, env: "DrivingEnv") -> pygame.Surface:
         if self._view_for is not env.layout:
             self._fit(env)
+        if self.follow:
+            self._follow(env)
         lay, w, cfg = env.layout, env.world, env.config
         s = self.surface
         s.fill(BACKGROUND)
@@ -123,10 +157,11 @@ class Viewer:
         for a, b in np.asarray(lay.stop_lines).reshape(-1, 2, 2):
             pygame.draw.line(s, STOP_LINE, *self.to_pixels(np.array([a, b])).tolist(), 3)
         if lay.lights is not None:
+            palette = light_colours(cfg.render_stop_value)
             for point, value in zip(self.light_positions(env), lay.lights.values(env.time)):
                 centre = self.to_pixels(point)
                 radius = max(3, int(self.config.light_radius * self.scale))
-                pygame.draw.circle(s, LIGHT_COLOURS[float(value)], centre.tolist(), radius)
+                pygame.draw.circle(s, palette[float(value)], centre.tolist(), radius)
         for i, car in enumerate(lay.cars):  # paths and goals
             colour = car_colour(i)
             pygame.draw.lines(s, colour, False, self.to_pixels(car.path.points).tolist(), 1)
@@ -169,10 +204,10 @@ class Viewer:
             return
         if status == COLLIDED:
             self._poly(COLLIDED_FILL, corners)
-            self._poly(COLLIDED_BORDER, corners, 3)
+            self._poly(COLLIDED_OUTLINE, corners, 1)
             px = self.to_pixels(corners)
-            pygame.draw.line(self.surface, COLLIDED_BORDER, px[0].tolist(), px[2].tolist(), 2)
-            pygame.draw.line(self.surface, COLLIDED_BORDER, px[1].tolist(), px[3].tolist(), 2)
+            pygame.draw.line(self.surface, COLLIDED_CROSS, px[0].tolist(), px[2].tolist(), 2)
+            pygame.draw.line(self.surface, COLLIDED_CROSS, px[1].tolist(), px[3].tolist(), 2)
             return
         self._poly(car_colour(i), corners)
         # heading: a bright wedge at the front
@@ -205,12 +240,20 @@ class Viewer:
         text = (f"{env.metadata.get('name', '')}  decision {env.decision}/{env.config.horizon}  "
                 f"arrived {int(np.sum(st == ARRIVED))}  collided {int(np.sum(st == COLLIDED))}  "
                 f"driving {int(np.sum(st == 0))}")
-        label = self.font.render(text, True, HUD_TEXT)
-        bg = pygame.Surface((label.get_width() + 8, label.get_height() + 6))
-        bg.set_alpha(150)
-        bg.fill((0, 0, 0))
-        self.surface.blit(bg, (4, 4))
-        self.surface.blit(label, (8, 7))
+        lines = [text]
+        if env.layout.lights is not None:  # which light value is drawn red, and why
+            stop = env.config.render_stop_value
+            lines.append(f"red light = value {stop:g}" + (" (the scenario's red)" if stop == RED else
+                         " (the value this policy stops on; the scenario calls it green)"))
+        y = 4
+        for line in lines:
+            label = self.font.render(line, True, HUD_TEXT)
+            bg = pygame.Surface((label.get_width() + 8, label.get_height() + 6))
+            bg.set_alpha(150)
+            bg.fill((0, 0, 0))
+            self.surface.blit(bg, (4, y))
+            self.surface.blit(label, (8, y + 3))
+            y += label.get_height() + 6
 
     # -- output -------------------------------------------------------------------------------
     def render(self, env: "DrivingEnv") -> Optional[np.ndarray]:
