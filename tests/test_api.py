@@ -26,7 +26,44 @@ def test_parallel_seed(env_id, overrides):
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_aec_api(env_id):
-    api_test(env_module(env_id).env(), num_cycles=30)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        api_test(env_module(env_id).env(), num_cycles=30)
+    assert not [w for w in caught if "infinity" in str(w.message)]  # finite observation bounds
+    from pettingzoo.utils.env import AECEnv
+
+    for make in (env_module(env_id).env, env_module(env_id).raw_env):
+        assert isinstance(make(), AECEnv), make  # env() and raw_env() are AEC envs
+
+
+@pytest.mark.parametrize("env_id,overrides", VARIANTS + [("intersection-v0", {"lidar_encoding": "proximity"})])
+def test_every_observation_lies_in_its_finite_space(env_id, overrides):
+    env = box2d_driving.make(env_id, **overrides)
+    space = env.observation_space(env.possible_agents[0])
+    assert np.isfinite(space.low).all() and np.isfinite(space.high).all()
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        while env.agents:
+            assert all(space.contains(o) for o in obs.values()), (seed, env.decision)
+            obs, *_ = env.step({a: env.action_space(a).sample() for a in env.agents})
+
+
+def test_reset_seeds_the_action_spaces():
+    def samples(seed):
+        env = box2d_driving.make("intersection-v0")
+        env.reset(seed=seed)
+        return [env.action_space(a).sample() for a in env.agents for _ in range(5)]
+
+    assert samples(3) == samples(3) and samples(3) != samples(4)
+
+
+def test_the_inverse_lidar_encoding_is_bounded():
+    from box2d_driving.sensors.lidar import MIN_DISTANCE, encode
+
+    values = encode(np.array([0.0, 1e-9, 0.05, 2.0, np.inf]), 50.0, "inverse")
+    assert values.tolist() == pytest.approx([1 / MIN_DISTANCE] * 3 + [0.5, 0.0])
 
 
 @pytest.mark.parametrize("env_id,overrides", VARIANTS)

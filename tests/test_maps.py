@@ -383,3 +383,16 @@ def test_left_hand_traffic_is_the_mirror_image(tmp_path):
         env.step({a: 12 for a in env.agents})
     with pytest.raises(MapError, match="drive_on"):
         ImportConfig(drive_on="middle")
+
+
+def test_importing_osm_without_osmium_says_which_extra_to_install(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from box2d_driving.cli import main as cli
+
+    monkeypatch.setitem(sys.modules, "osmium", None)  # as if the [osm] extra were not installed
+    src = tmp_path / "x.osm"
+    src.write_text("<osm></osm>")
+    assert cli(["import-osm", str(src), "--node", "1", "--out", str(tmp_path / "m.json")]) == 2
+    err = capsys.readouterr().err
+    assert ".[osm]" in err and "Traceback" not in err and not (tmp_path / "m.json").exists()

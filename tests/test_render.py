@@ -37,7 +37,7 @@ def test_light_is_drawn_in_its_colour(value):
             break
     frame = env.render()
     viewer = env._viewer
-    where = viewer.light_positions(env)
+    where = viewer.light_positions(env.scene())
     assert _pixel(frame, viewer, where[0]) == LIGHT_COLOURS[value]
     other = LIGHT_COLOURS[RED if value == GREEN else GREEN]
     assert _pixel(frame, viewer, where[1]) == other  # the other group, in antiphase
@@ -86,7 +86,7 @@ def test_the_light_value_a_policy_stops_on_is_drawn_red_and_said_in_the_legend(s
         if env.layout.lights.values(0.0)[0] == GREEN:
             break
     frame = env.render()
-    where = env._viewer.light_positions(env)
+    where = env._viewer.light_positions(env.scene())
     expected = RED_RGB if stop_value == GREEN else GREEN_RGB
     assert _pixel(frame, env._viewer, where[0]) == expected
     plain = box2d_driving.make("intersection-v0", render_mode="rgb_array")
@@ -198,3 +198,26 @@ def test_long_roads_are_drawn_large_enough_to_see_and_the_view_follows_the_traff
             assert 0 <= np.median(xs) < frame.shape[1]  # the view keeps up with the cars
     lo, hi = viewer.bounds
     assert viewer.to_pixels(np.array([hi[0], 0.0]))[0] >= frame.shape[1] - 1  # never beyond the road's end
+
+
+def test_the_viewer_draws_a_public_scene_and_never_imports_the_envs():
+    import ast
+    from pathlib import Path
+
+    import box2d_driving.render as render
+
+    for path in Path(render.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        names = [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+        names += [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+        assert not [m for m in names if m.startswith("box2d_driving.envs")], path.name
+        assert "._last_rays" not in path.read_text(), path.name  # no private env state
+    env = box2d_driving.make("intersection-v0", render_mode="rgb_array", render_lidar=True)
+    env.reset(seed=0)
+    scene = env.scene()
+    assert scene.rays.shape == (env.config.num_cars, env.config.n_rays) and scene.light_values is not None
+    frame = env.render()
+    from box2d_driving.render.viewer import Viewer, ViewerConfig
+
+    again = Viewer("rgb_array", ViewerConfig(), show_lidar=True).render(scene)
+    assert np.array_equal(frame, again)  # the scene is all the viewer needs

@@ -84,9 +84,11 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     proc = subprocess.Popen(_sweep(out, 4000), cwd=ROOT, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
     deadline = time.time() + 240
-    while time.time() < deadline and not list((out / "tune" / good).glob("checkpoint_*")):
+    result = out / "tune" / good / "result.json"  # written once the driver has taken a report in
+    while time.time() < deadline and not (result.exists() and result.read_text().strip()):
         time.sleep(0.2)  # wait for the good trial's first checkpoint (after 10 updates)
     assert list((out / "tune" / good).glob("checkpoint_*")), "no checkpoint within 4 minutes"
+    time.sleep(2)  # the experiment's state records it (Ray snapshots it right after a checkpoint)
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C, as a user stops it
     log = proc.communicate(timeout=180)[0]
     first = json.loads(next((out / "tune" / good).glob("checkpoint_*/state.json")).read_text())

@@ -35,6 +35,7 @@ from stable_baselines3.common.logger import configure
 from stable_baselines3.common.utils import explained_variance
 
 from box2d_driving.metrics.lights import violation_rate
+from box2d_driving.road.lights import NO_LIGHT
 from training.buffer import MaskedRolloutBuffer
 from training.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model, save_model
 from training.inference import find_config
@@ -215,7 +216,7 @@ class RolloutMetrics(BaseCallback):
         from tqdm import tqdm
 
         n = self.training_env.num_envs
-        self.prev_light = np.full(n, 0.75)
+        self.prev_light = np.full(n, NO_LIGHT)
         self.prev_inside = np.zeros(n, dtype=bool)
         self.t0 = self.prev_rollout_end = time.perf_counter()
         self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
@@ -244,7 +245,7 @@ class RolloutMetrics(BaseCallback):
                 self.arrived += info["arrived"]
                 self.collided += info["collided"]
                 self.ped_hits += info["collided_with"] == "pedestrian"
-                self.prev_light[slot], self.prev_inside[slot] = 0.75, False
+                self.prev_light[slot], self.prev_inside[slot] = NO_LIGHT, False
         self.bar.update(self.training_env.num_envs)
         return self.wall < self.max_seconds and not (self.stop is not None and self.stop.requested)
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, Optional
+from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
 from gymnasium import logger as gymnasium_logger
@@ -24,6 +24,9 @@ from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.layout import Layout
 from box2d_driving.road.lights import NO_LIGHT
 from box2d_driving.sensors import lidar
+
+if TYPE_CHECKING:
+    from box2d_driving.render.scene import Scene
 
 # Per-car entries of state(): x, y, cos(h), sin(h), speed, acceleration, goal x, goal y,
 # remaining / initial path length, active, arrived, collided, rating.
@@ -105,7 +108,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self.np_random: Optional[np.random.Generator] = None
         self.layout: Optional[Layout] = None
         self._viewer = None
-        self._last_rays: Optional[np.ndarray] = None
+        self._last_rays: Optional[np.ndarray] = None  # kept while rendering, for drawing the rays
         self._last_dropped: Optional[np.ndarray] = None
 
     # -- spaces -------------------------------------------------------------------------------
@@ -122,7 +125,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
             "inv_goal_distance": (0.0, 1.0), "rating": (0.0, 1.0), "bit_received": (0.0, 1.0),
             "crosswalk_ahead": (0.0, 1.0),
         }
-        lidar_high = np.inf if self.config.lidar_encoding == "inverse" else 1.0
+        lidar_high = 1.0 / lidar.MIN_DISTANCE if self.config.lidar_encoding == "inverse" else 1.0
         low = np.concatenate([np.zeros(lay.history * lay.n_rays),
                               np.tile([bounds[f][0] for f in lay.satnav_fields], lay.history)])
         high = np.concatenate([np.full(lay.history * lay.n_rays, lidar_high),
@@ -154,6 +157,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
     # -- API ----------------------------------------------------------------------------------
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         cfg = self.config
+        if seed is not None:  # action_space(a).sample() is reproducible from the same seed
+            self._act_space.seed(seed)
         self.layout = self._new_layout(seed, options or {})
         self.world.reset(self.layout)
         n = cfg.num_cars
@@ -254,7 +259,27 @@ class DrivingEnv(ParallelEnv, EzPickle):
             w, h = self.config.render_size
             self._viewer = Viewer(self.render_mode, ViewerConfig(width=w, height=h),
                                   show_lidar=self.config.render_lidar, fps=self.config.render_fps)
-        return self._viewer.render(self)
+        return self._viewer.render(self.scene())
+
+    def scene(self) -> "Scene":
+        """What a frame of this moment shows (:class:`~box2d_driving.render.scene.Scene`): the map,
+        the cars, pedestrians and lights, and the LiDAR rays when ``render_lidar`` is on."""
+        from box2d_driving.render.scene import Scene
+
+        if self.layout is None:
+            raise RuntimeError("scene() needs reset() first")
+        cfg, w = self.config, self.world
+        lights = self.layout.lights
+        draw_rays = cfg.render_lidar and self._last_rays is not None
+        return Scene(
+            name=self.metadata.get("name", ""), decision=self.decision, horizon=cfg.horizon,
+            layout=self.layout, light_values=None if lights is None else lights.values(self.time),
+            positions=w.positions.copy(), headings=w.headings.copy(), status=w.status.copy(),
+            car_length=cfg.car_length, car_width=cfg.car_width,
+            ped_positions=np.asarray(w.ped_positions).copy(), ped_sizes=np.asarray(w.ped_sizes).copy(),
+            stop_value=cfg.render_stop_value,
+            rays=self._last_rays.copy() if draw_rays else None,
+            dropped=self._last_dropped.copy() if draw_rays else None, lidar_range=cfg.lidar_range)
 
     def close(self) -> None:
         self.world.release()

@@ -20,4 +20,4 @@ def env(**overrides: Any):
     return to_aec(parallel_env(**overrides))
 
 
-raw_env = parallel_env
+raw_env = env  # PettingZoo's convention: the AEC env

@@ -74,8 +74,9 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
     """Read an OSM file with ``osmium`` (:class:`MapError` if it is missing or unreadable)."""
     try:
         import osmium
-    except ImportError as exc:  # pragma: no cover - osmium is a package dependency
-        raise MapError(f"reading OSM files needs the 'osmium' package ({exc})") from None
+    except ImportError as exc:  # the [osm] extra: only the importer needs it
+        raise MapError(f"reading OSM files needs the 'osmium' package: pip install -e \".[osm]\" "
+                       f"(or pip install osmium) ({exc})") from None
     path = Path(path)
     if not path.is_file():
         raise MapError(f"OSM file {path} does not exist")

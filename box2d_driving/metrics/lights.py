@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from box2d_driving.metrics.rollouts import last_rows
+from box2d_driving.road.lights import GREEN, NO_LIGHT, RED, YELLOW
 
 GO_STOP = (0.0, 1.0)
 
@@ -48,7 +49,7 @@ def junction_entries(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 def violation_rate(entry_lights: np.ndarray) -> Violations:
     """Red-light violation rate from the light values seen at junction entries."""
     lights = np.asarray(entry_lights, dtype=float)
-    counts = {v: int(np.sum(np.isclose(lights, v))) for v in (0.0, 0.5, 0.75, 1.0)}
+    counts = {v: int(np.sum(np.isclose(lights, v))) for v in (GREEN, YELLOW, NO_LIGHT, RED)}
     if len(lights) == 0:
         return Violations(float("nan"), 1.0, 0, counts)
     stop = min(GO_STOP, key=lambda v: (counts[v], -v))  # ties: 1.0 (red) is "stop"

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Optional
+from typing import Optional
 
 import numpy as np
 
@@ -21,9 +21,7 @@ import pygame  # noqa: E402
 from box2d_driving.physics.world import ARRIVED, COLLIDED  # noqa: E402
 from box2d_driving.road.geometry import rectangle_corners  # noqa: E402
 from box2d_driving.road.lights import GREEN, RED, YELLOW  # noqa: E402
-
-if TYPE_CHECKING:
-    from box2d_driving.envs.base import DrivingEnv
+from box2d_driving.render.scene import Scene  # noqa: E402
 
 BACKGROUND = (34, 110, 52)
 ROAD = (72, 72, 78)
@@ -73,7 +71,8 @@ class ViewerConfig:
 
 
 class Viewer:
-    """Draws one env's current state; keeps its surface (and window, in ``human`` mode)."""
+    """Draws a :class:`~box2d_driving.render.scene.Scene` (``env.scene()``); keeps its surface (and
+    window, in ``human`` mode)."""
 
     def __init__(self, mode: str, config: ViewerConfig = ViewerConfig(), show_lidar: bool = False,
                  fps: float = 4.0) -> None:
@@ -91,10 +90,10 @@ class Viewer:
         self._view_for = None
 
     # -- coordinates --------------------------------------------------------------------------
-    def _fit(self, env: "DrivingEnv") -> None:
+    def _fit(self, scene: Scene) -> None:
         """Scale and offset so the whole map fits the frame (world y up, pixels y down); a road
         much longer than the frame is wide is shown a stretch at a time (:meth:`_follow`)."""
-        lay = env.layout
+        lay = scene.layout
         pts = [np.asarray(p) for p in lay.drivable] + [np.asarray(lay.edges).reshape(-1, 2)]
         pts = np.vstack([p for p in pts if len(p)])
         lo, hi = pts.min(axis=0) - self.config.margin, pts.max(axis=0) + self.config.margin
@@ -106,22 +105,22 @@ class Viewer:
             self.scale = min(h / size[1], w / self.config.follow_span)
         else:
             self.scale = min(w / size[0], h / size[1])
-        self._centre(env, (lo + hi) / 2)
+        self._centre((lo + hi) / 2)
         self._view_for = lay
 
-    def _centre(self, env: "DrivingEnv", centre: np.ndarray) -> None:
+    def _centre(self, centre: np.ndarray) -> None:
         w, h = self.config.width, self.config.height
         self.offset = np.array([w / 2 - centre[0] * self.scale, h / 2 + centre[1] * self.scale])
 
-    def _follow(self, env: "DrivingEnv") -> None:
+    def _follow(self, scene: Scene) -> None:
         """Pan along a long road to the middle of the cars still driving (all cars once none is),
         never beyond the road's ends."""
         lo, hi = self.bounds
-        live = env.world.status == 0
-        xs = env.world.positions[live if live.any() else slice(None), 0]
+        live = scene.status == 0
+        xs = scene.positions[live if live.any() else slice(None), 0]
         half = self.config.width / self.scale / 2
         x = float(np.clip((xs.min() + xs.max()) / 2, lo[0] + half, hi[0] - half))
-        self._centre(env, np.array([x, (lo[1] + hi[1]) / 2]))
+        self._centre(np.array([x, (lo[1] + hi[1]) / 2]))
 
     def to_pixels(self, points: np.ndarray) -> np.ndarray:
         """World points ``(..., 2)`` (m) to pixel coordinates ``(..., 2)``."""
@@ -133,12 +132,12 @@ class Viewer:
         pygame.draw.polygon(self.surface, colour, self.to_pixels(points).tolist(), width)
 
     # -- drawing ------------------------------------------------------------------------------
-    def draw(self, env: "DrivingEnv") -> pygame.Surface:
-        if self._view_for is not env.layout:
-            self._fit(env)
+    def draw(self, scene: Scene) -> pygame.Surface:
+        if self._view_for is not scene.layout:
+            self._fit(scene)
         if self.follow:
-            self._follow(env)
-        lay, w, cfg = env.layout, env.world, env.config
+            self._follow(scene)
+        lay = scene.layout
         s = self.surface
         s.fill(BACKGROUND)
         for poly in lay.drivable:
@@ -156,9 +155,9 @@ class Viewer:
             pygame.draw.line(s, EDGE, *self.to_pixels(np.array([a, b])).tolist(), 2)
         for a, b in np.asarray(lay.stop_lines).reshape(-1, 2, 2):
             pygame.draw.line(s, STOP_LINE, *self.to_pixels(np.array([a, b])).tolist(), 3)
-        if lay.lights is not None:
-            palette = light_colours(cfg.render_stop_value)
-            for point, value in zip(self.light_positions(env), lay.lights.values(env.time)):
+        if scene.light_values is not None:
+            palette = light_colours(scene.stop_value)
+            for point, value in zip(self.light_positions(scene), scene.light_values):
                 centre = self.to_pixels(point)
                 radius = max(3, int(self.config.light_radius * self.scale))
                 pygame.draw.circle(s, palette[float(value)], centre.tolist(), radius)
@@ -167,21 +166,20 @@ class Viewer:
             pygame.draw.lines(s, colour, False, self.to_pixels(car.path.points).tolist(), 1)
             gx, gy = self.to_pixels(car.path.points[-1])
             pygame.draw.circle(s, colour, (gx, gy), max(3, int(0.8 * self.scale)), 2)
-        if self.show_lidar and getattr(env, "_last_rays", None) is not None:
-            self._draw_lidar(env)
-        for k, p in enumerate(w.ped_positions):
-            size = w.ped_sizes[k]
+        if self.show_lidar and scene.rays is not None:
+            self._draw_lidar(scene)
+        for p, size in zip(scene.ped_positions, scene.ped_sizes):
             self._poly(PEDESTRIAN, rectangle_corners(p[0], p[1], 0.0, size, size))
-        for i in range(env.config.num_cars):
-            self._draw_car(i, w.positions[i], w.headings[i], w.status[i], cfg)
-        self._draw_hud(env)
+        for i in range(len(scene.positions)):
+            self._draw_car(i, scene.positions[i], scene.headings[i], scene.status[i], scene)
+        self._draw_hud(scene)
         return s
 
-    def light_positions(self, env: "DrivingEnv") -> np.ndarray:
+    def light_positions(self, scene: Scene) -> np.ndarray:
         """Where each light is drawn: beyond the right end of its stop line (m)."""
-        lights = env.layout.lights
+        lights = scene.layout.lights
         right = np.stack([lights.directions[:, 1], -lights.directions[:, 0]], axis=1)
-        lines = np.asarray(env.layout.stop_lines).reshape(-1, 2, 2)
+        lines = np.asarray(scene.layout.stop_lines).reshape(-1, 2, 2)
         if len(lines) == len(lights):
             ends = lines[:, 1]
         else:
@@ -197,8 +195,8 @@ class Viewer:
                                             [x0, min(y + stripe, y1)]]))
             y += 2 * stripe
 
-    def _draw_car(self, i: int, pos, heading, status, cfg) -> None:
-        corners = rectangle_corners(pos[0], pos[1], heading, cfg.car_length, cfg.car_width)
+    def _draw_car(self, i: int, pos, heading, status, scene: Scene) -> None:
+        corners = rectangle_corners(pos[0], pos[1], heading, scene.car_length, scene.car_width)
         if status == ARRIVED:
             self._poly(car_colour(i), corners, 2)
             return
@@ -211,19 +209,19 @@ class Viewer:
             return
         self._poly(car_colour(i), corners)
         # heading: a bright wedge at the front
-        front = np.array([pos[0], pos[1]]) + 0.5 * cfg.car_length * np.array([math.cos(heading), math.sin(heading)])
+        front = np.array([pos[0], pos[1]]) + 0.5 * scene.car_length * np.array([math.cos(heading), math.sin(heading)])
         nose = self.to_pixels(front)
         centre = self.to_pixels(np.asarray(pos))
         pygame.draw.line(self.surface, (255, 255, 255), centre.tolist(), nose.tolist(), 2)
 
-    def _draw_lidar(self, env: "DrivingEnv") -> None:
-        cfg, w = env.config, env.world
-        angles = np.arange(cfg.n_rays) * (2 * math.pi / cfg.n_rays)
-        for i in np.flatnonzero(w.status == 0):
-            rays, dropped = env._last_rays[i], env._last_dropped[i]
-            origin = w.positions[i]
-            dist = np.where(np.isfinite(rays), rays, cfg.lidar_range)
-            th = w.headings[i] + angles
+    def _draw_lidar(self, scene: Scene) -> None:
+        n_rays = scene.rays.shape[1]
+        angles = np.arange(n_rays) * (2 * math.pi / n_rays)
+        for i in np.flatnonzero(scene.status == 0):
+            rays, dropped = scene.rays[i], scene.dropped[i]
+            origin = scene.positions[i]
+            dist = np.where(np.isfinite(rays), rays, scene.lidar_range)
+            th = scene.headings[i] + angles
             ends = origin + dist[:, None] * np.stack([np.cos(th), np.sin(th)], axis=1)
             o = self.to_pixels(origin).tolist()
             for k, end in enumerate(self.to_pixels(ends)):
@@ -235,14 +233,14 @@ class Viewer:
                     continue
                 pygame.draw.line(self.surface, colour, o, end.tolist(), 1)
 
-    def _draw_hud(self, env: "DrivingEnv") -> None:
-        st = env.world.status
-        text = (f"{env.metadata.get('name', '')}  decision {env.decision}/{env.config.horizon}  "
+    def _draw_hud(self, scene: Scene) -> None:
+        st = scene.status
+        text = (f"{scene.name}  decision {scene.decision}/{scene.horizon}  "
                 f"arrived {int(np.sum(st == ARRIVED))}  collided {int(np.sum(st == COLLIDED))}  "
                 f"driving {int(np.sum(st == 0))}")
         lines = [text]
-        if env.layout.lights is not None:  # which light value is drawn red, and why
-            stop = env.config.render_stop_value
+        if scene.light_values is not None:  # which light value is drawn red, and why
+            stop = scene.stop_value
             lines.append(f"red light = value {stop:g}" + (" (the scenario's red)" if stop == RED else
                          " (the value this policy stops on; the scenario calls it green)"))
         y = 4
@@ -256,8 +254,8 @@ class Viewer:
             y += label.get_height() + 6
 
     # -- output -------------------------------------------------------------------------------
-    def render(self, env: "DrivingEnv") -> Optional[np.ndarray]:
-        surface = self.draw(env)
+    def render(self, scene: Scene) -> Optional[np.ndarray]:
+        surface = self.draw(scene)
         if self.mode == "rgb_array":
             return np.ascontiguousarray(np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)))
         if self.window is None:

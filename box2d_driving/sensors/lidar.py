@@ -195,12 +195,19 @@ def dropout_mask(rng: np.random.Generator, n_cars: int, n_rays: int, noise: floa
     return mask
 
 
+# Hits closer than this (m) read as this distance, so the inverse encoding is bounded by
+# 1 / MIN_DISTANCE. Rays start at the car's centre, at least half a car width (1.1 m) from anything
+# it has not crashed into: only a car already overlapping something sees a closer hit.
+MIN_DISTANCE = 0.1
+
+
 def encode(distances: np.ndarray, max_range: float, encoding: str) -> np.ndarray:
-    """Distances to observation values; no return (``inf``) becomes 0."""
+    """Distances to observation values; no return (``inf``) becomes 0. ``inverse``: ``1 / d`` with
+    ``d`` at least :data:`MIN_DISTANCE` (so at most 10 per metre); ``proximity``: ``1 - d / range``."""
     hit = np.isfinite(distances)
     out = np.zeros(distances.shape, dtype=np.float32)
     if encoding == "inverse":
-        out[hit] = 1.0 / np.maximum(distances[hit], 1e-6)
+        out[hit] = 1.0 / np.maximum(distances[hit], MIN_DISTANCE)
     else:
         out[hit] = 1.0 - distances[hit] / max_range
     return out

@@ -1,0 +1,145 @@
+"""Single-agent Gymnasium versions of the scenarios: the learner drives one car among others.
+
+    import gymnasium as gym
+    import box2d_driving  # registers the ids below
+
+    env = gym.make("box2d_driving/Intersection-v0")         # or Highway-v0, Crosswalk-v0, RealJunction-v0
+    obs, info = env.reset(seed=0)
+    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+
+The learner drives ``car_0`` (its observation, action, reward, termination and truncation are
+exactly the multi-agent env's for that car); every other car is driven by a **background policy**:
+
+* the scenario's shipped policy (``assets/policies/...``) when the training extra (torch) is
+  installed and this is a source checkout, with the env settings it was trained on (LiDAR noise,
+  sat-nav fields; the number of cars and the reward stay yours to set);
+* otherwise a scripted one: the light rule (brake on yellow and red) at junctions, the
+  privileged pedestrian oracle at the crosswalk, full throttle on the highway.
+
+``background="rule"`` (or any scripted name, or a run folder) chooses it explicitly, and
+``env.unwrapped.background_name`` says which one drives. The episode ends when the learner's car
+does (arrives, collides, or reaches the horizon). The spline scenarios stay multi-agent: their
+first stage (each car choosing its path) is a second, one-step decision per episode.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Optional
+
+import gymnasium as gym
+import numpy as np
+
+from box2d_driving.registry import make as make_parallel
+
+EGO = "car_0"
+SHIPPED = Path(__file__).resolve().parents[2] / "assets" / "policies"
+
+# id -> (multi-agent env id, shipped background policy, scripted fall-back)
+SINGLE_AGENT_IDS = {
+    "box2d_driving/Intersection-v0": ("intersection-v0", "traffic_lights_4cars_noise05", "rule"),
+    "box2d_driving/Highway-v0": ("highway-v0", None, "full-throttle"),
+    "box2d_driving/Crosswalk-v0": ("crosswalk-v0", "crosswalk_4cars_satnav_collision6", "pedestrian-oracle"),
+    "box2d_driving/RealJunction-v0": ("real-junction-v0", "real_junction_8cars_collision3", "rule"),
+}
+# settings of a shipped policy that are the learner's business, not the observation's
+_YOURS = ("num_cars", "collision_reward", "goal_reward", "horizon", "remove_collided")
+
+
+class SingleAgentDrivingEnv(gym.Env):
+    """One car of a multi-agent driving env, the others driven by a background policy.
+
+    Args:
+        env_id: the multi-agent env id (``intersection-v0``, ...).
+        background: ``None`` (the shipped policy if it can be loaded, else ``fallback``), a
+            scripted policy name (``rule``, ``random``, ``full-throttle``, ``pedestrian-oracle``)
+            or a path to a trained policy (needs the training extra).
+        fallback: the scripted policy used when no shipped policy can be loaded.
+        shipped: the shipped policy's folder name under ``assets/policies`` (or None).
+        **overrides: config fields of the multi-agent env (``num_cars``, ``render_mode``, ...).
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(self, env_id: str, background: Optional[str] = None, fallback: str = "rule",
+                 shipped: Optional[str] = None, **overrides: Any) -> None:
+        policy, name, settings = _background(env_id, background, fallback, shipped)
+        self.background_name = name
+        self.parallel = make_parallel(env_id, **{**settings, **overrides})
+        if EGO not in self.parallel.possible_agents:
+            raise ValueError(f"{env_id} has no {EGO}")
+        self._scripted = name if isinstance(policy, type) else None  # rebuilt per seed at reset
+        self.background = policy(self.parallel) if isinstance(policy, type) else policy
+        self.observation_space = self.parallel.observation_space(EGO)
+        self.action_space = self.parallel.action_space(EGO)
+        self.render_mode = self.parallel.render_mode
+        self.metadata = {**self.metadata, "render_fps": self.parallel.config.render_fps}
+        self._others: dict[str, np.ndarray] = {}
+
+    def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self.action_space.seed(seed)
+        obs, infos = self.parallel.reset(seed=seed, options=options)
+        if self._scripted is not None and seed is not None:  # e.g. a random background: seeded too
+            from box2d_driving.policies import make_policy
+
+            self.background = make_policy(self._scripted, self.parallel, seed=seed)
+        self._others = {a: o for a, o in obs.items() if a != EGO}
+        return obs[EGO], infos[EGO]
+
+    def step(self, action: Any):
+        if EGO not in self.parallel.agents:
+            raise RuntimeError("step() after the episode ended: call reset()")
+        actions = dict(self.background.act(self._others)) if self._others else {}
+        actions[EGO] = action
+        obs, rewards, terms, truncs, infos = self.parallel.step(actions)
+        self._others = {a: o for a, o in obs.items() if a != EGO and a in self.parallel.agents}
+        return obs[EGO], rewards[EGO], terms[EGO], truncs[EGO], infos[EGO]
+
+    def render(self):
+        return self.parallel.render()
+
+    def close(self) -> None:
+        self.parallel.close()
+
+
+def _background(env_id: str, background: Optional[str], fallback: str, shipped: Optional[str]):
+    """(policy or scripted class, its name, env settings it needs)."""
+    from box2d_driving.policies import SCRIPTED
+
+    if background in SCRIPTED:
+        return SCRIPTED[background], background, {}
+    if background is not None:
+        policy = _load(Path(background))
+        if policy is None:
+            raise ValueError(f"background {background!r}: not a scripted policy ({', '.join(SCRIPTED)}) "
+                             f"and not a trained policy that loads here (needs the training extra)")
+        return policy, str(background), _observation_settings(policy)
+    if shipped is not None and (SHIPPED / shipped).is_dir():
+        policy = _load(SHIPPED / shipped)
+        if policy is not None:
+            return policy, f"shipped:{shipped}", _observation_settings(policy)
+    return SCRIPTED[fallback], fallback, {}
+
+
+def _load(path: Path) -> Any:
+    """A trained policy, or None when the training extra is missing (the world package imports the
+    trainers only here, lazily, and only for this optional background)."""
+    try:
+        from training.inference import load_policy
+    except ImportError:
+        return None
+    return load_policy(path)
+
+
+def _observation_settings(policy: Any) -> dict:
+    return {k: v for k, v in policy.env_overrides.items() if k not in _YOURS}
+
+
+def register_single_agent_envs() -> None:
+    """Register the ``box2d_driving/...`` Gymnasium ids (done on ``import box2d_driving``)."""
+    for gym_id, (env_id, shipped, fallback) in SINGLE_AGENT_IDS.items():
+        if gym_id not in gym.registry:
+            gym.register(id=gym_id, entry_point="box2d_driving.envs.single_agent:SingleAgentDrivingEnv",
+                         kwargs={"env_id": env_id, "shipped": shipped, "fallback": fallback})
