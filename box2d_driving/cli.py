@@ -1,6 +1,7 @@
 """The ``box2d-driving`` command.
 
-Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``bench`` (the
+Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), ``play`` (drive
+a car yourself), ``bench`` (the
 world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
 OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
 ``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep``, ``reproduce`` and
@@ -80,6 +81,15 @@ def _render(args: argparse.Namespace) -> int:
     where = " and ".join(str(p) for p in (rec.video, rec.frames_dir) if p is not None)
     print(f"wrote {rec.frames} frames of {rec.episodes} episode(s) to {where} "
           f"({rec.render_seconds_per_frame * 1000:.1f} ms per frame to draw)")
+    return 0
+
+
+def _play(args: argparse.Namespace) -> int:
+    from box2d_driving.play import play
+
+    result = play(args.env_id, policy=args.policy, fps=args.fps, seed=args.seed, **_parse_overrides(args.set))
+    counts = {k: result.outcomes.count(k) for k in ("arrived", "collided", "time up")}
+    print(f"{len(result.outcomes)} episode(s): " + ", ".join(f"{k} {v}" for k, v in counts.items()))
     return 0
 
 
@@ -163,6 +173,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="config override, e.g. --set num_cars=8 --set lidar_noise=0.25")
     r.add_argument("--overwrite", action="store_true", help="replace existing output files")
     r.set_defaults(func=_render)
+
+    g = sub.add_parser("play", help="drive one car yourself among trained cars (a pygame window)")
+    g.add_argument("env_id", help="intersection-v0, highway-v0, crosswalk-v0 or real-junction-v0")
+    g.add_argument("--policy", help="who drives the other cars: a scripted policy (rule, random, "
+                                    "full-throttle, pedestrian-oracle) or a checkpoint "
+                                    "(default: the scenario's shipped policy, or a scripted one without the train extra)")
+    g.add_argument("--fps", type=float, default=2.0, help="decisions (seconds of the world) per real second (default 2)")
+    g.add_argument("--seed", type=int, help="seed of the first episode (default: a new one each time)")
+    g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="config override, e.g. --set num_cars=6")
+    g.set_defaults(func=_play)
 
     m = sub.add_parser("import-osm", help="import a real junction from an OpenStreetMap file (.osm.pbf/.osm)")
     m.add_argument("file", help="OSM extract (.osm.pbf or .osm XML)")

@@ -112,3 +112,26 @@ def test_sweep_flags_are_checked_before_anything_is_written(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("box2d-driving sweep: error:") >= 2 and "Traceback" not in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("argv", [
+    ["render", "nope-v0", "--out", "x.mp4"],
+    ["train", "lights", "--n-envs", "0"],
+    ["evaluate", "--seed", "5"],
+    ["sweep", "lights", "--grid", "colour=red", "--out", "unused"],
+    ["reproduce", "no_such_summary.json"],
+    ["convert-checkpoint", "no_such_run"],
+    ["play", "nope-v0"],
+    ["list", "--bogus"],
+])
+def test_every_command_reports_a_bad_input_in_one_line_with_status_2(tmp_path, monkeypatch, capsys, argv):
+    monkeypatch.chdir(tmp_path)
+    try:
+        status = cli(argv)
+    except SystemExit as exc:  # argparse's own usage errors exit through SystemExit
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err and err[-1].startswith("box2d-driving") and ": error: " in err[-1], err
+    assert not any("Traceback" in line for line in err)
+    assert not list(tmp_path.iterdir())  # nothing written

@@ -16,13 +16,25 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+def prog_name() -> str:
+    """The command as typed: ``box2d-driving evaluate`` through the CLI (which sets ``argv[0]``),
+    the script's file name when run as a script. Every error line starts ``PROG: error:``."""
+    return sys.argv[0].rsplit("/", 1)[-1]
+
+
+def error(message: str) -> int:
+    """Print the one-line error every command uses; returns the usage-error status, 2."""
+    print(f"{prog_name()}: error: {message}", file=sys.stderr)
+    return 2
+
+
 def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str = "") -> T:
     """Parse ``argv`` into an instance of the dataclass ``cls``. Field docs come from the class
     docstring's ``name: text`` lines."""
     docs: dict[str, str] = {}
     for klass in reversed(cls.__mro__):  # subclasses document their own fields
         docs.update(_field_docs(klass.__doc__ or ""))
-    parser = _Parser(prog=sys.argv[0].rsplit("/", 1)[-1], description=description)
+    parser = _Parser(prog=prog_name(), description=description)
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):
         flag = "--" + f.name.replace("_", "-")

@@ -23,7 +23,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from training.checkpoint import FILE, CheckpointError, save_model  # noqa: E402
-from training.cli_args import parse  # noqa: E402
+from training.cli_args import error, parse  # noqa: E402
 
 
 @dataclass
@@ -88,8 +88,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     try:
         written = convert(args)
     except CheckpointError as exc:
-        print(f"convert-checkpoint: error: {exc}", file=sys.stderr)
-        return 2
+        return error(str(exc))
     for path in written:
         print(f"wrote {path}")
     return 0

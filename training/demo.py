@@ -21,7 +21,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from training import evaluate, traffic_lights  # noqa: E402
-from training.cli_args import parse  # noqa: E402
+from training.cli_args import error, parse  # noqa: E402
 
 SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars_noise05"
 
@@ -42,8 +42,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     args = parse(Args, argv, description=__doc__.split("\n\n")[0])
     out = Path(args.out)
     if out.exists() and any(out.iterdir()):
-        print(f"demo: error: {out} exists and is not empty; choose another --out", file=sys.stderr)
-        return 2
+        return error(f"{out} exists and is not empty; choose another --out")
     print("== 1/3 short training run (traffic lights, 4 cars)")
     if traffic_lights.main(["--quick", "--out", str(out / "quick")]) != 0:
         return 1

@@ -31,7 +31,7 @@ from box2d_driving.metrics.rollouts import run_episodes, save_table  # noqa: E40
 from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
 from training import plots  # noqa: E402
 from training.reports import REPORTS, add_collisions  # noqa: E402
-from training.cli_args import parse  # noqa: E402
+from training.cli_args import error, parse  # noqa: E402
 from training.seeds import REPORT  # noqa: E402
 
 
@@ -152,8 +152,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     try:
         metrics = evaluate(args)
     except (FileExistsError, FileNotFoundError, ValueError) as exc:
-        print(f"evaluate: error: {exc}", file=sys.stderr)
-        return 2
+        return error(str(exc))
     print(json.dumps({k: v for k, v in metrics.items() if not isinstance(v, dict)}, indent=2))
     print(f"report: {Path(args.out) / 'metrics.json'}")
     return 0

@@ -5,10 +5,13 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
-from training.cli_args import parse
+from training.cli_args import parse, prog_name
 from training.trainer import RunError, TrainConfig, train
+
+if TYPE_CHECKING:
+    from training.bilevel import BilevelConfig
 
 
 @dataclass
@@ -98,7 +101,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
 
 def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
     """Parse ``argv`` into ``args_class``, train, print a summary; exit status."""
-    name = Path(sys.argv[0]).stem
+    name = prog_name()
     args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
     try:
         stats = train(config_from(env_id, args), Path(args.out), resume=args.resume)
@@ -162,7 +165,7 @@ def run_bilevel_script(env_id: str, args_class: type, argv: Optional[list[str]],
     """Parse ``argv`` into ``args_class``, run the bilevel alternation, print a summary."""
     from training.bilevel import train_bilevel
 
-    name = Path(sys.argv[0]).stem
+    name = prog_name()
     args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
     try:
         row = train_bilevel(bilevel_config_from(env_id, args), Path(args.out), resume=args.resume)

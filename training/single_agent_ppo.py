@@ -21,7 +21,7 @@ from typing import Optional
 if __package__ in (None, ""):  # run as a script: make the repository importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from training.cli_args import parse  # noqa: E402
+from training.cli_args import error, parse  # noqa: E402
 
 
 @dataclass
@@ -57,13 +57,10 @@ def main(argv: Optional[list[str]] = None) -> int:
     args = parse(Args, argv, description=__doc__.split("\n\n")[0])
     out = Path(args.out)
     if out.exists() and any(out.iterdir()):
-        print(f"single_agent_ppo: error: {out} is not empty; choose another --out", file=sys.stderr)
-        return 2
+        return error(f"{out} is not empty; choose another --out")
     if args.env_id not in gym.registry or not args.env_id.startswith("box2d_driving/"):
         ids = [k for k in gym.registry if k.startswith("box2d_driving/")]
-        print(f"single_agent_ppo: error: unknown env id {args.env_id!r}; registered: {', '.join(ids)}",
-              file=sys.stderr)
-        return 2
+        return error(f"unknown env id {args.env_id!r}; registered: {', '.join(ids)}")
     timesteps = min(args.timesteps, 2048) if args.quick else args.timesteps
     env = gym.make(args.env_id)
     model = PPO("MlpPolicy", env, seed=args.seed, n_steps=1024 if args.quick else 2048, verbose=0)

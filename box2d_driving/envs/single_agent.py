@@ -16,7 +16,8 @@ exactly the multi-agent env's for that car); every other car is driven by a **ba
 * otherwise a scripted one: the light rule (brake on yellow and red) at junctions, the
   privileged pedestrian oracle at the crosswalk, full throttle on the highway.
 
-``background="rule"`` (or any scripted name, or a run folder) chooses it explicitly, and
+Rendered, the lights are drawn as a trained background reads them (the value its cars stop on is
+red). ``background="rule"`` (or any scripted name, or a run folder) chooses it explicitly, and
 ``env.unwrapped.background_name`` says which one drives. The episode ends when the learner's car
 does (arrives, collides, or reaches the horizon). The spline scenarios stay multi-agent: their
 first stage (each car choosing its path) is a second, one-step decision per episode.
@@ -134,7 +135,12 @@ def _load(path: Path) -> Any:
 
 
 def _observation_settings(policy: Any) -> dict:
-    return {k: v for k, v in policy.env_overrides.items() if k not in _YOURS}
+    """The trained background's observation settings, and its light convention for drawing (the
+    other cars stop on the value drawn red)."""
+    settings = {k: v for k, v in policy.env_overrides.items() if k not in _YOURS}
+    if getattr(policy, "stop_value", None) is not None:
+        settings["render_stop_value"] = policy.stop_value
+    return settings
 
 
 def register_single_agent_envs() -> None:
