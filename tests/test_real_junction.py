@@ -164,7 +164,7 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     assert sum(k["cars"] for k in crashes["by_kind"].values()) == crashes["collided_cars"]
     assert (tmp_path / "collisions.png").exists()
     # the noise-level table reads such reports (two "levels" here: the same report twice)
-    from training.experiments import communication_table
+    from training import communication_table
 
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     out = tmp_path / "communication.png"
@@ -223,3 +223,22 @@ def test_evaluation_can_leave_wrecks_for_a_policy_trained_without_them(tmp_path)
     assert "wreck_collisions" not in runs["as_trained"]
     assert runs["wrecks_stay"]["env_config"]["remove_collided"] is False
     assert "wreck_collisions" in runs["wrecks_stay"]  # the report asks wreck questions only when wrecks stay
+
+
+def test_checkpoint_curve_evaluates_every_checkpoint_on_selection_seeds(tmp_path, capsys):
+    import csv
+
+    from tests.helpers import tiny_train_config
+    from training import checkpoint_curve
+    from training.trainer import train
+
+    run = tmp_path / "run"
+    train(tiny_train_config(env_id="real-junction-v0", timesteps=320, checkpoint_every=2), run)
+    assert checkpoint_curve.main([str(run), "--episodes", "1", "--seed", "10"]) == 2  # a training seed
+    assert "selection seeds" in capsys.readouterr().err
+    assert checkpoint_curve.main([str(run), "--episodes", "1"]) == 0
+    rows = list(csv.DictReader((run / "checkpoint_curve" / "curve.csv").open()))
+    kept = sorted(int(p.stem.split("_")[-1]) for p in (run / "checkpoints").glob("model_*.safetensors"))
+    assert [int(r["decisions"]) for r in rows] == kept and len(kept) >= 2
+    assert all(0 <= float(r["success_rate"]) <= 1 for r in rows)
+    assert (run / "checkpoint_curve" / "curve.png").stat().st_size > 0

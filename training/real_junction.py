@@ -7,7 +7,7 @@ train cars on ``real-junction-v0`` (the shipped Helsinki junctions, one sampled 
 
 Then ``python training/evaluate.py --checkpoint runs/real_junction --episodes 200 --out
 runs/real_junction/eval`` (FIFO share, safe-distance share and scatter, communication metrics) and
-``python training/experiments/checkpoint_curve.py runs/real_junction`` (FIFO over training).
+``python training/checkpoint_curve.py runs/real_junction`` (FIFO over training).
 """
 
 from __future__ import annotations

@@ -1,7 +1,9 @@
 """Evaluate every kept checkpoint of a run: success, collisions, right of way (FIFO share) and the
 safe-distance share against agent-steps, as a CSV and a plot (the learning curve of the rules).
+Choosing a checkpoint from this curve is a selection, so it runs on selection seeds; report the
+chosen checkpoint with ``evaluate``, on report seeds.
 
-    python training/experiments/checkpoint_curve.py runs/real_junction --episodes 20
+    python training/checkpoint_curve.py runs/real_junction --episodes 20
 """
 
 from __future__ import annotations
@@ -15,12 +17,13 @@ from pathlib import Path
 import numpy as np
 
 if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent.parent))
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
 from training import plots  # noqa: E402
 from training.inference import load_policy  # noqa: E402
 from training.reports import junction_summary  # noqa: E402
+from training.cli_args import error  # noqa: E402
 from training.seeds import SELECTION  # noqa: E402
 
 FIELDS = ("decisions", "agent_steps", "success_rate", "collision_rate", "fifo_share", "safe_share")
@@ -47,19 +50,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         SELECTION.episodes(args.episodes, args.seed)
     except ValueError as exc:
-        print(f"checkpoint_curve: error: {exc}", file=sys.stderr)
-        return 2
+        return error(str(exc))
     import torch
 
     torch.set_num_threads(1)
     out = args.out or args.run / "checkpoint_curve"
     if out.exists() and any(out.iterdir()) and not args.overwrite:
-        print(f"checkpoint_curve: error: {out} is not empty; pass --overwrite", file=sys.stderr)
-        return 2
+        return error(f"{out} is not empty; pass --overwrite")
     ckpts = sorted(args.run.glob("checkpoints/model_*.safetensors"), key=lambda p: int(re.findall(r"\d+", p.stem)[-1]))
     if not ckpts:
-        print(f"checkpoint_curve: error: no checkpoints in {args.run / 'checkpoints'}", file=sys.stderr)
-        return 2
+        return error(f"no checkpoints in {args.run / 'checkpoints'}")
     out.mkdir(parents=True, exist_ok=True)
     decisions = np.array([int(re.findall(r"\d+", p.stem)[-1]) for p in ckpts], dtype=float)
     steps = agent_steps_at(args.run, decisions)

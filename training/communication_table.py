@@ -4,7 +4,7 @@ all runs, with a one-sided permutation p-value) and a plot of speaker consistenc
 heading-change / bit correlations against noise. A noise level may be given several times (one
 evaluation per training seed); then a table of means +- std per level follows.
 
-    python training/experiments/communication_table.py --out docs/images/communication.png \\
+    python training/communication_table.py --out docs/images/communication.png \\
         0=runs/comm_n0/eval 0.25=runs/comm_n025/eval 0.5=runs/comm_n05/eval 0.75=runs/comm_n075/eval
 """
 
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent.parent))
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from box2d_driving.metrics.communication import rank_trend  # noqa: E402
 from training import plots  # noqa: E402
