@@ -49,6 +49,8 @@ def run_trial(config: dict[str, Any]) -> None:
     each checkpoint with the run folder, then evaluate on report seeds and report the metrics."""
     from ray import tune
 
+    from training import evaluate  # noqa: F401  (imported now: a trial runs one version of the code,
+    # even if the checkout changes while it trains)
     from training.cli_args import parse
     from training.scripts import bilevel_config_from, config_from
 
