@@ -263,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except (ValueError, FileExistsError) as exc:  # ConfigError is a ValueError
-        print(f"box2d-driving: error: {exc}", file=sys.stderr)
+        print(f"box2d-driving {args.command}: error: {exc}", file=sys.stderr)
         return 2
 
 

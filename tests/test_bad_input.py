@@ -132,6 +132,6 @@ def test_every_command_reports_a_bad_input_in_one_line_with_status_2(tmp_path, m
         status = exc.code
     assert status == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err and err[-1].startswith("box2d-driving") and ": error: " in err[-1], err
+    assert err and err[-1].startswith(f"box2d-driving {argv[0]}") and ": error: " in err[-1], err
     assert not any("Traceback" in line for line in err)
     assert not list(tmp_path.iterdir())  # nothing written
