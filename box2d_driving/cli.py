@@ -214,6 +214,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("convert-checkpoint", add_help=False,
                    help="convert an older pickled model.zip of your own to model.safetensors "
                         "(`convert-checkpoint --help`)")
+    parser.commands = sub.choices  # name -> sub-command parser
     return parser
 
 
@@ -259,7 +260,10 @@ def main(argv: list[str] | None = None) -> int:
         return bench.main(argv[1:])
     if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce"):
         return _delegate(argv)
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # reported by the sub-command's parser, so the line names the command
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return args.func(args)
     except (ValueError, FileExistsError) as exc:  # ConfigError is a ValueError
