@@ -79,3 +79,56 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
     lines = "\n".join(_comparison(section, groups))
     assert "our mean is inside the paper's interval" in lines  # 0.91 within 0.8525 +- 0.089
     assert "the paper's value lies outside our interval" in lines  # 0.9845 vs 0.95 +- 0.025
+
+
+def test_figure_data_counts_in_fixed_bins():
+    import numpy as np
+
+    from training import figure_data as fd
+
+    table = {"in_junction": np.array([True, True, True, False]), "lane_offset": np.array([0.5, 0.55, -0.9, 0.5])}
+    counts = fd.figure_data("intersection-spline-v0", table, None)["lane_position_counts"]
+    assert sum(counts) == 3 and len(counts) == len(fd.LANE_BINS) - 1
+    assert counts[int(np.searchsorted(fd.LANE_BINS, 0.5, side="right")) - 1] == 2
+    assert fd.figure_data("intersection-v0", table, None) == {}
+
+
+def test_lanes_page_draws_the_lane_position_histograms_summed_over_seeds(tmp_path):
+    from training import figure_data as fd
+
+    n = len(fd.LANE_BINS) - 1
+    right = [0] * n
+    right[-3] = 10
+    spread = [1] * n
+    trials = [{"trial": f"lanes_num_cars={c}_seed={s}", "behaviour": "lanes", "seed": s, "num_cars": c,
+               "status": "done", "report_episodes": 200, "report_first_seed": REPORT.start,
+               "lanes.majority_share": 1.0 if c == "8" else 0.5, "lanes.time_share_majority": 0.9,
+               "success_rate": 0.9, "figures": {"lane_position_counts": right if c == "8" else spread}}
+              for c in ("2", "8") for s in range(2)]
+    sweep = {"behaviour": "lanes", "grid": {"num_cars": ["2", "8"]}, "seeds": 2, "fixed": {},
+             "timesteps": None, "minutes": None, "episodes": 200, "quick": False}
+    path = tmp_path / "lanes.json"
+    path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    from training.reproduce import groups_of, load_summary
+
+    groups = groups_of(load_summary(path), ["lanes.majority_share"])
+    assert groups[1].figures["lane_position_counts"][-3] == 20  # two seeds summed
+    assert main([str(path), "--out", str(tmp_path / "results.md")]) == 0
+    text = (tmp_path / "results.md").read_text()
+    assert "![Lanes](images/results/lanes.png)" in text
+    assert (tmp_path / "images" / "results" / "lanes.png").stat().st_size > 5_000
+
+
+def test_summary_rows_keep_figures_in_the_json_only(tmp_path):
+    import csv as csv_module
+
+    from training.sweep_spec import SweepSpec
+    from training.sweep_summary import summary_row, write_summary
+
+    trial = {"name": "t", "behaviour": "lanes", "seed": 0, "point": {}}
+    row = summary_row(trial, "done", {"report/success_rate": 0.5, "figures/lane_position_counts": [1, 2]})
+    assert row["figures"] == {"lane_position_counts": [1, 2]}
+    write_summary(tmp_path, SweepSpec("lanes"), [row])
+    assert json.loads((tmp_path / "summary.json").read_text())["trials"][0]["figures"]["lane_position_counts"] == [1, 2]
+    header = next(csv_module.reader((tmp_path / "summary.csv").open()))
+    assert "figures" not in header and "success_rate" in header

@@ -15,10 +15,13 @@ from __future__ import annotations
 import json
 import sys
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional
 
+import numpy as np
+
+from training import figure_data as fd
 from training.seeds import REPORT
 from training.stats import Estimate, mean_ci
 
@@ -66,11 +69,13 @@ class Section:
 
 @dataclass
 class Group:
-    """The trials of one grid point: its settings and, per metric, the estimate over seeds."""
+    """The trials of one grid point: its settings, per metric the estimate over seeds, and each
+    distribution's counts summed over seeds (``figures``)."""
 
     point: dict[str, str]
     seeds: list[int]
     estimates: dict[str, Estimate]
+    figures: dict[str, Any] = field(default_factory=dict)
 
 
 # -- reading ----------------------------------------------------------------------------------
@@ -103,8 +108,13 @@ def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
     groups = []
     for values in sorted(by_point, key=lambda v: order.get(v, len(order))):
         rows = sorted(by_point[values], key=lambda r: r["seed"])
+        figures: dict[str, Any] = {}
+        for r in rows:
+            for name, counts in (r.get("figures") or {}).items():
+                counts = np.asarray(counts, dtype=float)
+                figures[name] = figures[name] + counts if name in figures else counts
         groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
-                            {m: mean_ci(_number(r.get(m)) for r in rows) for m in metrics}))
+                            {m: mean_ci(_number(r.get(m)) for r in rows) for m in metrics}, figures))
     return groups
 
 
@@ -181,6 +191,60 @@ def bars_figure(metric: str, label: str) -> Callable[[list[Group], list[str], Pa
     return draw
 
 
+def _label(g: Group, keys: list[str]) -> str:
+    return ", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
+
+
+def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Callable,
+                        mark: Optional[tuple[float, str]] = None) -> Callable:
+    """One normalised histogram per grid point (counts summed over its seeds); ``fallback`` draws
+    when no trial stored the distribution."""
+    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+        if not any(name in g.figures for g in groups):
+            return fallback(groups, keys, path)
+        plt = _plt()
+        fig, ax = plt.subplots(figsize=(6.5, 4.0))
+        centres = (bins[:-1] + bins[1:]) / 2
+        for g in groups:
+            if name in g.figures and g.figures[name].sum() > 0:
+                share = g.figures[name] / g.figures[name].sum()
+                ax.step(centres, share, where="mid", label=f"{_label(g, keys)} ({len(g.seeds)} seeds)")
+        if mark is not None:
+            ax.axvline(mark[0], color="grey", ls=":", lw=1, label=mark[1])
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("share of samples")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+    return draw
+
+
+def gap_figure(fallback: Callable, a_max: float = 1.5) -> Callable:
+    """Gap to the car ahead against closing speed (counts over seeds, log colour), with the
+    speed-matching boundary ``gap = v^2 / (2 a_max)``: samples above it can still stop."""
+    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+        have = [g for g in groups if "gap_closing_counts" in g.figures]
+        if not have:
+            return fallback(groups, keys, path)
+        plt = _plt()
+        fig, axes = plt.subplots(1, len(have), figsize=(4.8 * len(have), 4.0), squeeze=False)
+        v = np.linspace(0, fd.CLOSING_BINS[-1], 50)
+        for ax, g in zip(axes[0], have):
+            counts = np.asarray(g.figures["gap_closing_counts"], dtype=float)
+            ax.pcolormesh(fd.CLOSING_BINS, fd.GAP_BINS, np.log1p(counts), cmap="Blues")
+            ax.plot(v, v ** 2 / (2 * a_max), color="tab:red", label="speed-matching distance")
+            ax.set_ylim(fd.GAP_BINS[0], fd.GAP_BINS[-1])
+            ax.set_xlabel("closing speed (m/s)")
+            ax.set_ylabel("gap to the car ahead (m)")
+            ax.set_title(_label(g, keys), fontsize=9)
+            ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+    return draw
+
+
 # -- the page ---------------------------------------------------------------------------------
 SWEEP = "box2d-driving sweep"
 SECTIONS: tuple[Section, ...] = (
@@ -197,7 +261,9 @@ SECTIONS: tuple[Section, ...] = (
             "With 8 cars and noisy LiDAR, cars settle on one side of the road; with 2 cars they do not.",
             f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=40 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lanes",
-            figure=bars_figure("lanes.majority_share", "share on the majority side")),
+            figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
+                                       "lane position inside the junction (+ = right of the axis)",
+                                       bars_figure("lanes.majority_share", "share on the majority side"))),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),
@@ -207,7 +273,7 @@ SECTIONS: tuple[Section, ...] = (
             "init_from=assets/policies/traffic_lights_4cars --out runs/sweep-real-junction",
             paper_values=(PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
                           PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
-            figure=bars_figure("right_of_way.fifo_share", "FIFO share")),
+            figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share"))),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
             (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
              ("communication.pearson_heading_change_bit", "Pearson(heading change, bit)"),
@@ -226,7 +292,10 @@ SECTIONS: tuple[Section, ...] = (
              ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
             "Most cars keep more than the speed-matching distance from pedestrians (more than 6 m).",
             f"{SWEEP} crosswalk --seeds 3 --minutes 120 --set crosswalk_in_satnav=true --out runs/sweep-crosswalk",
-            figure=bars_figure("safe_stopping_share", "safe-stopping share")),
+            figure=distribution_figure("pedestrian_distance_counts", fd.PEDESTRIAN_BINS,
+                                       "distance to the nearest pedestrian ahead (m)",
+                                       bars_figure("safe_stopping_share", "safe-stopping share"),
+                                       mark=(6.0, "6 m"))),
 )
 
 

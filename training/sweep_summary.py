@@ -30,7 +30,8 @@ def train_metrics(progress: dict[str, Any]) -> dict[str, Any]:
 
 
 def final_metrics(run: Path, metrics: dict[str, Any]) -> dict[str, Any]:
-    """The report-seed evaluation, flattened to ``report/<name>`` scalars, with the run's counters."""
+    """The report-seed evaluation, flattened to ``report/<name>`` scalars, with the run's counters
+    and the distributions a results page draws (``figures``, from the evaluation's rollouts)."""
     state = json.loads((run / "state.json").read_text())
     out = {f"report/{k}": v for k, v in flatten(metrics).items()
            if k not in ("seed", "episodes", "checkpoint") and not k.startswith(("training.", "trained_on."))}
@@ -38,6 +39,15 @@ def final_metrics(run: Path, metrics: dict[str, Any]) -> dict[str, Any]:
                 "train/decisions": state.get("decisions", state.get("accel_decisions")),
                 "train/agent_steps": state["agent_steps"], "train/wall_s": state["wall_s"],
                 "success_rate": metrics.get("success_rate", math.nan), "done": 1})
+    rollouts = run / "eval" / "rollouts.npz"
+    if rollouts.exists():
+        from box2d_driving.metrics.rollouts import load_table
+        from training.figure_data import figure_data
+        from training.inference import load_policy
+
+        env = load_policy(run).make_env()
+        out["figures"] = figure_data(metrics["env_id"], load_table(rollouts), env.config)
+        env.close()
     return out
 
 
@@ -54,8 +64,10 @@ def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 def metrics_from_row(row: dict[str, Any]) -> dict[str, Any]:
     """A finished trial's summary row as the metrics its trial reported (for ``--reuse``)."""
-    fixed = set(SUMMARY_FIXED) | set(row.get("grid_keys", ()))
-    out = {f"report/{k}": v for k, v in row.items() if k not in fixed and k != "grid_keys"}
+    fixed = set(SUMMARY_FIXED) | set(row.get("grid_keys", ())) | {"grid_keys", "figures"}
+    out = {f"report/{k}": v for k, v in row.items() if k not in fixed}
+    if row.get("figures"):
+        out["figures"] = row["figures"]
     out.update({"train/decisions": row["decisions"], "train/agent_steps": row["agent_steps"],
                 "train/wall_s": row["wall_s"], "report_episodes": row["report_episodes"],
                 "report_first_seed": row["report_first_seed"], "run": row["run"],
@@ -87,6 +99,10 @@ def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], err
            "report_first_seed": metrics.get("report_first_seed")}
     row.update(trial["point"])
     row.update({k[len("report/"):]: v for k, v in metrics.items() if k.startswith("report/")})
+    figures = dict(metrics.get("figures") or {})  # nested as reported, or flattened by Ray
+    figures.update({k[len("figures/"):]: v for k, v in metrics.items() if k.startswith("figures/")})
+    if figures:
+        row["figures"] = figures
     return row
 
 
@@ -95,11 +111,11 @@ def write_summary(out: Path, spec: SweepSpec, rows: list[dict[str, Any]]) -> Non
     rows = sorted(rows, key=lambda r: r["trial"])
     write_json_atomic(out / "summary.json", {"sweep": dataclasses.asdict(spec), "trials": rows})
     columns = list(SUMMARY_FIXED[:3]) + list(spec.grid) + list(SUMMARY_FIXED[3:])
-    for row in rows:
-        columns += [k for k in row if k not in columns]
+    for row in rows:  # the figures' counts stay in the JSON
+        columns += [k for k in row if k not in columns and k != "figures"]
     tmp = out / "summary.csv.partial"
     with tmp.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=columns)
+        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
     tmp.replace(out / "summary.csv")
