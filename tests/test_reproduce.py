@@ -132,3 +132,19 @@ def test_summary_rows_keep_figures_in_the_json_only(tmp_path):
     assert json.loads((tmp_path / "summary.json").read_text())["trials"][0]["figures"]["lane_position_counts"] == [1, 2]
     header = next(csv_module.reader((tmp_path / "summary.csv").open()))
     assert "figures" not in header and "success_rate" in header
+
+
+def test_gifs_animate_the_shipped_policy_and_the_page_links_them(tmp_path):
+    import dataclasses
+
+    from training import reproduce
+
+    section = next(s for s in reproduce.SECTIONS if s.key == "traffic-lights")
+    small = dataclasses.replace(section, gif_size=(96, 96))
+    gif = reproduce.write_gif(small, tmp_path / "images" / "traffic-lights.gif")
+    import imageio.v2 as imageio
+
+    frames = imageio.mimread(gif)
+    assert len(frames) > 5 and frames[0].shape[:2] == (96, 96)
+    text = reproduce.write_page([], tmp_path / "results.md", tmp_path / "images")
+    assert "![Stopping at red lights: the shipped policy](images/traffic-lights.gif)" in text

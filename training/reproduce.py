@@ -65,6 +65,8 @@ class Section:
     command: str
     paper_values: tuple[PaperValue, ...] = ()
     figure: Optional[Callable[[list["Group"], list[str], Path], None]] = None
+    shipped: Optional[str] = None  # the shipped policy animated in the section (assets/policies/...)
+    gif_size: tuple[int, int] = (320, 320)
 
 
 @dataclass
@@ -254,7 +256,7 @@ SECTIONS: tuple[Section, ...] = (
             "With one car the light is ignored; with more cars and more LiDAR noise, fewer cars enter "
             "on red (the paper shows this as histograms, without numbers).",
             f"{SWEEP} lights --grid lidar_noise=0,0.25,0.5,0.75 num_cars=1,4,8 --seeds 3 --timesteps 991552 "
-            "--out runs/sweep-lights", figure=lights_figure),
+            "--out runs/sweep-lights", figure=lights_figure, shipped="traffic_lights_4cars_noise05"),
     Section("lanes", "Lanes", "lanes", (),
             (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
              "time on the majority side"), ("success_rate", "success")),
@@ -263,7 +265,8 @@ SECTIONS: tuple[Section, ...] = (
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lanes",
             figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
                                        "lane position inside the junction (+ = right of the axis)",
-                                       bars_figure("lanes.majority_share", "share on the majority side"))),
+                                       bars_figure("lanes.majority_share", "share on the majority side")),
+            shipped="lanes_8cars_noise05"),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),
@@ -273,7 +276,8 @@ SECTIONS: tuple[Section, ...] = (
             "init_from=assets/policies/traffic_lights_4cars --out runs/sweep-real-junction",
             paper_values=(PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
                           PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
-            figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share"))),
+            figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
+            shipped="real_junction_8cars_collision3"),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
             (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
              ("communication.pearson_heading_change_bit", "Pearson(heading change, bit)"),
@@ -281,12 +285,14 @@ SECTIONS: tuple[Section, ...] = (
             "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise.",
             f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --minutes 40 "
             "--set communication=true num_cars=8 --out runs/sweep-communication",
-            figure=bars_figure("communication.speaker_consistency_bits", "speaker consistency (bits)")),
+            figure=bars_figure("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+            shipped="real_junction_comm_8cars/noise05"),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             (("fast_lanes.pearson_r", "Pearson(rating, lateral)"), ("success_rate", "success")),
             "Faster cars keep to one side of the highway.",
             f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=40 --out runs/sweep-fast-lanes",
-            figure=bars_figure("fast_lanes.pearson_r", "Pearson(rating, lateral position)")),
+            figure=bars_figure("fast_lanes.pearson_r", "Pearson(rating, lateral position)"),
+            shipped="fast_lanes_10cars", gif_size=(640, 200)),
     Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
             (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
              ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
@@ -295,8 +301,25 @@ SECTIONS: tuple[Section, ...] = (
             figure=distribution_figure("pedestrian_distance_counts", fd.PEDESTRIAN_BINS,
                                        "distance to the nearest pedestrian ahead (m)",
                                        bars_figure("safe_stopping_share", "safe-stopping share"),
-                                       mark=(6.0, "6 m"))),
+                                       mark=(6.0, "6 m")),
+            shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200)),
 )
+
+
+SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies"
+
+
+def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
+    """One report episode of the section's shipped policy as an animated GIF (needs the policy's
+    checkpoint; the page itself does not)."""
+    from box2d_driving.render.video import record
+    from training.inference import load_policy
+
+    policy = load_policy(SHIPPED / section.shipped)
+    env = policy.make_env(render_mode="rgb_array", render_size=section.gif_size)
+    record(env, policy, episodes=1, video=path, seed=seed, overwrite=True)
+    env.close()
+    return path
 
 
 def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -368,8 +391,10 @@ def lights_statement(groups: list[Group]) -> list[str]:
     return lines
 
 
-def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path) -> str:
-    """Write the page to ``out`` and its figures into ``figures``; returns the page text."""
+def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: bool = False) -> str:
+    """Write the page to ``out`` and its figures into ``figures``; returns the page text. With
+    ``gifs``, (re)draw each section's animation of its shipped policy first (needs the checkpoints;
+    without, existing animations are linked)."""
     figures.mkdir(parents=True, exist_ok=True)
     rel = Path(_relative(figures, out.parent))
     parts = ["# Results", "",
@@ -380,6 +405,13 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path) -> str
              "brackets. How sweeps run: [sweeps.md](sweeps.md).", ""]
     for section in SECTIONS:
         parts += [f"## {section.title}", "", f"**Paper.** {section.paper}", ""]
+        gif = figures / f"{section.key}.gif"
+        if gifs and section.shipped is not None:
+            write_gif(section, gif)
+        if gif.exists():
+            parts += [f"![{section.title}: the shipped policy]({(rel / gif.name).as_posix()})", "",
+                      f"*The shipped policy `assets/policies/{section.shipped}`, one report episode "
+                      f"(seed {REPORT.start:,}); lights drawn in the convention it adopted.*", ""]
         found = section_summaries(section, summaries)
         if not found:
             parts += ["**Ours.** Not run yet. To run it:", "", "```bash", section.command, "```", ""]
@@ -442,11 +474,14 @@ def main(argv: Optional[list[str]] = None) -> int:
     p.add_argument("summaries", nargs="*", type=Path, help="summary.json files of sweeps")
     p.add_argument("--out", type=Path, default=Path("docs/results.md"), help="the page (default docs/results.md)")
     p.add_argument("--figures", type=Path, help="folder for the figures (default: images/results beside the page)")
+    p.add_argument("--gifs", action="store_true",
+                   help="also redraw each rule's animated GIF of its shipped policy (needs the train extra "
+                        "and assets/policies; without it, existing GIFs are linked)")
     args = p.parse_args(argv)
     try:
         summaries = [load_summary(s) for s in args.summaries]
         figures = args.figures or args.out.parent / "images" / "results"
-        write_page(summaries, args.out, figures)
+        write_page(summaries, args.out, figures, gifs=args.gifs)
     except ResultsError as exc:
         print(f"box2d-driving reproduce: error: {exc}", file=sys.stderr)
         return 2
