@@ -66,7 +66,7 @@ class ViewerConfig:
     height: int = 768
     margin: float = 4.0
     light_radius: float = 1.6
-    font_size: int = 18
+    font_size: Optional[int] = None  # None: 18 px on a 768 px wide frame, scaled with the width
     follow_span: float = 120.0
 
 
@@ -83,7 +83,8 @@ class Viewer:
         self.show_lidar = show_lidar
         self.fps = fps
         pygame.font.init()
-        self.font = pygame.font.Font(None, config.font_size)
+        size = config.font_size or max(11, min(18, round(18 * config.width / 768)))
+        self.font = pygame.font.Font(None, size)
         self.surface = pygame.Surface((config.width, config.height))
         self.window: Optional[pygame.Surface] = None
         self.clock: Optional[pygame.time.Clock] = None
@@ -235,14 +236,19 @@ class Viewer:
 
     def _draw_hud(self, scene: Scene) -> None:
         st = scene.status
-        text = (f"{scene.name}  decision {scene.decision}/{scene.horizon}  "
+        narrow = self.config.width < 500  # small frames (GIFs): the short forms
+        text = (("" if narrow else f"{scene.name}  ") + f"decision {scene.decision}/{scene.horizon}  "
                 f"arrived {int(np.sum(st == ARRIVED))}  collided {int(np.sum(st == COLLIDED))}  "
                 f"driving {int(np.sum(st == 0))}")
         lines = [text]
         if scene.light_values is not None:  # which light value is drawn red, and why
             stop = scene.stop_value
-            lines.append(f"red light = value {stop:g}" + (" (the scenario's red)" if stop == RED else
-                         " (the value this policy stops on; the scenario calls it green)"))
+            if stop == RED:
+                lines.append(f"red light = value {stop:g} (the scenario's red)")
+            elif narrow:
+                lines.append(f"red light = value {stop:g}: this policy's stop")
+            else:
+                lines.append(f"red light = value {stop:g} (the value this policy stops on; the scenario calls it green)")
         y = 4
         for line in lines:
             label = self.font.render(line, True, HUD_TEXT)
