@@ -44,7 +44,13 @@ PROGRESS_METRIC = "success_rate"
 
 
 # -- the trial (runs in a Ray worker) ----------------------------------------------------------
-def run_trial(config: dict[str, Any]) -> None:
+def trial_spec(config: dict[str, Any], trials: Optional[dict[str, dict]]) -> dict[str, Any]:
+    """The trial's description: looked up by the name Ray Tune's config holds (sweeps started by
+    an earlier release kept the whole description in the config)."""
+    return config["trial"] if "trial" in config else trials[config["name"]]
+
+
+def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) -> None:
     """Ray Tune function trainable: train (or resume from the trial's last checkpoint), reporting
     each checkpoint with the run folder, then evaluate on report seeds and report the metrics."""
     from ray import tune
@@ -54,7 +60,7 @@ def run_trial(config: dict[str, Any]) -> None:
     from training.cli_args import parse
     from training.scripts import bilevel_config_from, config_from
 
-    trial = config["trial"]
+    trial = trial_spec(config, trials)
     if trial.get("reuse"):  # measured by an earlier run of this sweep (--reuse): its row as it was
         tune.report(metrics_from_row(trial["reuse"]))
         return
@@ -103,7 +109,7 @@ def evaluate_run(run: Path, episodes: int) -> dict[str, Any]:
 
 # -- the driver ------------------------------------------------------------------------------
 
-def _summary_callback(out: Path, spec: SweepSpec):
+def _summary_callback(out: Path, spec: SweepSpec, trials: dict[str, dict]):
     from ray import tune
 
     class Summary(tune.Callback):
@@ -116,7 +122,7 @@ def _summary_callback(out: Path, spec: SweepSpec):
         def _write(self, trial, status: str, error: str = "") -> None:
             metrics = trial.last_result or {}
             path = trial.checkpoint.path if trial.checkpoint is not None else ""
-            row = summary_row(trial.config["trial"], status, metrics, error, path)
+            row = summary_row(trial_spec(trial.config, trials), status, metrics, error, path)
             self.rows[row["trial"]] = row
             write_summary(out, spec, list(self.rows.values()))
 
@@ -170,27 +176,30 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
         else:  # this machine: trials queue when cores are few
             ray.init(num_cpus=max(os.cpu_count() or 1, math.ceil(cpus_per_trial)), include_dashboard=False,
                      object_store_memory=200 * 1024**2, configure_logging=False)
-    trainable = tune.with_resources(run_trial, {"cpu": cpus_per_trial, "gpu": gpus_per_trial})
+    trials = {t["name"]: t for t in spec.trials(("--threads", str(threads or max(1, int(cpus_per_trial)))))}
+    for name, trial in trials.items():
+        trial["reuse"] = reused.get(name)
+    # Ray Tune's config holds only the trial's name (a short column in the progress table); the
+    # descriptions reach the trials through the object store
+    trainable = tune.with_resources(tune.with_parameters(run_trial, trials=trials),
+                                    {"cpu": cpus_per_trial, "gpu": gpus_per_trial})
     if restoring and tune.Tuner.can_restore(str(out / "tune")):
         tuner = tune.Tuner.restore(str(out / "tune"), trainable, resume_unfinished=True, resume_errored=True)
     else:
-        trials = spec.trials(("--threads", str(threads or max(1, int(cpus_per_trial)))))
-        for trial in trials:
-            trial["reuse"] = reused.get(trial["name"])
         tuner = tune.Tuner(
             trainable,
-            param_space={"trial": tune.grid_search(trials)},
+            param_space={"name": tune.grid_search(list(trials))},
             tune_config=tune.TuneConfig(metric=PROGRESS_METRIC, mode="max", max_concurrent_trials=max_concurrent,
                                         trial_name_creator=_trial_name, trial_dirname_creator=_trial_name),
             run_config=tune.RunConfig(
                 name="tune", storage_path=str(out), failure_config=tune.FailureConfig(max_failures=0),
                 checkpoint_config=tune.CheckpointConfig(num_to_keep=1),
-                callbacks=[_summary_callback(out, spec)]),
+                callbacks=[_summary_callback(out, spec, trials)]),
         )
     results = tuner.fit()
     rows = []
     for result in results:
-        trial = result.config["trial"]
+        trial = trial_spec(result.config, trials)
         status = "error" if result.error else ("done" if (result.metrics or {}).get("done") else "stopped")
         path = result.checkpoint.path if result.checkpoint is not None else ""
         rows.append(summary_row(trial, status, result.metrics or {},
@@ -200,7 +209,7 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
 
 
 def _trial_name(trial) -> str:
-    return trial.config["trial"]["name"]
+    return trial.config["name"] if "name" in trial.config else trial.config["trial"]["name"]
 
 
 def build_parser():
