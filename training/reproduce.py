@@ -1,7 +1,7 @@
 """``box2d-driving reproduce``: the results page (docs/results.md) and its figures, redrawn from
 sweep summaries alone (no checkpoints needed).
 
-    box2d-driving reproduce results/sweeps/lights.json [more summaries ...] --out docs/results.md
+    box2d-driving reproduce assets/sweeps/lights.json [more summaries ...] --out docs/results.md
 
 One section per rule: the paper's result, ours as a mean over training seeds with a 95 % interval
 and the per-seed values, a plain statement where ours falls outside the paper's interval, the
@@ -12,22 +12,20 @@ episodes is refused.
 
 from __future__ import annotations
 
-import json
 import sys
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-import numpy as np
-
 from training import figure_data as fd
+from training.results_data import Group, ResultsError, as_number, grid_product, groups_of, load_summary
+from training.results_figures import bars_figure, distribution_figure, gap_figure, lights_figure
 from training.seeds import REPORT
-from training.stats import Estimate, mean_ci
+from training.stats import Estimate
 
-
-class ResultsError(ValueError):
-    """A summary that cannot go on the results page."""
+__all__ = ["SECTIONS", "Group", "ResultsError", "Section", "groups_of", "load_summary", "main", "write_gif",
+           "write_page"]
 
 
 @dataclass(frozen=True)
@@ -67,184 +65,6 @@ class Section:
     figure: Optional[Callable[[list["Group"], list[str], Path], None]] = None
     shipped: Optional[str] = None  # the shipped policy animated in the section (assets/policies/...)
     gif_size: tuple[int, int] = (320, 320)
-
-
-@dataclass
-class Group:
-    """The trials of one grid point: its settings, per metric the estimate over seeds, and each
-    distribution's counts summed over seeds (``figures``)."""
-
-    point: dict[str, str]
-    seeds: list[int]
-    estimates: dict[str, Estimate]
-    figures: dict[str, Any] = field(default_factory=dict)
-
-
-# -- reading ----------------------------------------------------------------------------------
-def load_summary(path: Path) -> dict[str, Any]:
-    """A sweep's ``summary.json``; :class:`ResultsError` if unreadable or not on report seeds."""
-    try:
-        data = json.loads(Path(path).read_text())
-        sweep, trials = data["sweep"], data["trials"]
-        grid = dict(sweep["grid"])
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise ResultsError(f"{path}: not a sweep summary ({exc})") from None
-    for row in trials:
-        if row.get("status") != "done":
-            continue
-        first, n = row.get("report_first_seed"), row.get("report_episodes")
-        if not isinstance(first, int) or not isinstance(n, int) or first not in REPORT or first + n - 1 not in REPORT:
-            raise ResultsError(f"{path}: trial {row.get('trial')} was evaluated on episodes {first}.. "
-                               f"({n} of them), not on report seeds ({REPORT.describe()})")
-    return {"path": str(path), "sweep": sweep, "grid": grid, "trials": trials}
-
-
-def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
-    """Finished trials grouped by grid point, in grid order, each metric estimated over seeds."""
-    by_point: dict[tuple, list[dict]] = defaultdict(list)
-    keys = list(summary["grid"])
-    for row in summary["trials"]:
-        if row.get("status") == "done":
-            by_point[tuple(str(row[k]) for k in keys)].append(row)
-    order = {tuple(v): i for i, v in enumerate(_product([summary["grid"][k] for k in keys]))}
-    groups = []
-    for values in sorted(by_point, key=lambda v: order.get(v, len(order))):
-        rows = sorted(by_point[values], key=lambda r: r["seed"])
-        figures: dict[str, Any] = {}
-        for r in rows:
-            for name, counts in (r.get("figures") or {}).items():
-                counts = np.asarray(counts, dtype=float)
-                figures[name] = figures[name] + counts if name in figures else counts
-        groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
-                            {m: mean_ci(_number(r.get(m)) for r in rows) for m in metrics}, figures))
-    return groups
-
-
-def _product(lists: list[list[str]]) -> list[list[str]]:
-    out: list[list[str]] = [[]]
-    for values in lists:
-        out = [prefix + [v] for prefix in out for v in values]
-    return out
-
-
-def _number(value: Any) -> float:
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
-# -- figures ----------------------------------------------------------------------------------
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def lights_figure(groups: list[Group], keys: list[str], path: Path) -> None:
-    """Red-light violation rate against cars, one line per LiDAR noise level, with 95 % intervals
-    and the per-seed values as dots (the paper's Figure on traffic-light usage, as numbers)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    noises = sorted({g.point.get("lidar_noise", "?") for g in groups}, key=_number)
-    cmap = plt.get_cmap("viridis")
-    for i, noise in enumerate(noises):
-        mine = sorted((g for g in groups if g.point.get("lidar_noise", "?") == noise),
-                      key=lambda g: _number(g.point.get("num_cars")))
-        colour = cmap(0.85 * i / max(len(noises) - 1, 1))  # the palest yellow is unreadable on white
-        xs = [_number(g.point.get("num_cars")) + 0.08 * (i - (len(noises) - 1) / 2) for g in mine]
-        est = [g.estimates["red_light_violation_rate"] for g in mine]
-        lows = [e.mean - e.low if e.low is not None else 0 for e in est]
-        highs = [e.high - e.mean if e.high is not None else 0 for e in est]
-        ax.errorbar(xs, [e.mean for e in est], yerr=[lows, highs], color=colour, marker="o", capsize=3,
-                    label=f"LiDAR noise {noise}")
-        for x, e in zip(xs, est):
-            ax.scatter([x] * len(e.values), e.values, color=colour, s=10, alpha=0.5)
-    ax.axhline(0.45, color="grey", ls=":", lw=1, label="light-blind policy (~0.45)")
-    ax.set_xticks(sorted({_number(g.point.get("num_cars")) for g in groups}))
-    ax.set_xlabel("cars per episode")
-    ax.set_ylabel("red-light violation rate")
-    ax.set_ylim(0, 1)
-    ax.set_title("Red-light violations (mean, 95 % interval over training seeds)", fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def bars_figure(metric: str, label: str) -> Callable[[list[Group], list[str], Path], None]:
-    """One bar per grid point with its 95 % interval and per-seed dots."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
-        plt = _plt()
-        fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(groups) + 2), 3.8))
-        for i, g in enumerate(groups):
-            e = g.estimates[metric]
-            err = [[e.mean - e.low], [e.high - e.mean]] if e.low is not None else None
-            ax.bar(i, e.mean, yerr=err, capsize=4, color="tab:blue", alpha=0.7)
-            ax.scatter([i] * len(e.values), e.values, color="black", s=10, zorder=3)
-        ax.set_xticks(range(len(groups)), [", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
-                                           for g in groups], fontsize=8, rotation=20)
-        ax.set_ylabel(label)
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-    return draw
-
-
-def _label(g: Group, keys: list[str]) -> str:
-    return ", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
-
-
-def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Callable,
-                        mark: Optional[tuple[float, str]] = None) -> Callable:
-    """One normalised histogram per grid point (counts summed over its seeds); ``fallback`` draws
-    when no trial stored the distribution."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
-        if not any(name in g.figures for g in groups):
-            return fallback(groups, keys, path)
-        plt = _plt()
-        fig, ax = plt.subplots(figsize=(6.5, 4.0))
-        centres = (bins[:-1] + bins[1:]) / 2
-        for g in groups:
-            if name in g.figures and g.figures[name].sum() > 0:
-                share = g.figures[name] / g.figures[name].sum()
-                ax.step(centres, share, where="mid", label=f"{_label(g, keys)} ({len(g.seeds)} seeds)")
-        if mark is not None:
-            ax.axvline(mark[0], color="grey", ls=":", lw=1, label=mark[1])
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel("share of samples")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-    return draw
-
-
-def gap_figure(fallback: Callable, a_max: float = 1.5) -> Callable:
-    """Gap to the car ahead against closing speed (counts over seeds, log colour), with the
-    speed-matching boundary ``gap = v^2 / (2 a_max)``: samples above it can still stop."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
-        have = [g for g in groups if "gap_closing_counts" in g.figures]
-        if not have:
-            return fallback(groups, keys, path)
-        plt = _plt()
-        fig, axes = plt.subplots(1, len(have), figsize=(4.8 * len(have), 4.0), squeeze=False)
-        v = np.linspace(0, fd.CLOSING_BINS[-1], 50)
-        for ax, g in zip(axes[0], have):
-            counts = np.asarray(g.figures["gap_closing_counts"], dtype=float)
-            ax.pcolormesh(fd.CLOSING_BINS, fd.GAP_BINS, np.log1p(counts), cmap="Blues")
-            ax.plot(v, v ** 2 / (2 * a_max), color="tab:red", label="speed-matching distance")
-            ax.set_ylim(fd.GAP_BINS[0], fd.GAP_BINS[-1])
-            ax.set_xlabel("closing speed (m/s)")
-            ax.set_ylabel("gap to the car ahead (m)")
-            ax.set_title(_label(g, keys), fontsize=9)
-            ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-    return draw
 
 
 # -- the page ---------------------------------------------------------------------------------
@@ -370,8 +190,8 @@ def lights_statement(groups: list[Group]) -> list[str]:
     lines = []
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
     for g in groups:
-        by_noise[g.point.get("lidar_noise", "?")][_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
-    for noise in sorted(by_noise, key=_number):
+        by_noise[g.point.get("lidar_noise", "?")][as_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
+    for noise in sorted(by_noise, key=as_number):
         cars = by_noise[noise]
         if 1.0 in cars and cars[1.0].high is not None:
             one = cars[1.0]
@@ -422,7 +242,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             keys = list(summary["grid"])
             trials = summary["trials"]
             done = sum(r.get("status") == "done" for r in trials)
-            planned = len(_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
+            planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
                       f"{summary['sweep'].get('timesteps') or 'the default'} decisions per trial"
                       + (f", {summary['sweep']['minutes']} min" if summary['sweep'].get('minutes') else "")

@@ -1,0 +1,84 @@
+"""Reading sweep summaries for the results page: trials grouped by grid point, each metric
+estimated over training seeds, each distribution's counts summed over seeds."""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from training.seeds import REPORT
+from training.stats import Estimate, mean_ci
+
+
+class ResultsError(ValueError):
+    """A summary that cannot go on the results page."""
+
+
+@dataclass
+class Group:
+    """The trials of one grid point: its settings, per metric the estimate over seeds, and each
+    distribution's counts summed over seeds (``figures``)."""
+
+    point: dict[str, str]
+    seeds: list[int]
+    estimates: dict[str, Estimate]
+    figures: dict[str, Any] = field(default_factory=dict)
+
+
+# -- reading ----------------------------------------------------------------------------------
+def load_summary(path: Path) -> dict[str, Any]:
+    """A sweep's ``summary.json``; :class:`ResultsError` if unreadable or not on report seeds."""
+    try:
+        data = json.loads(Path(path).read_text())
+        sweep, trials = data["sweep"], data["trials"]
+        grid = dict(sweep["grid"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ResultsError(f"{path}: not a sweep summary ({exc})") from None
+    for row in trials:
+        if row.get("status") != "done":
+            continue
+        first, n = row.get("report_first_seed"), row.get("report_episodes")
+        if not isinstance(first, int) or not isinstance(n, int) or first not in REPORT or first + n - 1 not in REPORT:
+            raise ResultsError(f"{path}: trial {row.get('trial')} was evaluated on episodes {first}.. "
+                               f"({n} of them), not on report seeds ({REPORT.describe()})")
+    return {"path": str(path), "sweep": sweep, "grid": grid, "trials": trials}
+
+
+def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
+    """Finished trials grouped by grid point, in grid order, each metric estimated over seeds."""
+    by_point: dict[tuple, list[dict]] = defaultdict(list)
+    keys = list(summary["grid"])
+    for row in summary["trials"]:
+        if row.get("status") == "done":
+            by_point[tuple(str(row[k]) for k in keys)].append(row)
+    order = {tuple(v): i for i, v in enumerate(grid_product([summary["grid"][k] for k in keys]))}
+    groups = []
+    for values in sorted(by_point, key=lambda v: order.get(v, len(order))):
+        rows = sorted(by_point[values], key=lambda r: r["seed"])
+        figures: dict[str, Any] = {}
+        for r in rows:
+            for name, counts in (r.get("figures") or {}).items():
+                counts = np.asarray(counts, dtype=float)
+                figures[name] = figures[name] + counts if name in figures else counts
+        groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
+                            {m: mean_ci(as_number(r.get(m)) for r in rows) for m in metrics}, figures))
+    return groups
+
+
+def grid_product(lists: list[list[str]]) -> list[list[str]]:
+    out: list[list[str]] = [[]]
+    for values in lists:
+        out = [prefix + [v] for prefix in out for v in values]
+    return out
+
+
+def as_number(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
