@@ -52,7 +52,8 @@ from training.seeds import check_training_seeds
 from training.shared_policy import SharedSplinePicker
 from training.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
                               write_config, write_json_atomic)
-from training.trainer import (RolloutMetrics, TrainConfig, build_model, load_weights, make_vec_env,
+from training.progress import RolloutMetrics
+from training.trainer import (TrainConfig, build_model, load_weights, make_vec_env,
                               resolve_device, resumed_config, set_minibatching, torch_threads)
 
 
