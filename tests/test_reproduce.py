@@ -148,3 +148,18 @@ def test_gifs_animate_the_shipped_policy_and_the_page_links_them(tmp_path):
     assert len(frames) > 5 and frames[0].shape[:2] == (96, 96)
     text = reproduce.write_page([], tmp_path / "results.md", tmp_path / "images")
     assert "![Stopping at red lights: the shipped policy](images/traffic-lights.gif)" in text
+
+
+def test_every_rules_rerun_command_is_a_valid_sweep():
+    import shlex
+
+    from training.reproduce import SECTIONS
+    from training.sweep import build_parser, spec_from_args
+    from training.sweep_spec import check_spec
+
+    for section in SECTIONS:
+        argv = shlex.split(section.command)
+        assert argv[:2] == ["box2d-driving", "sweep"], section.key
+        spec, _ = spec_from_args(build_parser().parse_args(argv[2:]))
+        assert spec.behaviour == section.behaviour
+        check_spec(spec)  # every trial's options parse and make a valid config

@@ -247,6 +247,19 @@ def build_parser():
     return p
 
 
+def spec_from_args(args: Any) -> tuple[SweepSpec, Optional[int]]:
+    """The sweep (and the torch threads per trial, not part of it) from parsed command-line
+    arguments; :class:`SweepError` for a bad pair."""
+    fixed = parse_pairs(args.set, "--set", many=False)
+    threads = fixed.pop("threads", None)  # how fast, not what is learnt: not part of the sweep
+    if threads is not None and (not threads.isdigit() or int(threads) < 1):
+        raise SweepError(f"threads must be a whole number >= 1, got {threads!r}")
+    spec = SweepSpec(behaviour=args.behaviour, grid=parse_pairs(args.grid, "--grid", many=True),
+                     seeds=args.seeds, fixed=fixed, timesteps=args.timesteps, minutes=args.minutes,
+                     episodes=args.episodes, quick=args.quick)
+    return spec, int(threads) if threads else None
+
+
 def main(argv: Optional[list[str]] = None) -> int:
     args = build_parser().parse_args(argv)
     prog = "box2d-driving sweep"
@@ -257,16 +270,9 @@ def main(argv: Optional[list[str]] = None) -> int:
               f"({exc})", file=sys.stderr)
         return 2
     try:
-        fixed = parse_pairs(args.set, "--set", many=False)
-        threads = fixed.pop("threads", None)  # how fast, not what is learnt: not part of the sweep
-        spec = SweepSpec(behaviour=args.behaviour, grid=parse_pairs(args.grid, "--grid", many=True),
-                         seeds=args.seeds, fixed=fixed, timesteps=args.timesteps, minutes=args.minutes,
-                         episodes=args.episodes, quick=args.quick)
-        if threads is not None and (not threads.isdigit() or int(threads) < 1):
-            raise SweepError(f"threads must be a whole number >= 1, got {threads!r}")
+        spec, threads = spec_from_args(args)
         rows = run_sweep(spec, Path(args.out), args.cpus_per_trial, args.gpus_per_trial, args.address,
-                         args.max_concurrent, Path(args.reuse) if args.reuse else None,
-                         int(threads) if threads else None)
+                         args.max_concurrent, Path(args.reuse) if args.reuse else None, threads)
     except SweepError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
