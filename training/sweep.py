@@ -130,7 +130,11 @@ def _summary_callback(out: Path, spec: SweepSpec, trials: dict[str, dict]):
             self._write(trial, "done")
 
         def on_trial_error(self, iteration, trials, trial, **info) -> None:
-            self._write(trial, "error", first_line(getattr(trial, "error_msg", None) or "failed"))
+            try:  # the error's text, as Ray Tune stored it; its last line names the exception
+                text = trial.get_error() or ""
+            except Exception:  # noqa: BLE001 - a summary row must not fail over its message
+                text = ""
+            self._write(trial, "error", first_line(str(text)) or "failed (see the trial's error.txt)")
 
     return Summary()
 
