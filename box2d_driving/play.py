@@ -103,12 +103,14 @@ def play(env_id: str, policy: Optional[str] = None, fps: float = 2.0, episodes: 
     import pygame
 
     shipped, fallback = PLAYABLE[env_id]
-    env = SingleAgentDrivingEnv(env_id, background=policy, fallback=fallback, shipped=shipped,
-                                **{**overrides, "render_mode": "rgb_array"})
+    from box2d_driving.render.viewer import Viewer, ViewerConfig
+
+    env = SingleAgentDrivingEnv(env_id, background=policy, fallback=fallback, shipped=shipped, **overrides)
     pygame.display.init()
     pygame.font.init()
     w, h = env.parallel.config.render_size
     window = pygame.display.set_mode((w, h))
+    viewer = Viewer("rgb_array", ViewerConfig(width=w, height=h))  # draws into our window
     pygame.display.set_caption(f"box2d-driving play {env_id}")
     font = pygame.font.Font(None, 24)
     clock = pygame.time.Clock()
@@ -137,8 +139,11 @@ def play(env_id: str, policy: Optional[str] = None, fps: float = 2.0, episodes: 
                 if terminated or truncated:
                     outcome = "arrived" if info["arrived"] else "collided" if info["collided"] else "time up"
                     outcomes.append(outcome)
-            frame = env.render()
-            window.blit(pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2))), (0, 0))
+            scene = env.parallel.scene()
+            window.blit(viewer.draw(scene), (0, 0))
+            you = viewer.to_pixels(scene.positions[0]).tolist()  # ring the player's car
+            pygame.draw.circle(window, (255, 255, 255), you, max(12, int(3.0 * viewer.scale)), 2)
+            window.blit(font.render("you", True, (255, 255, 255)), (you[0] + 14, you[1] - 24))
             y = h - 8
             for line in reversed(_status_lines(env, info, outcome)):
                 label = font.render(line, True, (255, 255, 255))
