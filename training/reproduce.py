@@ -158,6 +158,8 @@ def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list
 def _estimate_cell(e: Estimate) -> str:
     if e.n == 0:
         return "n/a"
+    if e.n == 1:
+        return e.format()  # "x (1 seed)"
     seeds = ", ".join(f"{v:.3f}" for v in e.values)
     return f"{e.format()} ({seeds})"
 
@@ -244,7 +246,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             done = sum(r.get("status") == "done" for r in trials)
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
-                      f"{summary['sweep'].get('timesteps') or 'the default'} decisions per trial"
+                      + (f"{summary['sweep']['timesteps']:,}" if summary['sweep'].get('timesteps') else "the default")
+                      + " decisions per trial"
                       + (f", {summary['sweep']['minutes']} min" if summary['sweep'].get('minutes') else "")
                       + f", {summary['sweep']['episodes']} report episodes each).", ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
