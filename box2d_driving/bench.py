@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import resource
 import sys
@@ -97,6 +98,24 @@ def peak_memory_mib() -> float:
     return kib / 1024 if sys.platform != "darwin" else kib / 2**20
 
 
+def machine() -> str:
+    """This machine in one line (CPU model, cores, memory, Python): every benchmark prints it, so
+    a published number says where it was measured."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            cpu = next((ln.split(":", 1)[1].strip() for ln in fh if ln.startswith("model name")), cpu)
+    except OSError:
+        pass
+    memory = ""
+    try:
+        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+        memory = f", {pages * size / 2**30:.0f} GiB"
+    except (ValueError, OSError, AttributeError):
+        pass
+    return f"{cpu}, {os.cpu_count()} cores{memory}, {platform.system()}, python {platform.python_version()}"
+
+
 def format_table(results: list[BenchResult]) -> str:
     lines = [
         "| cars | agent-steps/s | LiDAR | physics | glue | episodes |",
@@ -138,11 +157,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {cars:>3} cars: {r.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
     print()
     print(format_table(results))
-    print(f"\npeak memory: {peak_memory_mib():.0f} MiB; python {platform.python_version()}, "
-          f"{platform.machine()}; 32 cars use {env_overrides(32)}")
+    print(f"\npeak memory: {peak_memory_mib():.0f} MiB; 32 cars use {env_overrides(32)}\nmachine: {machine()}")
     if args.json:
         with open(args.json, "x") as f:
-            json.dump({"results": [asdict(r) for r in results], "peak_memory_mib": peak_memory_mib()},
+            json.dump({"results": [asdict(r) for r in results], "peak_memory_mib": peak_memory_mib(),
+                       "machine": machine()},
                       f, indent=2)
     return 0
 

@@ -166,7 +166,9 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
     out = tmp_path / "train.json"
     assert bench(["--train", "--cars", "2", "--n-envs", "2", "--batch-decisions", "160", "--warmup", "1",
                   "--updates", "1", "--num-cpus", "0", "2", "--devices", "cpu", "--json", str(out)]) == 0
-    assert "| env workers | device |" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "| env workers | device |" in printed and "machine: " in printed and " cores" in printed
+    assert "cores" in json.loads(out.read_text())["machine"]  # a table says where it was measured
     rows = json.loads(out.read_text())["rows"]
     assert [r["num_cpus"] for r in rows] == [0, 2]
     for r in rows:
@@ -174,3 +176,14 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
         assert abs(r["env_share"] + r["inference_share"] + r["update_share"] - 1.0) < 0.05
     with pytest.raises(SystemExit):  # never replaces a table
         bench(["--train", "--json", str(out)])
+
+
+def test_world_benchmark_prints_its_table_and_the_machine(tmp_path, capsys):
+    from box2d_driving.bench import main as bench
+
+    out = tmp_path / "world.json"
+    assert bench(["--seconds", "0.3", "--cars", "2", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "agent-steps/s" in printed and "machine: " in printed
+    saved = json.loads(out.read_text())
+    assert saved["results"][0]["agent_steps_per_s"] > 0 and "cores" in saved["machine"]

@@ -30,6 +30,8 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 import torch as th
+
+from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
 
 from training.trainer import TrainConfig, build_model, make_vec_env, resolve_device, set_minibatching, torch_threads
@@ -182,9 +184,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             print(f"  workers {n:>2}, {device}: {row.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
     print()
     print(format_table(rows))
+    gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"
+    print(f"machine: {machine()}, {gpu}")
     if args.json:
         with open(args.json, "x") as fh:
-            json.dump({"settings": vars(args), "cores": cores, "rows": [asdict(r) for r in rows]}, fh, indent=2)
+            json.dump({"settings": vars(args), "cores": cores, "machine": f"{machine()}, {gpu}",
+                       "rows": [asdict(r) for r in rows]}, fh, indent=2)
     return 0
 
 
