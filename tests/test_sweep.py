@@ -139,3 +139,11 @@ def test_reuse_refuses_another_sweeps_summary(tmp_path):
     (tmp_path / "bad.json").write_text("[1, 2]")
     with pytest.raises(SweepError, match="not a sweep summary"):
         reusable_rows(tmp_path / "bad.json", spec)
+
+
+def test_without_ray_the_sweep_says_which_extra_to_install(monkeypatch, capsys, tmp_path):
+    from training.sweep import main
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if the [sweep] extra were not installed
+    assert main(["lights", "--out", str(tmp_path / "s")]) == 2
+    assert '".[train,sweep]"' in capsys.readouterr().err and not (tmp_path / "s").exists()
