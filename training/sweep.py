@@ -97,14 +97,11 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
     tune.report(final_metrics(run, metrics), checkpoint=tune.Checkpoint.from_directory(str(run)))
 
 
-
 def evaluate_run(run: Path, episodes: int) -> dict[str, Any]:
     """The run's policy on the first ``episodes`` report seeds, written to ``run/eval``."""
     from training.evaluate import Args, evaluate
 
     return evaluate(Args(checkpoint=str(run), episodes=episodes, out=str(run / "eval"), overwrite=True))
-
-
 
 
 # -- the driver ------------------------------------------------------------------------------
@@ -137,7 +134,6 @@ def _summary_callback(out: Path, spec: SweepSpec, trials: dict[str, dict]):
             self._write(trial, "error", first_line(str(text)) or "failed (see the trial's error.txt)")
 
     return Summary()
-
 
 
 def prepare_out(out: Path, spec: SweepSpec) -> bool:
