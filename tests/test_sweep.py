@@ -81,7 +81,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     out = tmp_path / "sweep"
     env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "RAY_DEDUP_LOGS": "0"}
     good = "lights_init_from=" + str(SHIPPED).replace("/", "-") + "_seed=0"
-    proc = subprocess.Popen(_sweep(out, 4000), cwd=ROOT, env=env, stdout=subprocess.PIPE,
+    proc = subprocess.Popen(_sweep(out, 4000) + ["--max-concurrent", "1"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
     deadline = time.time() + 240
     result = out / "tune" / good / "result.json"  # written once the driver has taken a report in
@@ -93,6 +93,10 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     log = proc.communicate(timeout=180)[0]
     first = json.loads(next((out / "tune" / good).glob("checkpoint_*/state.json")).read_text())
     assert first["decisions"] < 4000, log[-3000:]
+    # stopped with one trial running and one not started: both in the summary, no traceback
+    assert proc.returncode == 1 and "Traceback" not in log, log[-3000:]
+    stopped = {r["trial"]: r["status"] for r in csv.DictReader((out / "summary.csv").open())}
+    assert stopped[good] == "stopped" and sorted(stopped.values()) == ["pending", "stopped"], stopped
 
     run = subprocess.run(_sweep(out, 4000), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
     assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-3000:]  # one trial failed

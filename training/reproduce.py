@@ -266,9 +266,10 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 name = f"{section.key}.png"
                 section.figure(groups, keys, figures / name)
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
-            failed = [r for r in trials if r.get("status") not in ("done", None)]
+            failed = [r for r in trials if r.get("status") in ("error", "stopped")]
             if failed:
-                parts += ["Trials not finished: " + ", ".join(f"`{r['trial']}` ({r['status']})" for r in failed), ""]
+                parts += ["Trials not finished (a rerun continues them): "
+                          + ", ".join(f"`{r['trial']}` ({r['status']})" for r in failed), ""]
         parts += ["To rerun (a stopped sweep continues when the command is run again):", "",
                   "```bash", section.command, "```", ""]
     text = "\n".join(parts)

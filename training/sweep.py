@@ -197,15 +197,20 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
                 callbacks=[_summary_callback(out, spec, trials)]),
         )
     results = tuner.fit()
-    rows = []
+    rows = {}
     for result in results:
+        if not result.config:  # a trial that never started (the sweep was stopped first)
+            continue
         trial = trial_spec(result.config, trials)
         status = "error" if result.error else ("done" if (result.metrics or {}).get("done") else "stopped")
         path = result.checkpoint.path if result.checkpoint is not None else ""
-        rows.append(summary_row(trial, status, result.metrics or {},
-                                first_line(result.error) if result.error else "", path))
-    write_summary(out, spec, rows)
-    return rows
+        rows[trial["name"]] = summary_row(trial, status, result.metrics or {},
+                                          first_line(result.error) if result.error else "", path)
+    for name, trial in trials.items():
+        if name not in rows:
+            rows[name] = summary_row(trial, "pending", {})
+    write_summary(out, spec, list(rows.values()))
+    return list(rows.values())
 
 
 def _trial_name(trial) -> str:
@@ -276,11 +281,15 @@ def main(argv: Optional[list[str]] = None) -> int:
     except SweepError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
-    failed = [r for r in rows if r["status"] != "done"]
-    print(f"{len(rows) - len(failed)} of {len(rows)} trials done; summary: {Path(args.out) / 'summary.csv'}")
+    failed = [r for r in rows if r["status"] in ("error", "stopped")]
+    pending = sum(r["status"] == "pending" for r in rows)
+    done = sum(r["status"] == "done" for r in rows)
+    print(f"{done} of {len(rows)} trials done" + (f", {pending} not started" if pending else "")
+          + f"; summary: {Path(args.out) / 'summary.csv'} (run the same command again to continue)"
+          if done < len(rows) else f"{done} of {len(rows)} trials done; summary: {Path(args.out) / 'summary.csv'}")
     for r in failed:
         print(f"  {r['trial']}: {r['status']}: {r['error']}", file=sys.stderr)
-    return 1 if failed else 0
+    return 1 if failed or pending else 0
 
 
 if __name__ == "__main__":
