@@ -106,22 +106,22 @@ def evaluate_run(run: Path, episodes: int) -> dict[str, Any]:
 
 # -- the driver ------------------------------------------------------------------------------
 
-def _summary_callback(out: Path, spec: SweepSpec, trials: dict[str, dict]):
+def _summary_callback(out: Path, spec: SweepSpec, specs: dict[str, dict]):
     from ray import tune
 
     class Summary(tune.Callback):
         """Keeps summary.csv/json current as trials finish or fail (a killed sweep keeps them)."""
 
-        def __init__(self) -> None:
-            old = out / "summary.json"
-            self.rows = {r["trial"]: r for r in json.loads(old.read_text())["trials"]} if old.exists() else {}
-
         def _write(self, trial, status: str, error: str = "") -> None:
+            # merged into the summary on disk, which holds every earlier run of this sweep (a
+            # continued sweep restores this callback as it was when the sweep started)
+            old = out / "summary.json"
+            rows = {r["trial"]: r for r in json.loads(old.read_text())["trials"]} if old.exists() else {}
             metrics = trial.last_result or {}
             path = trial.checkpoint.path if trial.checkpoint is not None else ""
-            row = summary_row(trial_spec(trial.config, trials), status, metrics, error, path)
-            self.rows[row["trial"]] = row
-            write_summary(out, spec, list(self.rows.values()))
+            row = summary_row(trial_spec(trial.config, specs), status, metrics, error, path)
+            rows[row["trial"]] = row
+            write_summary(out, spec, list(rows.values()))
 
         def on_trial_complete(self, iteration, trials, trial, **info) -> None:
             self._write(trial, "done")
