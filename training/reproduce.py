@@ -126,6 +126,7 @@ SECTIONS: tuple[Section, ...] = (
 )
 
 
+LIGHTS = ("lights", "lanes", "real-junction")  # behaviours whose scenes have traffic lights
 SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies"
 
 
@@ -233,7 +234,9 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
         if gif.exists():
             parts += [f"![{section.title}: the shipped policy]({(rel / gif.name).as_posix()})", "",
                       f"*The shipped policy `assets/policies/{section.shipped}`, one report episode "
-                      f"(seed {REPORT.start:,}); lights drawn in the convention it adopted.*", ""]
+                      f"(seed {REPORT.start:,})"
+                      + ("; lights drawn in the convention it adopted" if section.behaviour in LIGHTS else "")
+                      + ".*", ""]
         found = section_summaries(section, summaries)
         if not found:
             parts += ["**Ours.** Not run yet. To run it:", "", "```bash", section.command, "```", ""]
@@ -270,7 +273,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             if failed:
                 parts += ["Trials not finished (a rerun continues them): "
                           + ", ".join(f"`{r['trial']}` ({r['status']})" for r in failed), ""]
-        parts += ["To rerun (a stopped sweep continues when the command is run again):", "",
+        parts += ["To rerun (a stopped sweep continues when the command is run again; on another "
+                  "machine, add `--reuse` with the committed summary to keep its finished trials):", "",
                   "```bash", section.command, "```", ""]
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
