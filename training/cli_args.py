@@ -11,7 +11,9 @@ from typing import Any, Optional, Sequence, TypeVar
 T = TypeVar("T")
 
 
-class _Parser(argparse.ArgumentParser):
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose usage errors are one line (``PROG: error: ...``, status 2)."""
+
     def error(self, message: str):  # one line, no usage dump
         self.exit(2, f"{self.prog}: error: {message}\n")
 
@@ -34,7 +36,7 @@ def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str =
     docs: dict[str, str] = {}
     for klass in reversed(cls.__mro__):  # subclasses document their own fields
         docs.update(_field_docs(klass.__doc__ or ""))
-    parser = _Parser(prog=prog_name(), description=description)
+    parser = OneLineParser(prog=prog_name(), description=description)
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):
         flag = "--" + f.name.replace("_", "-")

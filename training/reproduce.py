@@ -127,7 +127,7 @@ SECTIONS: tuple[Section, ...] = (
 
 
 LIGHTS = ("lights", "lanes", "real-junction")  # behaviours whose scenes have traffic lights
-SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies"
+from box2d_driving.envs.single_agent import SHIPPED  # noqa: E402  (assets/policies)
 
 
 def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
@@ -291,13 +291,9 @@ def _relative(target: Path, start: Path) -> str:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    import argparse
+    from training.cli_args import OneLineParser
 
-    class Parser(argparse.ArgumentParser):
-        def error(self, message: str):
-            self.exit(2, f"{self.prog}: error: {message}\n")
-
-    p = Parser(prog="box2d-driving reproduce",
+    p = OneLineParser(prog="box2d-driving reproduce",
                description="Write the results page and its figures from sweep summaries (summary.json).")
     p.add_argument("summaries", nargs="*", type=Path, help="summary.json files of sweeps")
     p.add_argument("--out", type=Path, default=Path("docs/results.md"), help="the page (default docs/results.md)")

@@ -32,7 +32,8 @@ from pathlib import Path
 from typing import Any, Optional
 
 from training.run_dir import write_json_atomic
-from training.sweep_spec import SweepError, SweepSpec, is_bilevel, script_module, check_spec, parse_pairs
+from training.sweep_spec import (SweepError, SweepSpec, check_spec, is_bilevel, parse_pairs, script_module,
+                                 spec_differences)
 from training.sweep_summary import (final_metrics, first_line, metrics_from_row, reusable_rows, summary_row,
                                     train_metrics, write_summary)
 
@@ -141,8 +142,7 @@ def prepare_out(out: Path, spec: SweepSpec) -> bool:
     saved = out / "sweep.json"
     if saved.exists():
         old = json.loads(saved.read_text())
-        mine = json.loads(json.dumps(dataclasses.asdict(spec)))
-        diff = [k for k in mine if old.get(k) != mine[k]]
+        diff = spec_differences(old, spec)
         if diff:
             raise SweepError(f"{out} holds a different sweep ({', '.join(diff)} differ: "
                              f"{', '.join(f'{k}={old.get(k)!r}' for k in diff)}); choose another --out")
@@ -218,15 +218,11 @@ def _trial_name(trial) -> str:
 
 
 def build_parser():
-    import argparse
+    from training.cli_args import OneLineParser
 
     from box2d_driving.cli import TRAINERS
 
-    class Parser(argparse.ArgumentParser):
-        def error(self, message: str):  # one line, no usage dump
-            self.exit(2, f"{self.prog}: error: {message}\n")
-
-    p = Parser(prog=sys.argv[0].rsplit("/", 1)[-1] if sys.argv[0].startswith("box2d-driving") else "box2d-driving sweep",
+    p = OneLineParser(prog=sys.argv[0].rsplit("/", 1)[-1] if sys.argv[0].startswith("box2d-driving") else "box2d-driving sweep",
                description="Train a grid of settings x training seeds on Ray Tune; every trial is "
                            "evaluated on held-out report seeds and summarised in OUT/summary.csv.")
     p.add_argument("behaviour", choices=list(TRAINERS), help="what to train")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import itertools
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
@@ -64,6 +65,12 @@ class SweepSpec:
         if self.quick:
             argv.append("--quick")
         return argv
+
+
+def spec_differences(saved: dict, spec: "SweepSpec") -> list[str]:
+    """The settings in which a saved sweep (``sweep.json``, a summary's ``sweep``) differs from ``spec``."""
+    mine = json.loads(json.dumps(dataclasses.asdict(spec)))
+    return [k for k in mine if saved.get(k) != mine[k]]
 
 
 def trial_name(behaviour: str, point: dict[str, str], seed: int) -> str:

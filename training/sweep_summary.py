@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from training.run_dir import write_json_atomic
-from training.sweep_spec import SweepError, SweepSpec
+from training.sweep_spec import SweepError, SweepSpec, spec_differences
 
 SUMMARY_FIXED = ("trial", "behaviour", "seed", "status", "error", "decisions", "agent_steps",
                  "wall_s", "report_episodes", "report_first_seed", "run")
@@ -83,8 +83,7 @@ def reusable_rows(path: Path, spec: SweepSpec) -> dict[str, dict[str, Any]]:
         old, rows = saved["sweep"], saved["trials"]
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise SweepError(f"--reuse {path}: not a sweep summary ({exc})") from None
-    mine = json.loads(json.dumps(dataclasses.asdict(spec)))
-    diff = [k for k in mine if old.get(k) != mine[k]]
+    diff = spec_differences(old, spec)
     if diff:
         raise SweepError(f"--reuse {path}: another sweep's summary ({', '.join(diff)} differ)")
     return {r["trial"]: {**r, "grid_keys": list(spec.grid)} for r in rows if r.get("status") == "done"}
