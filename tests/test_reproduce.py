@@ -163,3 +163,68 @@ def test_every_rules_rerun_command_is_a_valid_sweep():
         spec, _ = spec_from_args(build_parser().parse_args(argv[2:]))
         assert spec.behaviour == section.behaviour
         check_spec(spec)  # every trial's options parse and make a valid config
+
+
+def _tiny_section(setting="A tiny grid."):
+    """A rule whose sweep is two tiny trials (1 and 2 cars, one seed) from a shipped policy."""
+    from pathlib import Path
+
+    from training.results_sections import Section
+
+    shipped = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars"
+    return Section("traffic-lights", "Stopping at red lights", "lights", (),
+                   (("red_light_violation_rate", "red-light violations"), ("success_rate", "success")),
+                   "The paper's claim.",
+                   "box2d-driving sweep lights --grid num_cars=1,2 --seeds 1 --timesteps 160 --episodes 2 "
+                   f"--set n_envs=2 batch_decisions=80 epochs=1 init_from={shipped} --out runs/sweep-tiny",
+                   setting=setting)
+
+
+def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_from_it(tmp_path, monkeypatch):
+    import shutil
+
+    import ray
+
+    from training import reproduce
+
+    monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
+    folder, runs, page = tmp_path / "sweeps", tmp_path / "runs", tmp_path / "results.md"
+    argv = ["--run", "--summaries", str(folder), "--runs", str(runs), "--out", str(page), "--max-concurrent", "1"]
+    try:
+        assert reproduce.main(argv) == 0
+        first = json.loads((folder / "tiny.json").read_text())["trials"]
+        assert sorted(r["status"] for r in first) == ["done", "done"]
+        assert all(r["report_first_seed"] in REPORT and r["report_episodes"] == 2 for r in first)
+        assert (folder / "tiny.csv").exists() and (runs / "sweep-tiny" / "summary.json").exists()
+        text = page.read_text()
+        assert "2 of 2 planned trials done" in text and "A tiny grid." in text and "summary `" in text
+
+        # another machine: no sweep folder, only the kept summary -> nothing is trained again
+        shutil.rmtree(runs)
+        assert reproduce.main(argv) == 0
+        assert not list((runs / "sweep-tiny" / "tune").glob("*/checkpoint_*"))
+        again = json.loads((folder / "tiny.json").read_text())["trials"]
+        key = lambda rows: {r["trial"]: (r["success_rate"], r["red_light_violation_rate"], r["run"]) for r in rows}  # noqa: E731
+        assert key(again) == key(first)
+    finally:
+        ray.shutdown()
+
+
+def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, monkeypatch, capsys):
+    from training import reproduce
+    from training.sweep_spec import SweepSpec
+    from training.sweep_summary import write_summary
+
+    monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
+    folder = tmp_path / "sweeps"
+    write_summary(tmp_path, SweepSpec("lights", grid={"num_cars": ["4"]}), [])
+    folder.mkdir()
+    (tmp_path / "summary.json").rename(folder / "tiny.json")
+    code = reproduce.main(["--run", "--summaries", str(folder), "--runs", str(tmp_path / "runs"),
+                           "--out", str(tmp_path / "results.md")])
+    err = capsys.readouterr().err
+    assert code == 2 and "traffic-lights" in err and "another sweep" in err, err
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "results.md").exists()
+    with pytest.raises(SystemExit) as exit_:
+        reproduce.main(["--only", "traffic-lights"])  # without --run
+    assert exit_.value.code == 2 and "--only goes with --run" in capsys.readouterr().err

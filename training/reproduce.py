@@ -1,7 +1,9 @@
 """``box2d-driving reproduce``: the results page (docs/results.md) and its figures, redrawn from
 sweep summaries alone (no checkpoints needed).
 
-    box2d-driving reproduce assets/sweeps/lights.json [more summaries ...] --out docs/results.md
+    box2d-driving reproduce                       # every summary in assets/sweeps -> docs/results.md
+    box2d-driving reproduce SUMMARY.json [...] --out PAGE.md
+    box2d-driving reproduce --run                 # first run or continue every rule's sweep
 
 One section per rule: the paper's result, ours as a mean over training seeds with a 95 % interval
 and the per-seed values, a plain statement where ours falls outside the paper's interval, the
@@ -14,120 +16,22 @@ from __future__ import annotations
 
 import sys
 from collections import defaultdict
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Optional
 
-from training import figure_data as fd
 from training.results_data import Group, ResultsError, as_number, grid_product, groups_of, load_summary
-from training.results_figures import bars_figure, distribution_figure, gap_figure, lights_figure
+from training.results_sections import SECTIONS, PaperValue, Section
 from training.seeds import REPORT
 from training.stats import Estimate
 
-__all__ = ["SECTIONS", "Group", "ResultsError", "Section", "groups_of", "load_summary", "main", "write_gif",
+__all__ = ["SECTIONS", "Group", "PaperValue", "ResultsError", "Section", "groups_of", "load_summary", "main", "write_gif",
            "write_page"]
 
 
-@dataclass(frozen=True)
-class PaperValue:
-    """A number the paper reports for a metric: value and, where given, its +- spread."""
-
-    metric: str
-    value: float
-    spread: Optional[float] = None
-    text: str = ""
-
-
-@dataclass(frozen=True)
-class Section:
-    """One rule on the page.
-
-    Attributes:
-        key: anchor and figure file stem.
-        title: heading.
-        behaviour: the sweep behaviour that measures it.
-        match: fixed training options a sweep must have for this section (e.g. communication on).
-        metrics: (metric column, label) shown in the table.
-        paper: the paper's result in words.
-        paper_values: the paper's numbers to compare ours with.
-        command: the sweep that produces it.
-        figure: draws the section's figure from the grouped estimates (None: table only).
-    """
-
-    key: str
-    title: str
-    behaviour: str
-    match: tuple[tuple[str, str], ...]
-    metrics: tuple[tuple[str, str], ...]
-    paper: str
-    command: str
-    paper_values: tuple[PaperValue, ...] = ()
-    figure: Optional[Callable[[list["Group"], list[str], Path], None]] = None
-    shipped: Optional[str] = None  # the shipped policy animated in the section (assets/policies/...)
-    gif_size: tuple[int, int] = (320, 320)
-
-
-# -- the page ---------------------------------------------------------------------------------
-SWEEP = "box2d-driving sweep"
-SECTIONS: tuple[Section, ...] = (
-    Section("traffic-lights", "Stopping at red lights", "lights", (),
-            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
-             ("collision_rate", "collisions")),
-            "With one car the light is ignored; with more cars and more LiDAR noise, fewer cars enter "
-            "on red (the paper shows this as histograms, without numbers).",
-            f"{SWEEP} lights --grid lidar_noise=0,0.25,0.5,0.75 num_cars=1,4,8 --seeds 3 --timesteps 991552 "
-            "--out runs/sweep-lights", figure=lights_figure, shipped="traffic_lights_4cars_noise05"),
-    Section("lanes", "Lanes", "lanes", (),
-            (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
-             "time on the majority side"), ("success_rate", "success")),
-            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with 2 cars they do not.",
-            f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=40 "
-            "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lanes",
-            figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
-                                       "lane position inside the junction (+ = right of the axis)",
-                                       bars_figure("lanes.majority_share", "share on the majority side")),
-            shipped="lanes_8cars_noise05"),
-    Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
-            (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
-             ("success_rate", "success"), ("collision_rate", "collisions")),
-            "Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time; 98.45 % of "
-            "following samples keep the speed-matching distance (human drivers in nuScenes: 99.56 %).",
-            f"{SWEEP} real-junction --seeds 3 --minutes 75 --set num_cars=8 "
-            "init_from=assets/policies/traffic_lights_4cars --out runs/sweep-real-junction",
-            paper_values=(PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
-                          PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
-            figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
-            shipped="real_junction_8cars_collision3"),
-    Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
-            (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-             ("communication.pearson_heading_change_bit", "Pearson(heading change, bit)"),
-             ("success_rate", "success")),
-            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise.",
-            f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --minutes 40 "
-            "--set communication=true num_cars=8 --out runs/sweep-communication",
-            figure=bars_figure("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-            shipped="real_junction_comm_8cars/noise05"),
-    Section("fast-lanes", "Fast lanes", "fast-lanes", (),
-            (("fast_lanes.pearson_r", "Pearson(rating, lateral)"), ("success_rate", "success")),
-            "Faster cars keep to one side of the highway.",
-            f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=40 --out runs/sweep-fast-lanes",
-            figure=bars_figure("fast_lanes.pearson_r", "Pearson(rating, lateral position)"),
-            shipped="fast_lanes_10cars", gif_size=(640, 200)),
-    Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
-            (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
-             ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
-            "Most cars keep more than the speed-matching distance from pedestrians (more than 6 m).",
-            f"{SWEEP} crosswalk --seeds 3 --minutes 120 --set crosswalk_in_satnav=true --out runs/sweep-crosswalk",
-            figure=distribution_figure("pedestrian_distance_counts", fd.PEDESTRIAN_BINS,
-                                       "distance to the nearest pedestrian ahead (m)",
-                                       bars_figure("safe_stopping_share", "safe-stopping share"),
-                                       mark=(6.0, "6 m")),
-            shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200)),
-)
-
+from box2d_driving.envs.single_agent import SHIPPED  # noqa: E402  (assets/policies)
 
 LIGHTS = ("lights", "lanes", "real-junction")  # behaviours whose scenes have traffic lights
-from box2d_driving.envs.single_agent import SHIPPED  # noqa: E402  (assets/policies)
+SUMMARIES = Path("assets/sweeps")  # the committed summaries, one per rule (SECTION.summary_name.json)
 
 
 def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
@@ -225,7 +129,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
              "do not edit by hand. Every number is measured on report episode seeds "
              f"({REPORT.describe()}), never seen in training or checkpoint selection, and given as the mean "
              "over training seeds with a 95 % t-interval (`mean ± half-width`), the per-seed values in "
-             "brackets. How sweeps run: [sweeps.md](sweeps.md).", ""]
+             "brackets. How sweeps run: [sweeps.md](sweeps.md). `box2d-driving reproduce --run` runs every "
+             "rule's sweep below in turn, continuing from the committed summaries, and rewrites this page.", ""]
     for section in SECTIONS:
         parts += [f"## {section.title}", "", f"**Paper.** {section.paper}", ""]
         gif = figures / f"{section.key}.gif"
@@ -239,7 +144,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                       + ".*", ""]
         found = section_summaries(section, summaries)
         if not found:
-            parts += ["**Ours.** Not run yet. To run it:", "", "```bash", section.command, "```", ""]
+            parts += [f"**Ours.** Not run yet. {section.setting} To run it:", "", "```bash", section.command,
+                      "```", ""]
             continue
         for summary in found:
             metrics = [m for m, _ in section.metrics]
@@ -252,7 +158,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                       + (f"{summary['sweep']['timesteps']:,}" if summary['sweep'].get('timesteps') else "the default")
                       + " decisions per trial"
                       + (f", {summary['sweep']['minutes']} min" if summary['sweep'].get('minutes') else "")
-                      + f", {summary['sweep']['episodes']} report episodes each).", ""]
+                      + f", {summary['sweep']['episodes']} report episodes each). {section.setting}", ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
             parts += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
             for g in groups:
@@ -290,27 +196,65 @@ def _relative(target: Path, start: Path) -> str:
     return os.path.relpath(Path(target).resolve(), Path(start).resolve())
 
 
+def default_summaries(folder: Path) -> list[Path]:
+    """The summaries in ``folder`` (``*.json``; the page places each under its rule)."""
+    return sorted(Path(folder).glob("*.json"))
+
+
 def main(argv: Optional[list[str]] = None) -> int:
     from training.cli_args import OneLineParser
 
     p = OneLineParser(prog="box2d-driving reproduce",
-               description="Write the results page and its figures from sweep summaries (summary.json).")
-    p.add_argument("summaries", nargs="*", type=Path, help="summary.json files of sweeps")
+                      description="Write the results page and its figures from sweep summaries (summary.json); "
+                                  "with --run, first run (or continue) every rule's sweep on Ray Tune.")
+    p.add_argument("summaries", nargs="*", type=Path,
+                   help="summary.json files of sweeps (default: every *.json in --summaries)")
+    p.add_argument("--summaries", dest="folder", type=Path, default=SUMMARIES,
+                   help="folder of the per-rule summaries (default assets/sweeps); --run continues them "
+                        "and writes them back there")
     p.add_argument("--out", type=Path, default=Path("docs/results.md"), help="the page (default docs/results.md)")
     p.add_argument("--figures", type=Path, help="folder for the figures (default: images/results beside the page)")
     p.add_argument("--gifs", action="store_true",
                    help="also redraw each rule's animated GIF of its shipped policy (needs the train extra "
                         "and assets/policies; without it, existing GIFs are linked)")
+    run = p.add_argument_group("--run: the paper's grid in one command")
+    run.add_argument("--run", action="store_true",
+                     help="run every rule's sweep in turn (the commands on the page), continuing each from "
+                          "its summary in --summaries; stop it any time and run it again to go on")
+    run.add_argument("--only", nargs="+", metavar="RULE", choices=[s.key for s in SECTIONS],
+                     help="these rules only: " + ", ".join(s.key for s in SECTIONS))
+    run.add_argument("--runs", type=Path, default=Path("runs"), help="where the sweep folders go (default runs)")
+    run.add_argument("--cpus-per-trial", type=float, default=1, help="CPU cores per trial (default 1)")
+    run.add_argument("--gpus-per-trial", type=float, default=0, help="GPUs per trial (default 0)")
+    run.add_argument("--max-concurrent", type=int, help="at most this many trials at once")
+    run.add_argument("--address", help="a running Ray cluster (default: this machine)")
     args = p.parse_args(argv)
+    prog = "box2d-driving reproduce"
+    if args.only and not args.run:
+        p.error("--only goes with --run")
+    if args.run and args.summaries:
+        p.error("--run reads and writes the summaries in --summaries; give no summary files")
+    figures = args.figures or args.out.parent / "images" / "results"
+    status = 0
+    if args.run:
+        from training.reproduce_run import ReproduceError, run_sections
+
+        try:
+            status = run_sections([s for s in SECTIONS if not args.only or s.key in args.only], args.folder,
+                                  args.runs, args.cpus_per_trial, args.gpus_per_trial, args.max_concurrent,
+                                  args.address)
+        except ReproduceError as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 2
     try:
-        summaries = [load_summary(s) for s in args.summaries]
-        figures = args.figures or args.out.parent / "images" / "results"
+        paths = args.summaries or default_summaries(args.folder)
+        summaries = [load_summary(s) for s in paths]
         write_page(summaries, args.out, figures, gifs=args.gifs)
     except ResultsError as exc:
-        print(f"box2d-driving reproduce: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     print(f"wrote {args.out} and its figures in {figures}")
-    return 0
+    return status
 
 
 if __name__ == "__main__":

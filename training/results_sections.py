@@ -1,0 +1,168 @@
+"""The results page's rules: for each, the paper's claim, the sweep that measures it and how the
+page shows it (``box2d-driving reproduce`` reads this table; ``reproduce --run`` runs its sweeps).
+
+Every sweep's budget is a number of decisions (or rounds), never minutes, so a trial learns the
+same on any machine. Where a shipped policy was trained in stages (a base run, then fine-tunes),
+the sweep repeats its last stage from the same starting weights with three training seeds; the
+section's ``setting`` says so on the page.
+"""
+
+from __future__ import annotations
+
+import shlex
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Optional
+
+from training import figure_data as fd
+from training.results_data import Group
+from training.results_figures import bars_figure, distribution_figure, gap_figure, lights_figure
+
+__all__ = ["PaperValue", "SECTIONS", "Section", "section"]
+
+
+@dataclass(frozen=True)
+class PaperValue:
+    """A number the paper reports for a metric: value and, where given, its +- spread."""
+
+    metric: str
+    value: float
+    spread: Optional[float] = None
+    text: str = ""
+
+
+@dataclass(frozen=True)
+class Section:
+    """One rule on the page.
+
+    Attributes:
+        key: anchor and figure file stem.
+        title: heading.
+        behaviour: the sweep behaviour that measures it.
+        match: fixed training options a sweep must have for this section (e.g. communication on).
+        metrics: (metric column, label) shown in the table.
+        paper: the paper's result in words.
+        command: the sweep that produces it (``box2d-driving sweep ... --out runs/sweep-NAME``).
+        setting: what each trial trains, in words (shown above the table).
+        paper_values: the paper's numbers to compare ours with.
+        figure: draws the section's figure from the grouped estimates (None: table only).
+        shipped: the shipped policy animated in the section (a folder in assets/policies).
+        gif_size: the animation's frame size in pixels.
+    """
+
+    key: str
+    title: str
+    behaviour: str
+    match: tuple[tuple[str, str], ...]
+    metrics: tuple[tuple[str, str], ...]
+    paper: str
+    command: str
+    setting: str = ""
+    paper_values: tuple[PaperValue, ...] = ()
+    figure: Optional[Callable[[list[Group], list[str], Path], None]] = None
+    shipped: Optional[str] = None
+    gif_size: tuple[int, int] = (320, 320)
+
+    @property
+    def argv(self) -> list[str]:
+        """The sweep's arguments (after ``box2d-driving sweep``)."""
+        return shlex.split(self.command)[2:]
+
+    @property
+    def out(self) -> Path:
+        """The sweep folder the command names."""
+        argv = self.argv
+        return Path(argv[argv.index("--out") + 1])
+
+    @property
+    def summary_name(self) -> str:
+        """File stem of the committed summary: the sweep folder's name without ``sweep-``."""
+        return self.out.name.removeprefix("sweep-")
+
+
+SWEEP = "box2d-driving sweep"
+SECTIONS: tuple[Section, ...] = (
+    Section("traffic-lights", "Stopping at red lights", "lights", (),
+            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
+             ("collision_rate", "collisions")),
+            "With one car the light is ignored; with more cars and more LiDAR noise, fewer cars enter "
+            "on red (the paper shows this as histograms, without numbers).",
+            f"{SWEEP} lights --grid lidar_noise=0,0.25,0.5,0.75 num_cars=1,4,8 --seeds 3 --timesteps 991552 "
+            "--out runs/sweep-lights",
+            setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
+                    "policy did.",
+            figure=lights_figure, shipped="traffic_lights_4cars_noise05"),
+    Section("lanes", "Lanes", "lanes", (),
+            (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
+             "time on the majority side"), ("success_rate", "success")),
+            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with 2 cars they do not.",
+            f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=48 "
+            "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
+            "--out runs/sweep-lanes",
+            setting="Each trial is the shipped lanes run: 48 bilevel rounds (as many as the shipped run "
+                    "reached), the acceleration policy starting from the shipped 4-car noise-0.5 lights "
+                    "policy, the path policy from scratch.",
+            figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
+                                       "lane position inside the junction (+ = right of the axis)",
+                                       bars_figure("lanes.majority_share", "share on the majority side")),
+            shipped="lanes_8cars_noise05"),
+    Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
+            (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
+             ("success_rate", "success"), ("collision_rate", "collisions")),
+            "Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time; 98.45 % of "
+            "following samples keep the speed-matching distance (human drivers in nuScenes: 99.56 %).",
+            f"{SWEEP} real-junction --seeds 3 --timesteps 5984128 --set num_cars=8 collision_reward=-3 "
+            "ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --out runs/sweep-real-junction",
+            setting="Each trial repeats the last stage of the shipped `real_junction_8cars_collision3`: "
+                    "from the shipped 8-car base policy, collision reward -3, as many decisions as that "
+                    "stage took; the seeds vary this stage only.",
+            paper_values=(PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
+                          PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
+            figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
+            shipped="real_junction_8cars_collision3"),
+    Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
+            (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+             ("communication.pearson_heading_change_bit", "Pearson(heading change, bit)"),
+             ("success_rate", "success")),
+            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise.",
+            f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
+            "--set communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
+            "--out runs/sweep-communication",
+            setting="Each trial widens the shipped 8-car base policy to the 1-bit message and trains as "
+                    "many decisions as the shipped noise-0.5 communication policy did (entropy 0.01 at "
+                    "every noise level).",
+            figure=bars_figure("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+            shipped="real_junction_comm_8cars/noise05"),
+    Section("fast-lanes", "Fast lanes", "fast-lanes", (),
+            (("fast_lanes.pearson_r", "Pearson(rating, lateral)"), ("success_rate", "success")),
+            "Faster cars keep to one side of the highway.",
+            f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=34 spline_updates_per_round=2 "
+            "--out runs/sweep-fast-lanes",
+            setting="Each trial is the shipped fast-lanes run from scratch: 34 bilevel rounds (as many as "
+                    "the shipped run reached).",
+            figure=bars_figure("fast_lanes.pearson_r", "Pearson(rating, lateral position)"),
+            shipped="fast_lanes_10cars", gif_size=(640, 200)),
+    Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
+            (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
+             ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
+            "Most cars keep more than the speed-matching distance from pedestrians (more than 6 m).",
+            f"{SWEEP} crosswalk --seeds 3 --timesteps 8305216 --set crosswalk_in_satnav=true "
+            "collision_reward=-6 ent_coef=0.001 init_from=assets/policies/crosswalk_4cars_satnav "
+            "--out runs/sweep-crosswalk",
+            setting="Each trial fine-tunes the shipped `crosswalk_4cars_satnav` (trained at the paper's "
+                    "collision reward -1) at -6 in one stage, for as many decisions as the shipped "
+                    "`crosswalk_4cars_satnav_collision6` took in its two (-3, then -6).",
+            figure=distribution_figure("pedestrian_distance_counts", fd.PEDESTRIAN_BINS,
+                                       "distance to the nearest pedestrian ahead (m)",
+                                       bars_figure("safe_stopping_share", "safe-stopping share"),
+                                       mark=(6.0, "6 m")),
+            shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200)),
+)
+
+
+def section(key: str) -> Section:
+    """The section with this key; ``KeyError`` naming the known keys."""
+    for s in SECTIONS:
+        if s.key == key:
+            return s
+    raise KeyError(f"no rule {key!r}; the rules are {', '.join(s.key for s in SECTIONS)}")
