@@ -228,3 +228,45 @@ def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, m
     with pytest.raises(SystemExit) as exit_:
         reproduce.main(["--only", "traffic-lights"])  # without --run
     assert exit_.value.code == 2 and "--only goes with --run" in capsys.readouterr().err
+
+
+def test_readme_table_shows_each_rules_headline_over_seeds_and_links_its_section(tmp_path, capsys):
+    from training.reproduce import README_END, README_START
+
+    summary = _summary(tmp_path / "lights.json", {**VIOLATIONS, ("0.5", "4"): [0.05, 0.07]})
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# Title\n\nbefore\n{README_START}\nold table\n{README_END}\nafter\n")
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(summary), "--out", str(page), "--readme", str(readme)]) == 0
+    text = readme.read_text()
+    assert text.startswith("# Title\n\nbefore\n") and text.endswith(f"{README_END}\nafter\n") and "old table" not in text
+    row = next(line for line in text.splitlines() if line.startswith("| stop at red lights |"))
+    assert f"red-light violations {mean_ci([0.05, 0.07]).format()}" in row and "| 2 |" in row
+    assert "(docs/results.md#stopping-at-red-lights)" in row
+    lone = next(line for line in text.splitlines() if line.startswith("| lone car ignores"))
+    assert f"red-light violations {mean_ci([0.30, 0.35, 0.40]).format()}" in lone and "| 3 |" in lone
+    assert "| lanes emerge |" in text and "not run yet | 0 | [Lanes](docs/results.md#lanes)" in text
+
+    # a README without the markers: one clear error, nothing written
+    readme.write_text("# no markers\n")
+    page.unlink()
+    assert main([str(summary), "--out", str(page), "--readme", str(readme)]) == 2
+    assert "--readme" in capsys.readouterr().err and not page.exists() and readme.read_text() == "# no markers\n"
+
+
+def test_the_committed_page_and_readme_table_match_the_committed_summaries(tmp_path, monkeypatch):
+    """docs/results.md and the README's table are what `box2d-driving reproduce --readme README.md`
+    writes from assets/sweeps: nobody edited a number by hand, no summary was left out."""
+    import shutil
+    from pathlib import Path
+
+    from training.reproduce import README_END, README_START, default_summaries, load_summary, readme_table, write_page
+
+    root = Path(__file__).resolve().parent.parent
+    monkeypatch.chdir(root)
+    summaries = [load_summary(p) for p in default_summaries(Path("assets/sweeps"))]
+    readme = (root / "README.md").read_text()
+    assert readme.split(README_START + "\n")[1].split("\n" + README_END)[0] == readme_table(summaries)
+    page, figures = tmp_path / "docs" / "results.md", tmp_path / "docs" / "images" / "results"
+    shutil.copytree(root / "docs" / "images" / "results", figures)  # the animations are linked, not drawn
+    assert write_page(summaries, page, figures) == (root / "docs" / "results.md").read_text()

@@ -190,6 +190,59 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
     return text
 
 
+README_START = "<!-- results over training seeds: written by box2d-driving reproduce --readme -->"
+README_END = "<!-- end of results over training seeds -->"
+
+
+def anchor(title: str) -> str:
+    """The heading's link anchor as GitHub makes it (lower case, punctuation dropped, spaces to -)."""
+    return "".join(c for c in title.lower() if c.isalnum() or c in " -_").replace(" ", "-")
+
+
+def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md") -> str:
+    """The README's results table: each rule's headline grid points as mean ± 95 % half-width over
+    training seeds, with the number of seeds and a link to the rule's section of ``page``."""
+    lines = ["| rule | setting | ours on report episodes: mean ± 95 % half-width over training seeds | seeds | details |",
+             "|---|---|---|---|---|"]
+    for section in SECTIONS:
+        labels = dict(section.metrics)
+        found = section_summaries(section, summaries)
+        for h in section.headlines:
+            want = dict(h.point)
+            groups = [g for s in found for g in groups_of(s, list(h.metrics))
+                      if all(str(g.point.get(k)) == v for k, v in want.items())]
+            if groups:
+                g = max(groups, key=lambda g: len(g.seeds))
+                result = "; ".join(f"{labels.get(m, m)} {_headline_value(g.estimates[m])}" for m in h.metrics)
+                seeds = str(len(g.seeds))
+            else:
+                result, seeds = "not run yet", "0"
+            lines.append(f"| {h.rule} | {h.setting} | {result} | {seeds} | "
+                         f"[{section.title}]({page}#{anchor(section.title)}) |")
+    return "\n".join(lines)
+
+
+def _headline_value(e: Estimate) -> str:
+    if e.n == 0:
+        return "n/a"
+    return e.format() if e.low is not None else f"{e.mean:.3f}"  # the seeds column says "1"
+
+
+def update_readme(path: Path, table: str) -> None:
+    """Replace the text between the README's two result markers with ``table``."""
+    try:
+        text = Path(path).read_text()
+    except OSError as exc:
+        raise ResultsError(f"--readme {path}: {exc.strerror}") from None
+    if text.count(README_START) != 1 or text.count(README_END) != 1 or text.index(README_START) > text.index(README_END):
+        raise ResultsError(f"--readme {path}: needs one line {README_START!r} and, after it, one line {README_END!r}")
+    head, rest = text.split(README_START)
+    tail = rest.split(README_END)[1]
+    tmp = Path(path).with_name(Path(path).name + ".partial")
+    tmp.write_text(f"{head}{README_START}\n{table}\n{README_END}{tail}")
+    tmp.replace(path)
+
+
 def _relative(target: Path, start: Path) -> str:
     import os
 
@@ -217,6 +270,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     p.add_argument("--gifs", action="store_true",
                    help="also redraw each rule's animated GIF of its shipped policy (needs the train extra "
                         "and assets/policies; without it, existing GIFs are linked)")
+    p.add_argument("--readme", type=Path, metavar="README",
+                   help="also rewrite the results table between the README's markers (" + README_START + ")")
     run = p.add_argument_group("--run: the paper's grid in one command")
     run.add_argument("--run", action="store_true",
                      help="run every rule's sweep in turn (the commands on the page), continuing each from "
@@ -249,6 +304,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     try:
         paths = args.summaries or default_summaries(args.folder)
         summaries = [load_summary(s) for s in paths]
+        if args.readme is not None:  # checked first: a bad README leaves the page as it was
+            update_readme(args.readme, readme_table(summaries, _relative(args.out, args.readme.parent)))
         write_page(summaries, args.out, figures, gifs=args.gifs)
     except ResultsError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)

@@ -18,7 +18,7 @@ from training import figure_data as fd
 from training.results_data import Group
 from training.results_figures import bars_figure, distribution_figure, gap_figure, lights_figure
 
-__all__ = ["PaperValue", "SECTIONS", "Section", "section"]
+__all__ = ["Headline", "PaperValue", "SECTIONS", "Section", "section"]
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,23 @@ class PaperValue:
     value: float
     spread: Optional[float] = None
     text: str = ""
+
+
+@dataclass(frozen=True)
+class Headline:
+    """A row of the README's results table: one grid point of a rule and the metrics shown.
+
+    Attributes:
+        rule: what the row shows, in words.
+        setting: the scenario and grid point, in words.
+        point: grid values (as typed in the sweep's ``--grid``) the row's trials have.
+        metrics: metric columns shown, labelled as in the section's table.
+    """
+
+    rule: str
+    setting: str
+    point: tuple[tuple[str, str], ...] = ()
+    metrics: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -48,6 +65,7 @@ class Section:
         figure: draws the section's figure from the grouped estimates (None: table only).
         shipped: the shipped policy animated in the section (a folder in assets/policies).
         gif_size: the animation's frame size in pixels.
+        headlines: its rows in the README's results table.
     """
 
     key: str
@@ -62,6 +80,7 @@ class Section:
     figure: Optional[Callable[[list[Group], list[str], Path], None]] = None
     shipped: Optional[str] = None
     gif_size: tuple[int, int] = (320, 320)
+    headlines: tuple[Headline, ...] = ()
 
     @property
     def argv(self) -> list[str]:
@@ -91,7 +110,13 @@ SECTIONS: tuple[Section, ...] = (
             "--out runs/sweep-lights",
             setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
                     "policy did.",
-            figure=lights_figure, shipped="traffic_lights_4cars_noise05"),
+            figure=lights_figure, shipped="traffic_lights_4cars_noise05",
+            headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
+                                (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
+                       Headline("lone car ignores the light (light-blind: ~0.45)", "1 car, LiDAR noise 0.5",
+                                (("lidar_noise", "0.5"), ("num_cars", "1")), ("red_light_violation_rate",)),
+                       Headline("denser traffic", "8 cars, LiDAR noise 0.5",
+                                (("lidar_noise", "0.5"), ("num_cars", "8")), ("red_light_violation_rate", "success_rate", "collision_rate")))),
     Section("lanes", "Lanes", "lanes", (),
             (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
              "time on the majority side"), ("success_rate", "success")),
@@ -105,7 +130,11 @@ SECTIONS: tuple[Section, ...] = (
             figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
                                        "lane position inside the junction (+ = right of the axis)",
                                        bars_figure("lanes.majority_share", "share on the majority side")),
-            shipped="lanes_8cars_noise05"),
+            shipped="lanes_8cars_noise05",
+            headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
+                                (("num_cars", "8"),), ("lanes.majority_share", "success_rate")),
+                       Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
+                                ("lanes.majority_share",)))),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),
@@ -119,7 +148,10 @@ SECTIONS: tuple[Section, ...] = (
             paper_values=(PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
                           PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
             figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
-            shipped="real_junction_8cars_collision3"),
+            shipped="real_junction_8cars_collision3",
+            headlines=(Headline("right of way, safe distance",
+                                "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
+                                ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
             (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
              ("communication.pearson_heading_change_bit", "Pearson(heading change, bit)"),
@@ -132,7 +164,12 @@ SECTIONS: tuple[Section, ...] = (
                     "many decisions as the shipped noise-0.5 communication policy did (entropy 0.01 at "
                     "every noise level).",
             figure=bars_figure("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-            shipped="real_junction_comm_8cars/noise05"),
+            shipped="real_junction_comm_8cars/noise05",
+            headlines=tuple(Headline("turn signals (communication)",
+                                     f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
+                                     (("lidar_noise", noise),), ("communication.speaker_consistency_bits",
+                                                                 "communication.pearson_heading_change_bit"))
+                            for noise in ("0", "0.25", "0.5", "0.75"))),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             (("fast_lanes.pearson_r", "Pearson(rating, lateral)"), ("success_rate", "success")),
             "Faster cars keep to one side of the highway.",
@@ -141,7 +178,9 @@ SECTIONS: tuple[Section, ...] = (
             setting="Each trial is the shipped fast-lanes run from scratch: 34 bilevel rounds (as many as "
                     "the shipped run reached).",
             figure=bars_figure("fast_lanes.pearson_r", "Pearson(rating, lateral position)"),
-            shipped="fast_lanes_10cars", gif_size=(640, 200)),
+            shipped="fast_lanes_10cars", gif_size=(640, 200),
+            headlines=(Headline("fast lanes", "`highway-spline-v0`, 10 cars", (),
+                                ("fast_lanes.pearson_r", "success_rate")),)),
     Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
             (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
              ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
@@ -156,7 +195,10 @@ SECTIONS: tuple[Section, ...] = (
                                        "distance to the nearest pedestrian ahead (m)",
                                        bars_figure("safe_stopping_share", "safe-stopping share"),
                                        mark=(6.0, "6 m")),
-            shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200)),
+            shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200),
+            headlines=(Headline("slow down for pedestrians",
+                                "`crosswalk-v0`, 4 cars, crosswalk in the sat-nav, collision reward -6", (),
+                                ("pedestrian_collision_rate", "safe_stopping_share", "success_rate")),)),
 )
 
 
