@@ -53,6 +53,7 @@ def test_page_shows_means_intervals_seeds_statements_and_the_figure(tmp_path):
     assert "the light is ignored, as in the paper" in text  # 0.45 inside the 1-car interval at noise 0
     assert "fewer violations with more cars, intervals apart" in text
     assert "11 of 12 planned trials done" in text
+    assert "have not learnt" not in text  # success 0.9 everywhere
     assert (tmp_path / "docs" / "images" / "results" / "traffic-lights.png").stat().st_size > 10_000
     assert "![Stopping at red lights](images/results/traffic-lights.png)" in text
     for rule in ("## Lanes", "## Right of way", "## Turn signals", "## Fast lanes", "## Slowing down"):
@@ -270,3 +271,15 @@ def test_the_committed_page_and_readme_table_match_the_committed_summaries(tmp_p
     page, figures = tmp_path / "docs" / "results.md", tmp_path / "docs" / "images" / "results"
     shutil.copytree(root / "docs" / "images" / "results", figures)  # the animations are linked, not drawn
     assert write_page(summaries, page, figures) == (root / "docs" / "results.md").read_text()
+
+
+def test_a_grid_point_whose_cars_do_not_arrive_is_called_unlearnt(tmp_path):
+    summary = json.loads(_summary(tmp_path / "s.json", VIOLATIONS).read_text())
+    for row in summary["trials"]:
+        if row["num_cars"] == "4" and row["lidar_noise"] == "0":
+            row["success_rate"] = 0.3
+    (tmp_path / "s.json").write_text(json.dumps(summary))
+    page = tmp_path / "results.md"
+    assert main([str(tmp_path / "s.json"), "--out", str(page)]) == 0
+    notes = [line for line in page.read_text().splitlines() if "have not learnt" in line]
+    assert len(notes) == 1 and notes[0].startswith("- lidar_noise=0, num_cars=4: success 0.300")

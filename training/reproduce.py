@@ -118,6 +118,22 @@ def lights_statement(groups: list[Group]) -> list[str]:
     return lines
 
 
+# below this mean success rate a grid point's policy has not learnt the task at the sweep's budget
+LEARNT_SUCCESS = 0.5
+
+
+def unlearnt_statement(groups: list[Group]) -> list[str]:
+    """Grid points whose cars mostly fail to arrive: their rule measures say little."""
+    lines = []
+    for g in groups:
+        e = g.estimates.get("success_rate")
+        if e is not None and e.n and e.mean < LEARNT_SUCCESS:
+            where = ", ".join(f"{k}={v}" for k, v in g.point.items()) or "shipped settings"
+            lines.append(f"- {where}: success {e.format()}: at this budget the cars have not learnt to reach "
+                         "their goals, so the other numbers of this row say little about the rule.")
+    return lines
+
+
 def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: bool = False) -> str:
     """Write the page to ``out`` and its figures into ``figures``; returns the page text. With
     ``gifs``, (re)draw each section's animation of its shipped policy first (needs the checkpoints;
@@ -169,6 +185,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             notes = _comparison(section, groups)
             if section.key == "traffic-lights":
                 notes += lights_statement(groups)
+            notes += unlearnt_statement(groups)
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:
