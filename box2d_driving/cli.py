@@ -19,10 +19,11 @@ from pathlib import Path
 import box2d_driving
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse, but an error is one line (no usage dump, no traceback)."""
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose usage errors are one line (``PROG: error: ...``, status 2; no usage dump, no
+    traceback). Every command's parser, the training scripts' included, is one."""
 
-    def error(self, message: str):  # noqa: D401
+    def error(self, message: str):  # one line, no usage dump
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
@@ -153,10 +154,10 @@ def _map_output_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="box2d-driving",
+    parser = OneLineParser(prog="box2d-driving",
                      description="Multi-agent Box2D driving worlds in which road rules emerge.")
     parser.add_argument("--version", action="version", version=f"box2d-driving {box2d_driving.__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     sub.add_parser("list", help="list the registered scenarios").set_defaults(func=_list)
 
     r = sub.add_parser("render", help="record episodes as a video and/or PNG frames")

@@ -8,14 +8,11 @@ import sys
 import typing
 from typing import Any, Optional, Sequence, TypeVar
 
+from box2d_driving.cli import OneLineParser
+
+__all__ = ["OneLineParser", "error", "parse", "prog_name"]
+
 T = TypeVar("T")
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """argparse whose usage errors are one line (``PROG: error: ...``, status 2)."""
-
-    def error(self, message: str):  # one line, no usage dump
-        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def prog_name() -> str:
