@@ -151,3 +151,18 @@ def test_without_ray_the_sweep_says_which_extra_to_install(monkeypatch, capsys, 
     monkeypatch.setitem(sys.modules, "ray", None)  # as if the [sweep] extra were not installed
     assert main(["lights", "--out", str(tmp_path / "s")]) == 2
     assert '".[train,sweep]"' in capsys.readouterr().err and not (tmp_path / "s").exists()
+
+
+def test_a_continued_sweep_runs_the_summary_callback_of_the_code_installed_now(tmp_path):
+    """Ray Tune pickles callbacks into the experiment's state; a class made inside a function is
+    pickled with its code, so a sweep continued after an upgrade would run the old code. The
+    summary callback is a module-level class: plain pickle stores it by name."""
+    import pickle
+
+    from training.sweep import SummaryCallback
+
+    cb = SummaryCallback(tmp_path, SweepSpec("lights"), {})
+    data = pickle.dumps(cb)
+    assert b"training.sweep" in data and b"SummaryCallback" in data and b"on_trial_complete" not in data
+    again = pickle.loads(data)
+    assert type(again) is SummaryCallback and again.out == tmp_path

@@ -107,34 +107,41 @@ def evaluate_run(run: Path, episodes: int) -> dict[str, Any]:
 
 # -- the driver ------------------------------------------------------------------------------
 
-def _summary_callback(out: Path, spec: SweepSpec, specs: dict[str, dict]):
-    from ray import tune
+try:  # Ray Tune is the sweep extra; without it the module still imports and says what to install
+    from ray.tune import Callback as _TuneCallback
+except ImportError:  # pragma: no cover - exercised by the no-Ray test
+    _TuneCallback = object
 
-    class Summary(tune.Callback):
-        """Keeps summary.csv/json current as trials finish or fail (a killed sweep keeps them)."""
 
-        def _write(self, trial, status: str, error: str = "") -> None:
-            # merged into the summary on disk, which holds every earlier run of this sweep (a
-            # continued sweep restores this callback as it was when the sweep started)
-            old = out / "summary.json"
-            rows = {r["trial"]: r for r in json.loads(old.read_text())["trials"]} if old.exists() else {}
-            metrics = trial.last_result or {}
-            path = trial.checkpoint.path if trial.checkpoint is not None else ""
-            row = summary_row(trial_spec(trial.config, specs), status, metrics, error, path)
-            rows[row["trial"]] = row
-            write_summary(out, spec, list(rows.values()))
+class SummaryCallback(_TuneCallback):
+    """Keeps summary.csv/json current as trials finish or fail (a killed sweep keeps them).
 
-        def on_trial_complete(self, iteration, trials, trial, **info) -> None:
-            self._write(trial, "done")
+    A module-level class (not one made inside a function), so that a continued sweep, which
+    restores its callbacks from Ray Tune's saved state, runs this code as it is now rather than a
+    copy pickled when the sweep first started."""
 
-        def on_trial_error(self, iteration, trials, trial, **info) -> None:
-            try:  # the error's text, as Ray Tune stored it; its last line names the exception
-                text = trial.get_error() or ""
-            except Exception:  # noqa: BLE001 - a summary row must not fail over its message
-                text = ""
-            self._write(trial, "error", first_line(str(text)) or "failed (see the trial's error.txt)")
+    def __init__(self, out: Path, spec: SweepSpec, specs: dict[str, dict]):
+        self.out, self.spec, self.specs = out, spec, specs
 
-    return Summary()
+    def _write(self, trial, status: str, error: str = "") -> None:
+        # merged into the summary on disk, which holds every earlier run of this sweep
+        old = self.out / "summary.json"
+        rows = {r["trial"]: r for r in json.loads(old.read_text())["trials"]} if old.exists() else {}
+        metrics = trial.last_result or {}
+        path = trial.checkpoint.path if trial.checkpoint is not None else ""
+        row = summary_row(trial_spec(trial.config, self.specs), status, metrics, error, path)
+        rows[row["trial"]] = row
+        write_summary(self.out, self.spec, list(rows.values()))
+
+    def on_trial_complete(self, iteration, trials, trial, **info) -> None:
+        self._write(trial, "done")
+
+    def on_trial_error(self, iteration, trials, trial, **info) -> None:
+        try:  # the error's text, as Ray Tune stored it; its last line names the exception
+            text = trial.get_error() or ""
+        except Exception:  # noqa: BLE001 - a summary row must not fail over its message
+            text = ""
+        self._write(trial, "error", first_line(str(text)) or "failed (see the trial's error.txt)")
 
 
 def prepare_out(out: Path, spec: SweepSpec) -> bool:
@@ -194,7 +201,7 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
             run_config=tune.RunConfig(
                 name="tune", storage_path=str(out), failure_config=tune.FailureConfig(max_failures=0),
                 checkpoint_config=tune.CheckpointConfig(num_to_keep=1),
-                callbacks=[_summary_callback(out, spec, trials)]),
+                callbacks=[SummaryCallback(out, spec, trials)]),
         )
     results = tuner.fit()
     rows = {}
