@@ -14,12 +14,14 @@ episodes is refused.
 
 from __future__ import annotations
 
+import math
 import sys
 from collections import defaultdict
 from pathlib import Path
 from typing import Any, Optional
 
-from training.results_data import Group, ResultsError, as_number, grid_product, groups_of, load_summary
+from training.results_data import (LEARNT_SUCCESS, Group, ResultsError, as_number, grid_product, groups_of, light_blind_violation_rate,
+                                   load_summary, report_episodes)
 from training.results_sections import SECTIONS, PaperValue, Section
 from training.seeds import REPORT
 from training.stats import Estimate
@@ -92,34 +94,41 @@ def _comparison(section: Section, groups: list[Group]) -> list[str]:
     return lines
 
 
-def lights_statement(groups: list[Group]) -> list[str]:
-    """Plain statements of the lights trends, from the intervals."""
+def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -> list[str]:
+    """Plain statements of the lights trends, from the intervals. ``blind``: per noise level, the
+    light-blind driver's violation rate on the same report episodes and its number of entries."""
     lines = []
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
     for g in groups:
         by_noise[g.point.get("lidar_noise", "?")][as_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
     for noise in sorted(by_noise, key=as_number):
         cars = by_noise[noise]
-        if 1.0 in cars and cars[1.0].high is not None:
-            one = cars[1.0]
-            ignored = one.contains(0.45)
-            lines.append(f"- noise {noise}, 1 car: violations {one.format()}: "
-                         + ("the light-blind rate (~0.45) lies in the interval: the light is ignored, as in the paper."
-                            if ignored else "the light-blind rate (~0.45) lies outside the interval: the lone car "
-                            "reacts to the light, unlike the paper."))
-        if 1.0 in cars and len(cars) > 1:
-            most = max(cars)
-            one, many = cars[1.0], cars[most]
-            if one.high is not None and many.high is not None:
+        if 1.0 in cars and noise in blind and cars[1.0].n:
+            one, (rate, entries) = cars[1.0], blind[noise]
+            # the blind rate is itself measured on `entries` junction entries: its 95 % binomial margin
+            margin = 1.96 * math.sqrt(max(rate * (1 - rate), 1e-12) / max(entries, 1))
+            ignored = abs(one.mean - rate) <= margin
+            lines.append(f"- noise {noise}, 1 car: violations {one.format()}, a light-blind driver (full throttle) on "
+                         f"the same episodes {rate:.3f} ± {margin:.3f}: "
+                         + ("no different: the light is ignored, as in the paper." if ignored else
+                            "different: the lone car reacts to the light, unlike the paper."))
+        for n in sorted(c for c in cars if c > 1.0):
+            one, many = cars.get(1.0), cars[n]
+            if one is not None and one.high is not None and many.high is not None:
                 apart = many.high < one.low
-                lines.append(f"- noise {noise}: 1 car {one.format()}, {most:g} cars {many.format()}: "
+                lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: "
                              + ("fewer violations with more cars, intervals apart." if apart else
                                 "the intervals overlap: no difference shown."))
     return lines
 
 
-# below this mean success rate a grid point's policy has not learnt the task at the sweep's budget
-LEARNT_SUCCESS = 0.5
+def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> dict[str, tuple[float, int]]:
+    """Per noise level with a 1-car grid point: the light-blind driver's violation rate on the
+    trials' report episodes, and its number of junction entries (1 car: one per episode)."""
+    first, episodes = report_episodes(summary)
+    return {g.point["lidar_noise"]: (light_blind_violation_rate(1, as_number(g.point["lidar_noise"]), first, episodes),
+                                     episodes)
+            for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}
 
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:
@@ -183,14 +192,18 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 parts.append("| " + " | ".join(cells) + " |")
             parts.append("")
             notes = _comparison(section, groups)
+            blind = light_blind_rates(summary, groups) if section.key == "traffic-lights" else {}
             if section.key == "traffic-lights":
-                notes += lights_statement(groups)
+                notes += lights_statement(groups, blind)
             notes += unlearnt_statement(groups)
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:
                 name = f"{section.key}.png"
-                section.figure(groups, keys, figures / name)
+                if blind:
+                    section.figure(groups, keys, figures / name, blind=blind)
+                else:
+                    section.figure(groups, keys, figures / name)
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
             failed = [r for r in trials if r.get("status") in ("error", "stopped")]
             if failed:

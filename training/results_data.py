@@ -3,6 +3,7 @@ estimated over training seeds, each distribution's counts summed over seeds."""
 
 from __future__ import annotations
 
+import functools
 import json
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -13,6 +14,10 @@ import numpy as np
 
 from training.seeds import REPORT
 from training.stats import Estimate, mean_ci
+
+
+# below this mean success rate a grid point's policy has not learnt the task at the sweep's budget
+LEARNT_SUCCESS = 0.5
 
 
 class ResultsError(ValueError):
@@ -82,3 +87,32 @@ def as_number(value: Any) -> float:
         return float(value)
     except (TypeError, ValueError):
         return float("nan")
+
+
+def report_episodes(summary: dict[str, Any]) -> tuple[int, int]:
+    """(first seed, count) of the report episodes every finished trial of ``summary`` was
+    evaluated on; :class:`ResultsError` if they differ between trials."""
+    sets = {(r["report_first_seed"], r["report_episodes"]) for r in summary["trials"] if r.get("status") == "done"}
+    if len(sets) != 1:
+        raise ResultsError(f"{summary['path']}: trials were evaluated on different report episodes ({sorted(sets)})")
+    return next(iter(sets))
+
+
+@functools.lru_cache(maxsize=None)
+def light_blind_violation_rate(num_cars: int, lidar_noise: float, first_seed: int, episodes: int) -> float:
+    """The red-light violation rate of a light-blind driver (every car at full throttle) on the
+    given report episodes of ``intersection-v0``: what a policy that ignores the light scores on
+    the very episodes a trial was evaluated on. Scripted, so no checkpoint is needed."""
+    import box2d_driving
+    from box2d_driving.metrics.lights import traffic_light_metrics
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import make_policy
+
+    if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
+        raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
+    env = box2d_driving.make("intersection-v0", num_cars=num_cars, lidar_noise=lidar_noise)
+    try:
+        table = run_episodes(env, make_policy("full-throttle", env, seed=first_seed), episodes, seed=first_seed)
+    finally:
+        env.close()
+    return float(traffic_light_metrics(table)["red_light_violation_rate"])

@@ -8,7 +8,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from training import figure_data as fd
-from training.results_data import Group, as_number
+from training.results_data import LEARNT_SUCCESS, Group, as_number
 
 
 def _plt():
@@ -19,13 +19,17 @@ def _plt():
     return plt
 
 
-def lights_figure(groups: list[Group], keys: list[str], path: Path) -> None:
+def lights_figure(groups: list[Group], keys: list[str], path: Path,
+                  blind: Optional[dict[str, tuple[float, int]]] = None) -> None:
     """Red-light violation rate against cars, one line per LiDAR noise level, with 95 % intervals
-    and the per-seed values as dots (the paper's Figure on traffic-light usage, as numbers)."""
+    and the per-seed values as dots (the paper's Figure on traffic-light usage, as numbers).
+    ``blind``: per noise level, a light-blind driver's 1-car rate on the same episodes (drawn as
+    a reference line)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     noises = sorted({g.point.get("lidar_noise", "?") for g in groups}, key=as_number)
     cmap = plt.get_cmap("viridis")
+    unlearnt = False
     for i, noise in enumerate(noises):
         mine = sorted((g for g in groups if g.point.get("lidar_noise", "?") == noise),
                       key=lambda g: as_number(g.point.get("num_cars")))
@@ -36,9 +40,21 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path) -> None:
         highs = [e.high - e.mean if e.high is not None else 0 for e in est]
         ax.errorbar(xs, [e.mean for e in est], yerr=[lows, highs], color=colour, marker="o", capsize=3,
                     label=f"LiDAR noise {noise}")
-        for x, e in zip(xs, est):
+        for x, e, g in zip(xs, est, mine):
             ax.scatter([x] * len(e.values), e.values, color=colour, s=10, alpha=0.5)
-    ax.axhline(0.45, color="grey", ls=":", lw=1, label="light-blind policy (~0.45)")
+            success = g.estimates.get("success_rate")
+            if success is not None and success.n and success.mean < LEARNT_SUCCESS:
+                unlearnt = True
+                ax.scatter([x], [e.mean], s=70, facecolors="white", edgecolors=colour, zorder=3)
+    rates = sorted({round(rate, 3) for rate, _ in (blind or {}).values()})
+    if rates:  # full throttle ignores the sensor: one rate for every noise level (else each is drawn)
+        for rate in rates:
+            ax.axhline(rate, color="grey", ls=":", lw=1)
+        ax.plot([], [], color="grey", ls=":", lw=1,
+                label="light-blind driver, 1 car, same episodes (" + " / ".join(f"{r:.3f}" for r in rates) + ")")
+    if unlearnt:
+        ax.scatter([], [], s=70, facecolors="white", edgecolors="black",
+                   label=f"hollow: mean success < {LEARNT_SUCCESS} (not learnt at this budget)")
     ax.set_xticks(sorted({as_number(g.point.get("num_cars")) for g in groups}))
     ax.set_xlabel("cars per episode")
     ax.set_ylabel("red-light violation rate")

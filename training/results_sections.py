@@ -113,7 +113,7 @@ SECTIONS: tuple[Section, ...] = (
             figure=lights_figure, shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
-                       Headline("lone car ignores the light (light-blind: ~0.45)", "1 car, LiDAR noise 0.5",
+                       Headline("lone car ignores the light", "1 car, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "1")), ("red_light_violation_rate",)),
                        Headline("denser traffic", "8 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "8")), ("red_light_violation_rate", "success_rate", "collision_rate")))),
