@@ -296,3 +296,28 @@ def test_a_lone_car_that_stops_on_red_is_told_apart_from_a_light_blind_driver(tm
     lines = [line for line in page.read_text().splitlines() if "1 car: violations" in line]
     assert any(line.startswith("- noise 0, 1 car:") and "the lone car reacts to the light" in line for line in lines)
     assert any(line.startswith("- noise 0.5, 1 car:") and "the light is ignored" in line for line in lines)
+
+
+def test_communication_averages_the_correlations_size_and_draws_both_measures_against_noise(tmp_path):
+    trials = []
+    pearson = {"0": [-0.10, 0.12, -0.11], "0.5": [0.20, -0.18, 0.22]}
+    for noise, values in pearson.items():
+        for seed, r in enumerate(values):
+            trials.append({"trial": f"real-junction_lidar_noise={noise}_seed={seed}", "behaviour": "real-junction",
+                           "seed": seed, "lidar_noise": noise, "status": "done", "error": "", "report_episodes": 200,
+                           "report_first_seed": REPORT.start, "communication.speaker_consistency_bits": 0.1 + seed / 100,
+                           "communication.pearson_heading_change_bit": r, "success_rate": 0.8})
+    sweep = {"behaviour": "real-junction", "grid": {"lidar_noise": ["0", "0.5"]}, "seeds": 3,
+             "fixed": {"communication": "true", "num_cars": "8"}, "timesteps": 5887232, "minutes": None,
+             "episodes": 200, "quick": False}
+    (tmp_path / "communication.json").write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(tmp_path / "communication.json"), "--out", str(page)]) == 0
+    section = page.read_text().split("## Turn signals (communication)")[1].split("\n## ")[0]
+    assert f"| 0 | 3 | {mean_ci([0.1, 0.11, 0.12]).format()}" in section
+    assert f"{mean_ci([0.10, 0.12, 0.11]).format()} (0.100, 0.120, 0.110)" in section  # sizes, not signed values
+    assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section
+    assert "- speaker consistency (bits): noise 0" in section and "no rise shown, unlike the paper" in section
+    assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, intervals apart, as in the paper" in section
+    assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
+    assert "## Right of way" in page.read_text() and "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]

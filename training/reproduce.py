@@ -122,6 +122,25 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
     return lines
 
 
+def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]]) -> list[str]:
+    """Whether each metric rises from the lowest to the highest LiDAR noise, from the intervals."""
+    by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
+    if len(by_noise) < 2:
+        return []
+    low, high = by_noise[0], by_noise[-1]
+    lines = []
+    for metric, label in metrics:
+        a, b = low.estimates[metric], high.estimates[metric]
+        if a.high is None or b.high is None:
+            continue
+        verdict = ("rises, intervals apart, as in the paper." if b.low > a.high else
+                   "falls, intervals apart, unlike the paper." if b.high < a.low else
+                   "the intervals overlap: no rise shown, unlike the paper.")
+        lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
+                     f"{high.point['lidar_noise']} {b.format()}: {verdict}")
+    return lines
+
+
 def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> dict[str, tuple[float, int]]:
     """Per noise level with a 1-car grid point: the light-blind driver's violation rate on the
     trials' report episodes, and its number of junction entries (1 car: one per episode)."""
@@ -195,6 +214,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             blind = light_blind_rates(summary, groups) if section.key == "traffic-lights" else {}
             if section.key == "traffic-lights":
                 notes += lights_statement(groups, blind)
+            if section.key == "communication":
+                notes += noise_trend_statement(groups, list(section.metrics[:2]))
             notes += unlearnt_statement(groups)
             if notes:
                 parts += notes + [""]

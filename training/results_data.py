@@ -71,8 +71,17 @@ def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
                 counts = np.asarray(counts, dtype=float)
                 figures[name] = figures[name] + counts if name in figures else counts
         groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
-                            {m: mean_ci(as_number(r.get(m)) for r in rows) for m in metrics}, figures))
+                            {m: mean_ci(metric_value(r, m) for r in rows) for m in metrics}, figures))
     return groups
+
+
+def metric_value(row: dict[str, Any], metric: str) -> float:
+    """A trial's value of ``metric``: a summary column, or ``abs:COLUMN`` for its size (a measure
+    whose sign is arbitrary per run, such as a correlation with a bit whose meaning each run
+    picks, is averaged over seeds by size)."""
+    if metric.startswith("abs:"):
+        return abs(as_number(row.get(metric[4:])))
+    return as_number(row.get(metric))
 
 
 def grid_product(lists: list[list[str]]) -> list[list[str]]:

@@ -137,3 +137,28 @@ def gap_figure(fallback: Callable, a_max: float = 1.5) -> Callable:
         fig.savefig(path, dpi=110)
         plt.close(fig)
     return draw
+
+
+def against_noise_figure(panels: tuple[tuple[str, str], ...]) -> Callable[[list[Group], list[str], Path], None]:
+    """One panel per (metric, label): the metric against LiDAR noise, mean with its 95 % interval
+    over training seeds and the per-seed values as dots (the paper's communication figure)."""
+    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+        plt = _plt()
+        fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8), squeeze=False)
+        mine = sorted(groups, key=lambda g: as_number(g.point.get("lidar_noise")))
+        xs = [as_number(g.point.get("lidar_noise")) for g in mine]
+        for ax, (metric, label) in zip(axes[0], panels):
+            est = [g.estimates[metric] for g in mine]
+            lows = [e.mean - e.low if e.low is not None else 0 for e in est]
+            highs = [e.high - e.mean if e.high is not None else 0 for e in est]
+            ax.errorbar(xs, [e.mean for e in est], yerr=[lows, highs], marker="o", capsize=3, color="tab:blue")
+            for x, e in zip(xs, est):
+                ax.scatter([x] * len(e.values), e.values, color="black", s=10, alpha=0.6, zorder=3)
+            ax.set_xlabel("LiDAR noise (share of rays dropped)")
+            ax.set_ylabel(label)
+            ax.set_xticks(xs)
+        fig.suptitle("mean, 95 % interval over training seeds; dots: seeds", fontsize=9)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+    return draw

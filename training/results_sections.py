@@ -16,7 +16,8 @@ from typing import Callable, Optional
 
 from training import figure_data as fd
 from training.results_data import Group
-from training.results_figures import bars_figure, distribution_figure, gap_figure, lights_figure
+from training.results_figures import (against_noise_figure, bars_figure, distribution_figure, gap_figure,
+                                      lights_figure)
 
 __all__ = ["Headline", "PaperValue", "SECTIONS", "Section", "section"]
 
@@ -100,6 +101,9 @@ class Section:
 
 
 SWEEP = "box2d-driving sweep"
+# which bit value a run's cars use for what is each run's own choice: the correlation's sign is
+# arbitrary per seed, so its size is what is averaged
+PEARSON = "abs:communication.pearson_heading_change_bit"
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (),
             (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
@@ -154,8 +158,7 @@ SECTIONS: tuple[Section, ...] = (
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
             (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-             ("communication.pearson_heading_change_bit", "Pearson(heading change, bit)"),
-             ("success_rate", "success")),
+             (PEARSON, "|Pearson(heading change, bit)|"), ("success_rate", "success")),
             "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise.",
             f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
             "--set communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
@@ -163,12 +166,12 @@ SECTIONS: tuple[Section, ...] = (
             setting="Each trial widens the shipped 8-car base policy to the 1-bit message and trains as "
                     "many decisions as the shipped noise-0.5 communication policy did (entropy 0.01 at "
                     "every noise level).",
-            figure=bars_figure("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+            figure=against_noise_figure((("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+                                         (PEARSON, "|Pearson(heading change, bit)|"))),
             shipped="real_junction_comm_8cars/noise05",
             headlines=tuple(Headline("turn signals (communication)",
                                      f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
-                                     (("lidar_noise", noise),), ("communication.speaker_consistency_bits",
-                                                                 "communication.pearson_heading_change_bit"))
+                                     (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
                             for noise in ("0", "0.25", "0.5", "0.75"))),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             (("fast_lanes.pearson_r", "Pearson(rating, lateral)"), ("success_rate", "success")),
