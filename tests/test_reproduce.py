@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from training.reproduce import ResultsError, main
+from training.reproduce import Group, ResultsError, main
 from training.seeds import REPORT, SELECTION
 from training.stats import mean_ci, t95
 
@@ -72,12 +72,13 @@ def test_a_summary_evaluated_off_report_seeds_is_refused(tmp_path, capsys):
 
 
 def test_the_paper_comparison_says_inside_or_outside(tmp_path):
-    from training.reproduce import SECTIONS, Group, _comparison
+    from training.reproduce import SECTIONS, Group
+    from training.results_statements import paper_comparison
 
     section = next(s for s in SECTIONS if s.key == "right-of-way")
     groups = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.90, 0.91, 0.92]),
                                     "safety_distance.safe_share": mean_ci([0.95, 0.96, 0.94])})]
-    lines = "\n".join(_comparison(section, groups))
+    lines = "\n".join(paper_comparison(section, groups))
     assert "our mean is inside the paper's interval" in lines  # 0.91 within 0.8525 +- 0.089
     assert "the paper's value lies outside our interval" in lines  # 0.9845 vs 0.95 +- 0.025
 
@@ -321,3 +322,22 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, intervals apart, as in the paper" in section
     assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
     assert "## Right of way" in page.read_text() and "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]
+
+
+def test_lanes_and_pedestrian_statements_read_the_intervals():
+    from training.results_sections import section
+    from training.results_statements import statements
+
+    lanes = [Group({"num_cars": "2"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.52, 0.60, 0.55]),
+                                                  "success_rate": mean_ci([0.9] * 3)}),
+             Group({"num_cars": "8"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.97, 1.0, 0.99]),
+                                                  "success_rate": mean_ci([0.9] * 3)})]
+    text = "\n".join(statements(section("lanes"), lanes, {}))
+    assert "more one-sided with 8 cars, intervals apart, as in the paper" in text
+    lanes[1].estimates["lanes.majority_share"] = mean_ci([0.50, 0.70, 0.60])
+    assert "no difference shown, unlike the paper" in "\n".join(statements(section("lanes"), lanes, {}))
+
+    walk = [Group({}, [0, 1, 2], {"share_more_than_6m": mean_ci([0.99, 0.98, 0.995]), "success_rate": mean_ci([0.9] * 3)})]
+    assert "most samples keep more than 6 m, as in the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
+    walk[0].estimates["share_more_than_6m"] = mean_ci([0.2, 0.3, 0.25])
+    assert "unlike the paper" in "\n".join(statements(section("pedestrians"), walk, {}))

@@ -1,0 +1,155 @@
+"""Plain statements on the results page: what our intervals say against the paper's claims.
+
+Each statement is computed from the estimates over training seeds (and, for the lone car at a
+light, a light-blind driver on the very same report episodes); none is written by hand.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Any
+
+from training.results_data import (LEARNT_SUCCESS, Group, as_number, light_blind_violation_rate,
+                                   report_episodes)
+from training.results_sections import Section
+from training.stats import Estimate
+
+__all__ = ["light_blind_rates", "statements"]
+
+
+def _where(g: Group) -> str:
+    return ", ".join(f"{k}={v}" for k, v in g.point.items()) or "shipped settings"
+
+
+def paper_comparison(section: Section, groups: list[Group]) -> list[str]:
+    lines = []
+    for pv in section.paper_values:
+        for g in groups:
+            e = g.estimates.get(pv.metric)
+            if e is None or e.n == 0:
+                continue
+            where = _where(g)
+            if pv.spread is not None:
+                inside = abs(e.mean - pv.value) <= pv.spread
+                verdict = "inside" if inside else "outside"
+                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
+                             f"our mean is {verdict} the paper's interval.")
+            else:
+                held = e.contains(pv.value)
+                verdict = ("the paper's value lies inside our interval" if held else
+                           "the paper's value lies outside our interval" if held is False else
+                           "one seed only: no interval")
+                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
+                             f"{verdict}.")
+    return lines
+
+
+def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -> list[str]:
+    """Plain statements of the lights trends, from the intervals. ``blind``: per noise level, the
+    light-blind driver's violation rate on the same report episodes and its number of entries."""
+    lines = []
+    by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
+    for g in groups:
+        by_noise[g.point.get("lidar_noise", "?")][as_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
+    for noise in sorted(by_noise, key=as_number):
+        cars = by_noise[noise]
+        if 1.0 in cars and noise in blind and cars[1.0].n:
+            one, (rate, entries) = cars[1.0], blind[noise]
+            # the blind rate is itself measured on `entries` junction entries: its 95 % binomial margin
+            margin = 1.96 * math.sqrt(max(rate * (1 - rate), 1e-12) / max(entries, 1))
+            ignored = abs(one.mean - rate) <= margin
+            lines.append(f"- noise {noise}, 1 car: violations {one.format()}, a light-blind driver (full throttle) on "
+                         f"the same episodes {rate:.3f} ± {margin:.3f}: "
+                         + ("no different: the light is ignored, as in the paper." if ignored else
+                            "different: the lone car reacts to the light, unlike the paper."))
+        for n in sorted(c for c in cars if c > 1.0):
+            one, many = cars.get(1.0), cars[n]
+            if one is not None and one.high is not None and many.high is not None:
+                apart = many.high < one.low
+                lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: "
+                             + ("fewer violations with more cars, intervals apart." if apart else
+                                "the intervals overlap: no difference shown."))
+    return lines
+
+
+def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]]) -> list[str]:
+    """Whether each metric rises from the lowest to the highest LiDAR noise, from the intervals."""
+    by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
+    if len(by_noise) < 2:
+        return []
+    low, high = by_noise[0], by_noise[-1]
+    lines = []
+    for metric, label in metrics:
+        a, b = low.estimates[metric], high.estimates[metric]
+        if a.high is None or b.high is None:
+            continue
+        verdict = ("rises, intervals apart, as in the paper." if b.low > a.high else
+                   "falls, intervals apart, unlike the paper." if b.high < a.low else
+                   "the intervals overlap: no rise shown, unlike the paper.")
+        lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
+                     f"{high.point['lidar_noise']} {b.format()}: {verdict}")
+    return lines
+
+
+def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> dict[str, tuple[float, int]]:
+    """Per noise level with a 1-car grid point: the light-blind driver's violation rate on the
+    trials' report episodes, and its number of junction entries (1 car: one per episode)."""
+    first, episodes = report_episodes(summary)
+    return {g.point["lidar_noise"]: (light_blind_violation_rate(1, as_number(g.point["lidar_noise"]), first, episodes),
+                                     episodes)
+            for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}
+
+
+def unlearnt_statement(groups: list[Group]) -> list[str]:
+    """Grid points whose cars mostly fail to arrive: their rule measures say little."""
+    lines = []
+    for g in groups:
+        e = g.estimates.get("success_rate")
+        if e is not None and e.n and e.mean < LEARNT_SUCCESS:
+            where = _where(g)
+            lines.append(f"- {where}: success {e.format()}: at this budget the cars have not learnt to reach "
+                         "their goals, so the other numbers of this row say little about the rule.")
+    return lines
+
+
+def apart_statement(groups: list[Group], key: str, few: str, many: str, metric: str, label: str,
+                    claim: str) -> list[str]:
+    """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals."""
+    by = {g.point.get(key): g.estimates[metric] for g in groups}
+    if few not in by or many not in by or by[few].high is None or by[many].high is None:
+        return []
+    a, b = by[few], by[many]
+    verdict = (f"{claim}, intervals apart, as in the paper." if b.low > a.high else
+               "the intervals overlap: no difference shown, unlike the paper." if b.low <= a.high and b.high >= a.low
+               else f"the opposite of {claim}, intervals apart, unlike the paper.")
+    return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
+
+
+def majority_statement(groups: list[Group], metric: str, label: str, claim: str) -> list[str]:
+    """Whether ``metric`` (a share) is above one half at every grid point, from the intervals."""
+    lines = []
+    for g in groups:
+        e = g.estimates[metric]
+        if e.high is None:
+            continue
+        verdict = (f"{claim}, as in the paper." if e.low > 0.5 else
+                   f"not {claim}, unlike the paper." if e.high < 0.5 else "the interval straddles one half.")
+        lines.append(f"- {label} ({_where(g)}): {e.format()}: {verdict}")
+    return lines
+
+
+def statements(section: Section, groups: list[Group], blind: dict[str, tuple[float, int]]) -> list[str]:
+    """Every statement of ``section``'s part of the page, for its grouped trials."""
+    lines = paper_comparison(section, groups)
+    if section.key == "traffic-lights":
+        lines += lights_statement(groups, blind)
+    elif section.key == "lanes":
+        lines += apart_statement(groups, "num_cars", "2", "8", "lanes.majority_share", "crossings on the majority side",
+                                 "more one-sided with 8 cars")
+    elif section.key == "communication":
+        lines += noise_trend_statement(groups, list(section.metrics[:2]))
+    elif section.key == "pedestrians":
+        lines += majority_statement(groups, "share_more_than_6m", "samples > 6 m from the pedestrian ahead",
+                                    "most samples keep more than 6 m")
+    return lines + unlearnt_statement(groups)
