@@ -341,3 +341,21 @@ def test_lanes_and_pedestrian_statements_read_the_intervals():
     assert "most samples keep more than 6 m, as in the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
     walk[0].estimates["share_more_than_6m"] = mean_ci([0.2, 0.3, 0.25])
     assert "unlike the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
+
+
+def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
+    grid = _summary(tmp_path / "lights.json", {**VIOLATIONS, ("0.5", "4"): [0.05, 0.07, 0.06]})
+    trials = [{"trial": f"lights_seed={s}", "behaviour": "lights", "seed": s, "status": "done", "error": "",
+               "report_episodes": 200, "report_first_seed": REPORT.start, "red_light_violation_rate": v,
+               "success_rate": 0.9, "collision_rate": 0.1} for s, v in enumerate([0.010, 0.012, 0.011])]
+    sweep = {"behaviour": "lights", "grid": {}, "seeds": 3, "timesteps": 991552, "minutes": None, "episodes": 200,
+             "quick": False, "fixed": {"num_cars": "8", "lidar_noise": "0.5",
+                                       "init_from": "assets/policies/traffic_lights_4cars_noise05"}}
+    (tmp_path / "dense.json").write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    page = tmp_path / "results.md"
+    assert main([str(grid), str(tmp_path / "dense.json"), "--out", str(page)]) == 0
+    text = page.read_text()
+    dense = text.split("## Denser traffic")[1].split("\n## ")[0]
+    assert "- red-light violations: these trials 0.011" in dense and "fewer violations with more cars, intervals apart" in dense
+    assert "| 0.5 | 4 | 3 |" in text.split("## Stopping at red lights")[1].split("\n## ")[0]  # the grid keeps its own table
+    assert "0.011" not in text.split("## Stopping at red lights")[1].split("\n## ")[0]

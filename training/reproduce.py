@@ -60,6 +60,18 @@ def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list
     return out
 
 
+def reference_group(section: Section, summaries: list[dict[str, Any]]) -> Optional[Group]:
+    """The grid point ``section.compare_with`` names, from the summaries (None if not measured)."""
+    if section.compare_with is None:
+        return None
+    key, point = section.compare_with
+    other = next(s for s in SECTIONS if s.key == key)
+    metrics = [m for m, _ in other.metrics]
+    found = [g for s in section_summaries(other, summaries) for g in groups_of(s, metrics)
+             if all(str(g.point.get(k)) == v for k, v in point)]
+    return max(found, key=lambda g: len(g.seeds)) if found else None
+
+
 def _estimate_cell(e: Estimate) -> str:
     if e.n == 0:
         return "n/a"
@@ -118,7 +130,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 parts.append("| " + " | ".join(cells) + " |")
             parts.append("")
             blind = light_blind_rates(summary, groups) if section.key == "traffic-lights" else {}
-            notes = statements(section, groups, blind)
+            notes = statements(section, groups, blind, reference_group(section, summaries))
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:

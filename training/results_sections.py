@@ -67,6 +67,8 @@ class Section:
         shipped: the shipped policy animated in the section (a folder in assets/policies).
         gif_size: the animation's frame size in pixels.
         headlines: its rows in the README's results table.
+        compare_with: (another section's key, its grid point) whose trials this section's are set
+            against in a statement (same metrics, intervals apart or not).
     """
 
     key: str
@@ -82,6 +84,7 @@ class Section:
     shipped: Optional[str] = None
     gif_size: tuple[int, int] = (320, 320)
     headlines: tuple[Headline, ...] = ()
+    compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
 
     @property
     def argv(self) -> list[str]:
@@ -132,7 +135,8 @@ SECTIONS: tuple[Section, ...] = (
                     "the shipped 8-car policy was, each trial fine-tunes the shipped 4-car noise-0.5 policy "
                     "with 8 cars for the same budget again; compare it with the grid's 4-car noise-0.5 row.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
-            headlines=(Headline("denser traffic obeys more", "8 cars, LiDAR noise 0.5, from the 4-car policy", (),
+            compare_with=("traffic-lights", (("lidar_noise", "0.5"), ("num_cars", "4"))),
+            headlines=(Headline("denser traffic", "8 cars, LiDAR noise 0.5, from the 4-car policy", (),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
     Section("lanes", "Lanes", "lanes", (),
             (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from typing import Any
+from typing import Any, Optional
 
 from training.results_data import (LEARNT_SUCCESS, Group, as_number, light_blind_violation_rate,
                                    report_episodes)
-from training.results_sections import Section
+from training.results_sections import SECTIONS, Section
 from training.stats import Estimate
 
 __all__ = ["light_blind_rates", "statements"]
@@ -139,9 +139,33 @@ def majority_statement(groups: list[Group], metric: str, label: str, claim: str)
     return lines
 
 
-def statements(section: Section, groups: list[Group], blind: dict[str, tuple[float, int]]) -> list[str]:
-    """Every statement of ``section``'s part of the page, for its grouped trials."""
+def reference_statement(groups: list[Group], reference: Group, label: str) -> list[str]:
+    """This section's violations against a reference grid point with fewer cars (the paper: more
+    cars, fewer violations), from the intervals."""
+    metric = "red_light_violation_rate"
+    ref = reference.estimates.get(metric)
+    lines = []
+    for g in groups:
+        e = g.estimates.get(metric)
+        if e is None or ref is None or e.high is None or ref.high is None:
+            continue
+        verdict = ("fewer violations with more cars, intervals apart, as in the paper." if e.high < ref.low else
+                   "more violations with more cars, intervals apart, unlike the paper." if e.low > ref.high else
+                   "the intervals overlap: no difference shown, unlike the paper.")
+        these = "these trials" if not g.point else f"these trials at {_where(g)}"
+        lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: {verdict}")
+    return lines
+
+
+def statements(section: Section, groups: list[Group], blind: dict[str, tuple[float, int]],
+               reference: Optional[Group] = None) -> list[str]:
+    """Every statement of ``section``'s part of the page, for its grouped trials; ``reference``:
+    the grid point named by ``section.compare_with``, if measured."""
     lines = paper_comparison(section, groups)
+    if reference is not None and section.compare_with is not None:
+        other = next(s.title for s in SECTIONS if s.key == section.compare_with[0])
+        label = f"the row {', '.join(f'{k}={v}' for k, v in section.compare_with[1])} of {other}"
+        lines += reference_statement(groups, reference, label)
     if section.key == "traffic-lights":
         lines += lights_statement(groups, blind)
     elif section.key == "lanes":
