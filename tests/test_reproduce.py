@@ -227,6 +227,12 @@ def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, m
     err = capsys.readouterr().err
     assert code == 2 and "traffic-lights" in err and "another sweep" in err, err
     assert not (tmp_path / "runs").exists() and not (tmp_path / "results.md").exists()
+    # a README without the result markers: refused before training too
+    (tmp_path / "README.md").write_text("# no markers\n")
+    (folder / "tiny.json").unlink()
+    code = reproduce.main(["--run", "--summaries", str(folder), "--runs", str(tmp_path / "runs"),
+                           "--out", str(tmp_path / "results.md"), "--readme", str(tmp_path / "README.md")])
+    assert code == 2 and "--readme" in capsys.readouterr().err and not (tmp_path / "runs").exists()
     with pytest.raises(SystemExit) as exit_:
         reproduce.main(["--only", "traffic-lights"])  # without --run
     assert exit_.value.code == 2 and "--only goes with --run" in capsys.readouterr().err

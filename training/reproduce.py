@@ -193,15 +193,20 @@ def _headline_value(e: Estimate) -> str:
     return e.format() if e.low is not None else f"{e.mean:.3f}"  # the seeds column says "1"
 
 
-def update_readme(path: Path, table: str) -> None:
-    """Replace the text between the README's two result markers with ``table``."""
+def readme_text(path: Path) -> str:
+    """The README's text; :class:`ResultsError` unless it has the two result markers in order."""
     try:
         text = Path(path).read_text()
     except OSError as exc:
         raise ResultsError(f"--readme {path}: {exc.strerror}") from None
     if text.count(README_START) != 1 or text.count(README_END) != 1 or text.index(README_START) > text.index(README_END):
         raise ResultsError(f"--readme {path}: needs one line {README_START!r} and, after it, one line {README_END!r}")
-    head, rest = text.split(README_START)
+    return text
+
+
+def update_readme(path: Path, table: str) -> None:
+    """Replace the text between the README's two result markers with ``table``."""
+    head, rest = readme_text(path).split(README_START)
     tail = rest.split(README_END)[1]
     tmp = Path(path).with_name(Path(path).name + ".partial")
     tmp.write_text(f"{head}{README_START}\n{table}\n{README_END}{tail}")
@@ -258,6 +263,13 @@ def main(argv: Optional[list[str]] = None) -> int:
     status = 0
     if args.run:
         from training.reproduce_run import ReproduceError, run_sections
+
+        if args.readme is not None:  # a README it cannot write is found before hours of training
+            try:
+                readme_text(args.readme)
+            except ResultsError as exc:
+                print(f"{prog}: error: {exc}", file=sys.stderr)
+                return 2
 
         try:
             status = run_sections([s for s in SECTIONS if not args.only or s.key in args.only], args.folder,
