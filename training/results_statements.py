@@ -51,6 +51,9 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
     lines = []
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
     for g in groups:
+        success = g.estimates.get("success_rate")
+        if success is not None and success.n and success.mean < LEARNT_SUCCESS:
+            continue  # not learnt at this budget: said once by unlearnt_statement, compared with nothing
         by_noise[g.point.get("lidar_noise", "?")][as_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
     for noise in sorted(by_noise, key=as_number):
         cars = by_noise[noise]
