@@ -365,3 +365,15 @@ def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
     assert "- red-light violations: these trials 0.011" in dense and "fewer violations with more cars, intervals apart" in dense
     assert "| 0.5 | 4 | 3 |" in text.split("## Stopping at red lights")[1].split("\n## ")[0]  # the grid keeps its own table
     assert "0.011" not in text.split("## Stopping at red lights")[1].split("\n## ")[0]
+
+
+def test_more_violations_with_more_cars_is_not_called_an_overlap():
+    from training.results_sections import section
+    from training.results_statements import statements
+
+    groups = [Group({"lidar_noise": "0", "num_cars": n}, [0, 1, 2],
+                    {"red_light_violation_rate": mean_ci(v), "success_rate": mean_ci([0.9] * 3),
+                     "collision_rate": mean_ci([0.1] * 3)})
+              for n, v in (("1", [0.10, 0.11, 0.12]), ("4", [0.40, 0.41, 0.42]))]
+    text = "\n".join(statements(section("traffic-lights"), groups, {}))
+    assert "4 cars" in text and "more violations with more cars, intervals apart." in text and "overlap" not in text

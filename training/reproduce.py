@@ -60,16 +60,22 @@ def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list
     return out
 
 
+def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[str],
+             point: tuple[tuple[str, str], ...]) -> Optional[Group]:
+    """``section``'s trials at the grid ``point`` (the summary with most seeds there), with
+    ``metrics`` estimated; None if not measured."""
+    found = [g for s in section_summaries(section, summaries) for g in groups_of(s, metrics)
+             if all(str(g.point.get(k)) == v for k, v in point)]
+    return max(found, key=lambda g: len(g.seeds)) if found else None
+
+
 def reference_group(section: Section, summaries: list[dict[str, Any]]) -> Optional[Group]:
     """The grid point ``section.compare_with`` names, from the summaries (None if not measured)."""
     if section.compare_with is None:
         return None
     key, point = section.compare_with
     other = next(s for s in SECTIONS if s.key == key)
-    metrics = [m for m, _ in other.metrics]
-    found = [g for s in section_summaries(other, summaries) for g in groups_of(s, metrics)
-             if all(str(g.point.get(k)) == v for k, v in point)]
-    return max(found, key=lambda g: len(g.seeds)) if found else None
+    return group_at(other, summaries, [m for m, _ in other.metrics], point)
 
 
 def _estimate_cell(e: Estimate) -> str:
@@ -171,13 +177,9 @@ def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md")
              "|---|---|---|---|---|"]
     for section in SECTIONS:
         labels = dict(section.metrics)
-        found = section_summaries(section, summaries)
         for h in section.headlines:
-            want = dict(h.point)
-            groups = [g for s in found for g in groups_of(s, list(h.metrics))
-                      if all(str(g.point.get(k)) == v for k, v in want.items())]
-            if groups:
-                g = max(groups, key=lambda g: len(g.seeds))
+            g = group_at(section, summaries, list(h.metrics), h.point)
+            if g is not None:
                 result = "; ".join(f"{labels.get(m, m)} {_headline_value(g.estimates[m])}" for m in h.metrics)
                 seeds = str(len(g.seeds))
             else:

@@ -22,6 +22,12 @@ def _where(g: Group) -> str:
     return ", ".join(f"{k}={v}" for k, v in g.point.items()) or "shipped settings"
 
 
+def apart(a: Estimate, b: Estimate) -> int:
+    """How ``b`` lies against ``a`` by their intervals: 1 above and apart, -1 below and apart, 0
+    overlapping."""
+    return 1 if b.low > a.high else -1 if b.high < a.low else 0
+
+
 def paper_comparison(section: Section, groups: list[Group]) -> list[str]:
     lines = []
     for pv in section.paper_values:
@@ -69,10 +75,10 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
         for n in sorted(c for c in cars if c > 1.0):
             one, many = cars.get(1.0), cars[n]
             if one is not None and one.high is not None and many.high is not None:
-                apart = many.high < one.low
-                lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: "
-                             + ("fewer violations with more cars, intervals apart." if apart else
-                                "the intervals overlap: no difference shown."))
+                verdict = {-1: "fewer violations with more cars, intervals apart.",
+                           1: "more violations with more cars, intervals apart.",
+                           0: "the intervals overlap: no difference shown."}[apart(one, many)]
+                lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: {verdict}")
     return lines
 
 
@@ -87,9 +93,8 @@ def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]]) -
         a, b = low.estimates[metric], high.estimates[metric]
         if a.high is None or b.high is None:
             continue
-        verdict = ("rises, intervals apart, as in the paper." if b.low > a.high else
-                   "falls, intervals apart, unlike the paper." if b.high < a.low else
-                   "the intervals overlap: no rise shown, unlike the paper.")
+        verdict = {1: "rises, intervals apart, as in the paper.", -1: "falls, intervals apart, unlike the paper.",
+                   0: "the intervals overlap: no rise shown, unlike the paper."}[apart(a, b)]
         lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
                      f"{high.point['lidar_noise']} {b.format()}: {verdict}")
     return lines
@@ -110,8 +115,7 @@ def unlearnt_statement(groups: list[Group]) -> list[str]:
     for g in groups:
         e = g.estimates.get("success_rate")
         if e is not None and e.n and e.mean < LEARNT_SUCCESS:
-            where = _where(g)
-            lines.append(f"- {where}: success {e.format()}: at this budget the cars have not learnt to reach "
+            lines.append(f"- {_where(g)}: success {e.format()}: at this budget the cars have not learnt to reach "
                          "their goals, so the other numbers of this row say little about the rule.")
     return lines
 
@@ -123,9 +127,9 @@ def apart_statement(groups: list[Group], key: str, few: str, many: str, metric: 
     if few not in by or many not in by or by[few].high is None or by[many].high is None:
         return []
     a, b = by[few], by[many]
-    verdict = (f"{claim}, intervals apart, as in the paper." if b.low > a.high else
-               "the intervals overlap: no difference shown, unlike the paper." if b.low <= a.high and b.high >= a.low
-               else f"the opposite of {claim}, intervals apart, unlike the paper.")
+    verdict = {1: f"{claim}, intervals apart, as in the paper.",
+               0: "the intervals overlap: no difference shown, unlike the paper.",
+               -1: f"the opposite of {claim}, intervals apart, unlike the paper."}[apart(a, b)]
     return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
 
 
@@ -152,9 +156,9 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
         e = g.estimates.get(metric)
         if e is None or ref is None or e.high is None or ref.high is None:
             continue
-        verdict = ("fewer violations with more cars, intervals apart, as in the paper." if e.high < ref.low else
-                   "more violations with more cars, intervals apart, unlike the paper." if e.low > ref.high else
-                   "the intervals overlap: no difference shown, unlike the paper.")
+        verdict = {-1: "fewer violations with more cars, intervals apart, as in the paper.",
+                   1: "more violations with more cars, intervals apart, unlike the paper.",
+                   0: "the intervals overlap: no difference shown, unlike the paper."}[apart(ref, e)]
         these = "these trials" if not g.point else f"these trials at {_where(g)}"
         lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: {verdict}")
     return lines
