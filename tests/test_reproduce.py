@@ -59,6 +59,7 @@ def test_page_shows_means_intervals_seeds_statements_and_the_figure(tmp_path):
     for rule in ("## Lanes", "## Right of way", "## Turn signals", "## Fast lanes", "## Slowing down"):
         section = text.split(rule, 1)[1].split("\n## ", 1)[0]
         assert "Not run yet" in section and "box2d-driving sweep" in section
+        assert "`box2d-driving reproduce --run --only " in section  # the one command that runs and adds it
 
 
 def test_a_summary_evaluated_off_report_seeds_is_refused(tmp_path, capsys):
