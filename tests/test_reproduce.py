@@ -59,6 +59,7 @@ def test_page_shows_means_intervals_seeds_statements_and_the_figure(tmp_path):
     for rule in ("## Lanes", "## Right of way", "## Turn signals", "## Fast lanes", "## Slowing down"):
         section = text.split(rule, 1)[1].split("\n## ", 1)[0]
         assert "Not run yet" in section and "box2d-driving sweep" in section
+        assert "`box2d-driving reproduce --run --only " in section  # the one command that runs and adds it
 
 
 def test_a_summary_evaluated_off_report_seeds_is_refused(tmp_path, capsys):
@@ -377,3 +378,26 @@ def test_more_violations_with_more_cars_is_not_called_an_overlap():
               for n, v in (("1", [0.10, 0.11, 0.12]), ("4", [0.40, 0.41, 0.42]))]
     text = "\n".join(statements(section("traffic-lights"), groups, {}))
     assert "4 cars" in text and "more violations with more cars, intervals apart." in text and "overlap" not in text
+
+
+def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_points_only():
+    from training.results_sections import section
+    from training.results_statements import statements
+
+    def point(noise, cars, violations, success=0.9):
+        return Group({"lidar_noise": noise, "num_cars": cars}, [0, 1, 2],
+                     {"red_light_violation_rate": mean_ci(violations), "success_rate": mean_ci([success] * 3),
+                      "collision_rate": mean_ci([0.1] * 3)})
+
+    groups = [point("0", "4", [0.20, 0.21, 0.22]), point("0.5", "4", [0.15, 0.16, 0.17]),
+              point("0.75", "4", [0.05, 0.06, 0.07]),
+              point("0", "8", [0.10, 0.11, 0.12]), point("0.75", "8", [0.45, 0.46, 0.47], success=0.2)]
+    lines = [line for line in statements(section("traffic-lights"), groups, {}) if "against noise" in line
+             or line.startswith("- 4 cars") or line.startswith("- 8 cars")]
+    assert lines == [f"- 4 cars, red-light violations: noise 0 {mean_ci([0.20, 0.21, 0.22]).format()}, noise 0.75 "
+                     f"{mean_ci([0.05, 0.06, 0.07]).format()}: falls, intervals apart, as in the paper."]
+    groups[2] = point("0.75", "4", [0.30, 0.31, 0.32])
+    text = "\n".join(statements(section("traffic-lights"), groups, {}))
+    assert "- 4 cars, red-light violations: noise 0" in text and "rises, intervals apart, unlike the paper." in text
+    groups[2] = point("0.75", "4", [0.10, 0.20, 0.30])
+    assert "no fall shown, unlike the paper." in "\n".join(statements(section("traffic-lights"), groups, {}))

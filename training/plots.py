@@ -9,7 +9,6 @@ from typing import Optional
 import numpy as np
 
 
-
 def _plt():
     import matplotlib
 
@@ -54,8 +53,6 @@ def learning_curves(progress: dict[str, np.ndarray], path: Path,
                 axis.plot(x, progress[key], label=label, color=colour)
         axis.set_xlabel(xlabel)
         axis.set_ylim(0, 1)
-    if np.isfinite(progress["rollout/red_light_violation_rate"]).any():
-        ax[0].axhline(0.45, color="grey", ls=":", lw=1, label="light-blind (~0.45)")
     if mark_agent_steps is not None:
         ax[0].axvline(mark_agent_steps / 1e6, color="black", lw=1, ls="--", label="this checkpoint")
     ax[0].set_ylabel("rate (stochastic training rollouts)")

@@ -113,7 +113,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                       + ".*", ""]
         found = section_summaries(section, summaries)
         if not found:
-            parts += [f"**Ours.** Not run yet. {section.setting} To run it:", "", "```bash", section.command,
+            parts += [f"**Ours.** Not run yet. {section.setting} To run it: `box2d-driving reproduce --run --only "
+                      f"{section.key}` runs this sweep, then adds it to this page:", "", "```bash", section.command,
                       "```", ""]
             continue
         for summary in found:
@@ -141,17 +142,15 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 parts += notes + [""]
             if section.figure is not None and groups:
                 name = f"{section.key}.png"
-                if blind:
-                    section.figure(groups, keys, figures / name, blind=blind)
-                else:
-                    section.figure(groups, keys, figures / name)
+                section.figure(groups, keys, figures / name, **({"blind": blind} if blind else {}))
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
             failed = [r for r in trials if r.get("status") in ("error", "stopped")]
             if failed:
                 parts += ["Trials not finished (a rerun continues them): "
                           + ", ".join(f"`{r['trial']}` ({r['status']})" for r in failed), ""]
-        parts += ["To rerun (a stopped sweep continues when the command is run again; on another "
-                  "machine, add `--reuse` with the committed summary to keep its finished trials):", "",
+        parts += [f"To rerun: `box2d-driving reproduce --run --only {section.key}` continues from the committed "
+                  "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
+                  "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -22,6 +22,12 @@ def _where(g: Group) -> str:
     return ", ".join(f"{k}={v}" for k, v in g.point.items()) or "shipped settings"
 
 
+def _unlearnt(g: Group) -> bool:
+    """Whether the cars of this grid point mostly fail to arrive (mean success below LEARNT_SUCCESS)."""
+    e = g.estimates.get("success_rate")
+    return e is not None and bool(e.n) and e.mean < LEARNT_SUCCESS
+
+
 def apart(a: Estimate, b: Estimate) -> int:
     """How ``b`` lies against ``a`` by their intervals: 1 above and apart, -1 below and apart, 0
     overlapping."""
@@ -56,10 +62,9 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
     light-blind driver's violation rate on the same report episodes and its number of entries."""
     lines = []
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
-    for g in groups:
-        success = g.estimates.get("success_rate")
-        if success is not None and success.n and success.mean < LEARNT_SUCCESS:
-            continue  # not learnt at this budget: said once by unlearnt_statement, compared with nothing
+    # a grid point not learnt at this budget is said once by unlearnt_statement, compared with nothing
+    learnt = [g for g in groups if not _unlearnt(g)]
+    for g in learnt:
         by_noise[g.point.get("lidar_noise", "?")][as_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
     for noise in sorted(by_noise, key=as_number):
         cars = by_noise[noise]
@@ -79,22 +84,30 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
                            1: "more violations with more cars, intervals apart.",
                            0: "the intervals overlap: no difference shown."}[apart(one, many)]
                 lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: {verdict}")
+    # the paper's second trend: with more LiDAR noise, fewer violations (at each number of cars)
+    for n in sorted({as_number(g.point.get("num_cars")) for g in learnt if as_number(g.point.get("num_cars")) > 1.0}):
+        lines += noise_trend_statement([g for g in learnt if as_number(g.point.get("num_cars")) == n],
+                                       [("red_light_violation_rate", f"{n:g} cars, red-light violations")], paper=-1)
     return lines
 
 
-def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]]) -> list[str]:
-    """Whether each metric rises from the lowest to the highest LiDAR noise, from the intervals."""
+def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]], paper: int = 1) -> list[str]:
+    """Whether each metric rises or falls from the lowest to the highest LiDAR noise, from the
+    intervals; ``paper``: the direction the paper reports (1 rises, -1 falls)."""
     by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
     if len(by_noise) < 2:
         return []
     low, high = by_noise[0], by_noise[-1]
+    expected, other = ("rise", "falls") if paper == 1 else ("fall", "rises")
     lines = []
     for metric, label in metrics:
         a, b = low.estimates[metric], high.estimates[metric]
         if a.high is None or b.high is None:
             continue
-        verdict = {1: "rises, intervals apart, as in the paper.", -1: "falls, intervals apart, unlike the paper.",
-                   0: "the intervals overlap: no rise shown, unlike the paper."}[apart(a, b)]
+        seen = apart(a, b)
+        verdict = (f"{expected}s, intervals apart, as in the paper." if seen == paper else
+                   f"{other}, intervals apart, unlike the paper." if seen else
+                   f"the intervals overlap: no {expected} shown, unlike the paper.")
         lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
                      f"{high.point['lidar_noise']} {b.format()}: {verdict}")
     return lines
@@ -111,13 +124,9 @@ def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> dict[str,
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:
     """Grid points whose cars mostly fail to arrive: their rule measures say little."""
-    lines = []
-    for g in groups:
-        e = g.estimates.get("success_rate")
-        if e is not None and e.n and e.mean < LEARNT_SUCCESS:
-            lines.append(f"- {_where(g)}: success {e.format()}: at this budget the cars have not learnt to reach "
-                         "their goals, so the other numbers of this row say little about the rule.")
-    return lines
+    return [f"- {_where(g)}: success {g.estimates['success_rate'].format()}: at this budget the cars have not "
+            "learnt to reach their goals, so the other numbers of this row say little about the rule."
+            for g in groups if _unlearnt(g)]
 
 
 def apart_statement(groups: list[Group], key: str, few: str, many: str, metric: str, label: str,

@@ -4,7 +4,8 @@ For every car that enters the junction box, the light value it saw last before e
 observation on the decision before the first decision it is inside). The two light groups are
 symmetric, so a policy may adopt either 0.0 or 1.0 as "stop": the stop value is the one of
 {0.0, 1.0} on which fewer entries happen, and the red-light violation rate is the share of all
-entries made on it. A light-blind policy enters on both about equally and scores about 0.45.
+entries made on it. A light-blind policy enters on both about equally, so it scores a little under
+one half (every car at full throttle, 200 report episodes: 0.415 with one car, 0.448 with four).
 """
 
 from __future__ import annotations
