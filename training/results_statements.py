@@ -62,10 +62,12 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
     light-blind driver's violation rate on the same report episodes and its number of entries."""
     lines = []
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
+    by_cars: dict[float, list[Group]] = defaultdict(list)
     # a grid point not learnt at this budget is said once by unlearnt_statement, compared with nothing
-    learnt = [g for g in groups if not _unlearnt(g)]
-    for g in learnt:
-        by_noise[g.point.get("lidar_noise", "?")][as_number(g.point.get("num_cars"))] = g.estimates["red_light_violation_rate"]
+    for g in (g for g in groups if not _unlearnt(g)):
+        n_cars = as_number(g.point.get("num_cars"))
+        by_noise[g.point.get("lidar_noise", "?")][n_cars] = g.estimates["red_light_violation_rate"]
+        by_cars[n_cars].append(g)
     for noise in sorted(by_noise, key=as_number):
         cars = by_noise[noise]
         if 1.0 in cars and noise in blind and cars[1.0].n:
@@ -85,9 +87,9 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
                            0: "the intervals overlap: no difference shown."}[apart(one, many)]
                 lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: {verdict}")
     # the paper's second trend: with more LiDAR noise, fewer violations (at each number of cars)
-    for n in sorted({as_number(g.point.get("num_cars")) for g in learnt if as_number(g.point.get("num_cars")) > 1.0}):
-        lines += noise_trend_statement([g for g in learnt if as_number(g.point.get("num_cars")) == n],
-                                       [("red_light_violation_rate", f"{n:g} cars, red-light violations")], paper=-1)
+    for n in sorted(c for c in by_cars if c > 1.0):
+        lines += noise_trend_statement(by_cars[n], [("red_light_violation_rate", f"{n:g} cars, red-light violations")],
+                                       paper=-1)
     return lines
 
 
