@@ -301,9 +301,11 @@ def test_a_lone_car_that_stops_on_red_is_told_apart_from_a_light_blind_driver(tm
     summary = _summary(tmp_path / "s.json", {**VIOLATIONS, ("0", "1"): [0.05, 0.06, 0.04]})
     page = tmp_path / "results.md"
     assert main([str(summary), "--out", str(page)]) == 0
-    lines = [line for line in page.read_text().splitlines() if "1 car: violations" in line]
-    assert any(line.startswith("- noise 0, 1 car:") and "the lone car reacts to the light" in line for line in lines)
-    assert any(line.startswith("- noise 0.5, 1 car:") and "the light is ignored" in line for line in lines)
+    lines = [line for line in page.read_text().splitlines() if line.startswith("- 1 car, red-light violations")]
+    # the two noise levels disagree, so each gets its own line and neither claims every level
+    assert len(lines) == 2 and not any("every noise level" in line for line in lines)
+    assert ": noise 0 0.050" in lines[0] and "the lone car reacts to the light" in lines[0]
+    assert ": noise 0.5 " in lines[1] and "the light is ignored" in lines[1]
 
 
 def test_communication_averages_the_correlations_size_and_draws_both_measures_against_noise(tmp_path):
@@ -377,7 +379,8 @@ def test_more_violations_with_more_cars_is_not_called_an_overlap():
                      "collision_rate": mean_ci([0.1] * 3)})
               for n, v in (("1", [0.10, 0.11, 0.12]), ("4", [0.40, 0.41, 0.42]))]
     text = "\n".join(statements(section("traffic-lights"), groups, {}))
-    assert "4 cars" in text and "more violations with more cars, intervals apart." in text and "overlap" not in text
+    assert "4 cars" in text and "more violations with more cars, intervals apart, unlike the paper." in text
+    assert "overlap" not in text
 
 
 def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_points_only():
@@ -401,3 +404,23 @@ def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_poin
     assert "- 4 cars, red-light violations: noise 0" in text and "rises, intervals apart, unlike the paper." in text
     groups[2] = point("0.75", "4", [0.10, 0.20, 0.30])
     assert "no fall shown, unlike the paper." in "\n".join(statements(section("traffic-lights"), groups, {}))
+
+
+def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
+    from training.results_sections import section
+    from training.results_statements import statements
+
+    def point(noise, cars, violations, success=0.9):
+        return Group({"lidar_noise": noise, "num_cars": cars}, [0, 1, 2],
+                     {"red_light_violation_rate": mean_ci(violations), "success_rate": mean_ci([success] * 3),
+                      "collision_rate": mean_ci([0.1] * 3)})
+
+    groups = [point(noise, cars, v, s) for noise in ("0", "0.5") for cars, v, s in
+              (("1", [0.40, 0.41, 0.42], 1.0), ("4", [0.05, 0.06, 0.07], 0.9), ("8", [0.45, 0.46, 0.47], 0.2))]
+    lines = statements(section("traffic-lights"), groups, {})
+    fewer = [line for line in lines if line.startswith("- red-light violations, 1 car against 4 cars")]
+    assert len(fewer) == 1 and ", every noise level: noise 0 " in fewer[0] and "; noise 0.5 " in fewer[0]
+    assert fewer[0].endswith("fewer violations with more cars, intervals apart, as in the paper.")
+    unlearnt = [line for line in lines if "have not learnt" in line]
+    assert len(unlearnt) == 1 and unlearnt[0].startswith("- num_cars=8: success noise 0 0.200")
+    assert "; noise 0.5 0.200" in unlearnt[0] and "these rows" in unlearnt[0]

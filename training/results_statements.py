@@ -18,8 +18,8 @@ from training.stats import Estimate
 __all__ = ["light_blind_rates", "statements"]
 
 
-def _where(g: Group) -> str:
-    return ", ".join(f"{k}={v}" for k, v in g.point.items()) or "shipped settings"
+def _where(point: dict[str, str]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in point.items()) or "shipped settings"
 
 
 def _unlearnt(g: Group) -> bool:
@@ -41,7 +41,7 @@ def paper_comparison(section: Section, groups: list[Group]) -> list[str]:
             e = g.estimates.get(pv.metric)
             if e is None or e.n == 0:
                 continue
-            where = _where(g)
+            where = _where(g.point)
             if pv.spread is not None:
                 inside = abs(e.mean - pv.value) <= pv.spread
                 verdict = "inside" if inside else "outside"
@@ -57,10 +57,27 @@ def paper_comparison(section: Section, groups: list[Group]) -> list[str]:
     return lines
 
 
+def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
+    """The paper's first lights trend (more cars, fewer violations) read from the two intervals."""
+    return {-1: "fewer violations with more cars, intervals apart, as in the paper.",
+            1: "more violations with more cars, intervals apart, unlike the paper.",
+            0: "the intervals overlap: no difference shown, unlike the paper."}[apart(fewer, more)]
+
+
+def by_verdict(subject: str, readings: list[tuple[str, str, str]]) -> list[str]:
+    """One line per verdict for readings ``(noise, numbers, verdict)`` of one comparison across noise
+    levels, so four levels that agree make one line, not four."""
+    grouped: dict[str, list[str]] = defaultdict(list)
+    for noise, numbers, verdict in readings:
+        grouped[verdict].append(f"noise {noise} {numbers}")
+    every = len(readings) > 1
+    return [f"- {subject}{', every noise level' if every and len(parts) == len(readings) else ''}: "
+            f"{'; '.join(parts)}: {verdict}" for verdict, parts in grouped.items()]
+
+
 def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -> list[str]:
     """Plain statements of the lights trends, from the intervals. ``blind``: per noise level, the
     light-blind driver's violation rate on the same report episodes and its number of entries."""
-    lines = []
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
     by_cars: dict[float, list[Group]] = defaultdict(list)
     # a grid point not learnt at this budget is said once by unlearnt_statement, compared with nothing
@@ -68,24 +85,25 @@ def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -
         n_cars = as_number(g.point.get("num_cars"))
         by_noise[g.point.get("lidar_noise", "?")][n_cars] = g.estimates["red_light_violation_rate"]
         by_cars[n_cars].append(g)
+    lone: list[tuple[str, str, str]] = []
+    against: dict[float, list[tuple[str, str, str]]] = defaultdict(list)
     for noise in sorted(by_noise, key=as_number):
-        cars = by_noise[noise]
-        if 1.0 in cars and noise in blind and cars[1.0].n:
-            one, (rate, entries) = cars[1.0], blind[noise]
+        cars, one = by_noise[noise], by_noise[noise].get(1.0)
+        if one is not None and noise in blind and one.n:
+            rate, entries = blind[noise]
             # the blind rate is itself measured on `entries` junction entries: its 95 % binomial margin
             margin = 1.96 * math.sqrt(max(rate * (1 - rate), 1e-12) / max(entries, 1))
-            ignored = abs(one.mean - rate) <= margin
-            lines.append(f"- noise {noise}, 1 car: violations {one.format()}, a light-blind driver (full throttle) on "
-                         f"the same episodes {rate:.3f} ± {margin:.3f}: "
-                         + ("no different: the light is ignored, as in the paper." if ignored else
-                            "different: the lone car reacts to the light, unlike the paper."))
+            lone.append((noise, f"{one.format()} against {rate:.3f} ± {margin:.3f}",
+                         "no different: the light is ignored, as in the paper." if abs(one.mean - rate) <= margin else
+                         "different: the lone car reacts to the light, unlike the paper."))
         for n in sorted(c for c in cars if c > 1.0):
-            one, many = cars.get(1.0), cars[n]
-            if one is not None and one.high is not None and many.high is not None:
-                verdict = {-1: "fewer violations with more cars, intervals apart.",
-                           1: "more violations with more cars, intervals apart.",
-                           0: "the intervals overlap: no difference shown."}[apart(one, many)]
-                lines.append(f"- noise {noise}: 1 car {one.format()}, {n:g} cars {many.format()}: {verdict}")
+            if one is not None and one.high is not None and cars[n].high is not None:
+                against[n].append((noise, f"{one.format()} against {cars[n].format()}",
+                                   more_cars_verdict(one, cars[n])))
+    lines = by_verdict("1 car, red-light violations against a light-blind driver (full throttle) on the same "
+                       "episodes", lone)
+    for n, readings in sorted(against.items()):
+        lines += by_verdict(f"red-light violations, 1 car against {n:g} cars", readings)
     # the paper's second trend: with more LiDAR noise, fewer violations (at each number of cars)
     for n in sorted(c for c in by_cars if c > 1.0):
         lines += noise_trend_statement(by_cars[n], [("red_light_violation_rate", f"{n:g} cars, red-light violations")],
@@ -125,10 +143,21 @@ def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> dict[str,
 
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:
-    """Grid points whose cars mostly fail to arrive: their rule measures say little."""
-    return [f"- {_where(g)}: success {g.estimates['success_rate'].format()}: at this budget the cars have not "
-            "learnt to reach their goals, so the other numbers of this row say little about the rule."
-            for g in groups if _unlearnt(g)]
+    """Grid points whose cars mostly fail to arrive: their rule measures say little. Points that
+    differ only in LiDAR noise share a line."""
+    rows: dict[str, list[Group]] = defaultdict(list)
+    for g in (g for g in groups if _unlearnt(g)):
+        rows[_where({k: v for k, v in g.point.items() if k != "lidar_noise"})].append(g)
+    lines = []
+    for where, same in rows.items():
+        if len(same) == 1:
+            success = f"{_where(same[0].point)}: success {same[0].estimates['success_rate'].format()}"
+        else:
+            success = f"{where}: success " + "; ".join(f"noise {g.point['lidar_noise']} "
+                                                       f"{g.estimates['success_rate'].format()}" for g in same)
+        lines.append(f"- {success}: at this budget the cars have not learnt to reach their goals, so the other "
+                     f"numbers of {'this row' if len(same) == 1 else 'these rows'} say little about the rule.")
+    return lines
 
 
 def apart_statement(groups: list[Group], key: str, few: str, many: str, metric: str, label: str,
@@ -153,7 +182,7 @@ def majority_statement(groups: list[Group], metric: str, label: str, claim: str)
             continue
         verdict = (f"{claim}, as in the paper." if e.low > 0.5 else
                    f"not {claim}, unlike the paper." if e.high < 0.5 else "the interval straddles one half.")
-        lines.append(f"- {label} ({_where(g)}): {e.format()}: {verdict}")
+        lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
     return lines
 
 
@@ -167,10 +196,8 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
         e = g.estimates.get(metric)
         if e is None or ref is None or e.high is None or ref.high is None:
             continue
-        verdict = {-1: "fewer violations with more cars, intervals apart, as in the paper.",
-                   1: "more violations with more cars, intervals apart, unlike the paper.",
-                   0: "the intervals overlap: no difference shown, unlike the paper."}[apart(ref, e)]
-        these = "these trials" if not g.point else f"these trials at {_where(g)}"
+        verdict = more_cars_verdict(ref, e)
+        these = "these trials" if not g.point else f"these trials at {_where(g.point)}"
         lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: {verdict}")
     return lines
 
