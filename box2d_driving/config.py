@@ -56,7 +56,7 @@ class DrivingConfig:
             receives 0 while the bits are still sent; a control for whether listeners use them).
         comm_range: a car hears the nearest other car within this distance (m) ...
         comm_half_angle: ... and within this angle of its heading (rad).
-        comm_fallback: what a car receives when no other car is in range: ``"zero"`` (SPEC 2)
+        comm_fallback: what a car receives when no other car is in range: ``"zero"`` (the paper's rule)
             or ``"own"``, its own last bit (a 1-bit memory; an ablation: the original code's
             nearest-sender rule could pick the receiver itself when no other car was visible).
         car_length, car_width: car body size (m).
@@ -209,7 +209,7 @@ class DrivingConfig:
 
     @property
     def wrecks_stay(self) -> bool:
-        """A collided car stays in the world as a halted obstacle (SPEC 2; not ``remove_collided``)."""
+        """A collided car stays in the world as a halted obstacle (the default; not ``remove_collided``)."""
         return not self.remove_collided
 
     @property

@@ -1,4 +1,4 @@
-"""Crosswalk: pedestrian facts in infos, invisible-pedestrian control, SPEC 6.7 metrics."""
+"""Crosswalk: pedestrian facts in infos, invisible-pedestrian control, crosswalk metrics."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Lane and fast-lane metrics (SPEC 6.2, 6.5) on hand-built rollout tables."""
+"""Lane and fast-lane metrics on hand-built rollout tables."""
 
 import numpy as np
 import pytest

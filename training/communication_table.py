@@ -1,8 +1,8 @@
-"""Compare communication evaluations across LiDAR noise levels (SPEC 6.4): markdown tables (the
-metrics, and what each bit value says), whether each measure rises with noise (Spearman's rho over
-all runs, with a one-sided permutation p-value) and a plot of speaker consistency and the
-heading-change / bit correlations against noise. A noise level may be given several times (one
-evaluation per training seed); then a table of means +- std per level follows.
+"""Compare communication evaluations across LiDAR noise levels (the paper's turn signals): markdown
+tables (the metrics, and what each bit value says), whether each measure rises with noise
+(Spearman's rho over all runs, with a one-sided permutation p-value) and a plot of speaker
+consistency and the heading-change / bit correlations against noise. A noise level may be given
+several times (one evaluation per training seed); then a table of means +- std per level follows.
 
     python training/communication_table.py --out docs/images/communication.png \\
         0=runs/comm_n0/eval 0.25=runs/comm_n025/eval 0.5=runs/comm_n05/eval 0.75=runs/comm_n075/eval
@@ -27,7 +27,7 @@ KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
         ("pearson_heading_change_bit", "Pearson(heading change, bit)"),
         ("pearson_abs_heading_change_bit", "Pearson(|heading change|, bit)"))
 # Measures tested for a rise with noise. Which bit value means what is learnt (as which light
-# value means stop), so besides SPEC's signed correlation the sizes of the correlations are used.
+# value means stop), so besides the paper's signed correlation the sizes of the correlations are used.
 TREND = (("speaker consistency (bits)", lambda c: c["speaker_consistency_bits"]),
          ("Pearson(dh, bit)", lambda c: c["pearson_heading_change_bit"]),
          ("abs Pearson(dh, bit)", lambda c: abs(c["pearson_heading_change_bit"])),

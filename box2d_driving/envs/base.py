@@ -70,7 +70,7 @@ def check_actions(actions: Any, agents: list[str], n_actions: int) -> np.ndarray
 
 
 class DrivingEnv(ParallelEnv, EzPickle):
-    """Cars on fixed tracks with discrete longitudinal accelerations (SPEC 2-3).
+    """Cars on fixed tracks with discrete longitudinal accelerations.
 
     Agents are ``"car_0" .. "car_{N-1}"``; all share one action space (``Discrete``: acceleration
     index, or ``acceleration index + n_accelerations * bit`` with communication) and one

@@ -1,4 +1,4 @@
-"""Highway with a crosswalk and pedestrians (SPEC 4, "crosswalk").
+"""Highway with a crosswalk and pedestrians (``docs/crosswalk.md``).
 
 The road spans ``x in [-road_length/2, road_length/2]``; the crosswalk covers
 ``x in crosswalk_x`` across the road. Between ``pedestrians_range`` pedestrians (0.8 m squares)

@@ -1,4 +1,5 @@
-"""Straight one-way highway with fixed straight tracks (SPEC 4, "highway").
+"""Straight one-way highway with fixed straight tracks (the base of
+``highway-spline-v0``, where each car picks its own lateral position).
 
 The road runs from ``x = 0`` to ``x = road_length`` with ``|y| <= road_width / 2``; traffic flows
 towards +x. Cars start spread along the road: car spawns take distinct random slots at

@@ -1,5 +1,5 @@
-"""Highway where each car picks its own lateral position: fast lanes are not given (SPEC 4,
-"highway", spline variant; the paper's fast-lane experiment).
+"""Highway where each car picks its own lateral position: fast lanes are not
+given (the paper's fast-lane experiment).
 
 Cars start on the road axis, spread along it. Stage 0 observes the car's acceleration rating and
 picks one continuous lateral target ``a in [-1, 1]``: the car's path is the centripetal

@@ -1,4 +1,4 @@
-"""Four-way signalled junction with fixed straight tracks (SPEC 4, "intersection").
+"""Four-way signalled junction with fixed straight tracks (the traffic-lights experiment).
 
 Geometry (per episode): four arms of length ``L ~ U[road_length_range)`` and width
 ``W ~ U[road_width_range)`` around a ``W x W`` junction box centred at the origin. Approach ``a``
@@ -91,7 +91,7 @@ class IntersectionConfig(DrivingConfig):
     def worst_case_arrival_time(self) -> float:
         """Seconds a car needs in the worst case: spawned at the farthest slot on the largest
         map, it drives to the stop line and stops there, waits a full red (``T_max - yellow``),
-        then drives to its goal; at ``v_lim`` and the largest acceleration. The SPEC 4 timing
+        then drives to its goal; at ``v_lim`` and the largest acceleration. The timing
         invariant asks this to fit in the horizon (with a decision of slack per phase)."""
         a, v = max(self.accelerations), self.v_lim
         d_stop = self.farthest_spawn()

@@ -1,5 +1,5 @@
-"""Signalled junction where each car picks its own path: lanes are not given (SPEC 4,
-"intersection, spline"; the paper's lane-emergence experiment).
+"""Signalled junction where each car picks its own path: lanes are not given (the
+paper's lane-emergence experiment; ``docs/lanes.md``).
 
 The planned route of a car runs along the road axis through three waypoints: its spawn point,
 the junction centre and its goal. Stage 0 offsets each waypoint sideways by one of

@@ -1,12 +1,12 @@
-"""Real junctions from map files (SPEC 4, "real junction"; maps: ``docs/maps.md``).
+"""Real junctions from map files (``docs/real_junctions.md``; maps: ``docs/maps.md``).
 
 Each episode samples one map from ``config.map`` (shipped map names or JSON files). Every car
 starts on an inbound lane (lanes in a random order, round-robin, so cars spread over the
 approaches; positions on a lane uniformly random with at least ``spawn_spacing`` between car
 centres), picks one of its lane's connectors (straight, left or right) uniformly, and follows the
 inbound lane's centre line, the connector and the outbound lane to its end, with acceleration
-control. Real signal groups run the two-phase plan (group 0 and group 1 in antiphase, SPEC 2
-timing), so turning traffic meets oncoming traffic and right of way matters. A car is in the
+control. Real signal groups run the two-phase plan (group 0 and group 1 in antiphase, the
+lights' timing), so turning traffic meets oncoming traffic and right of way matters. A car is in the
 junction inside the map's ``junction_area`` (out to the stop lines, so the light a car saw last
 before entering is the one at its stop line). Cars collide with each other and the road edges. The 1-bit turn
 signal is the ``communication`` option.
@@ -34,7 +34,7 @@ DEFAULT_MAPS = ("helsinki_1377211666", "helsinki_25291567", "helsinki_25292451",
 
 @dataclass(frozen=True)
 class RealJunctionConfig(DrivingConfig):
-    """Real-junction defaults (SPEC 4).
+    """Real-junction defaults.
 
     Attributes:
         map: a shipped map name or a map JSON path, or a tuple of them (one sampled per episode).

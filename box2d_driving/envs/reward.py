@@ -1,4 +1,4 @@
-"""The reward, as named terms (SPEC 3).
+"""The reward, as named terms.
 
 Per car and decision, with ``H`` the horizon, ``d0`` the path length at spawn and ``d`` what
 remains:

@@ -1,5 +1,5 @@
 """Spline scenarios: each car first chooses its own path (stage 0), then drives along it with
-acceleration control (stage 1) exactly as on the fixed tracks (SPEC 4 "spline" rows, SPEC 5).
+acceleration control (stage 1) exactly as on the fixed tracks (training: ``docs/lanes.md``).
 
 Lanes are never given. ``reset`` plans the episode (map, spawns and each car's route along the
 road axis), asks for one stage-0 action per car and builds each car's centripetal Catmull-Rom path

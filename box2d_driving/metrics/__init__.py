@@ -1,1 +1,1 @@
-"""Metrics that measure each road rule from recorded rollouts (SPEC 6)."""
+"""Metrics that measure each road rule from recorded rollouts; what each measures: ``docs/results.md``."""

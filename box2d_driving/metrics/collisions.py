@@ -5,7 +5,7 @@ halts there and takes no more decisions). Classes:
 
 - ``edge``, ``pedestrian``: it hit a road edge or a pedestrian;
 - ``wreck``: it hit a car that had already halted after an earlier collision (a static, visible
-  obstacle: SPEC 2 keeps wrecks in the world);
+  obstacle: by default wrecks stay in the world);
 - two moving cars, by the angle between their headings at the crash: ``same_way`` (less than
   ``same_way`` apart: rear-ends, or two cars merging into one lane), ``oncoming`` (more than
   ``oncoming`` apart: head-on, e.g. a turn across oncoming traffic), ``crossing`` (between).

@@ -1,11 +1,12 @@
-"""Emergent communication (SPEC 6.4) from rollout tables recorded with ``communication=True``.
+"""Emergent communication (the paper's turn signals) from rollout tables recorded with
+``communication=True``.
 
 A car's bit sent on decision ``t`` travels with its action of decision ``t`` (table row ``t``);
 its *next action* is the acceleration it applies on decision ``t + 1`` (row ``t + 1``), and its
 heading change is ``heading(t + 1) - heading(t)``.
 
 * Speaker consistency: the mutual information (bits) between the sent bit and the next action.
-* Pearson correlation between the heading change and the bit (signed, as SPEC 6.4), and between
+* Pearson correlation between the heading change and the bit (signed, as the paper), and between
   the absolute heading change and the bit (a "turn signal" that says *that* a car turns, not
   which way, shows up there).
 * What each bit value says: per value, its share and the sender's mean speed (m/s, on decision
@@ -139,7 +140,7 @@ def rank_trend(x: np.ndarray, y: np.ndarray, max_exact: int = 8, permutations: i
     """Does ``y`` rise with ``x``? Spearman's rho and its one-sided permutation p-value: the
     share of reorderings of ``y`` against ``x`` whose rho is at least the observed one (all
     ``n!`` for ``n <= max_exact`` points, else ``permutations`` draws from a generator seeded
-    with ``seed``). Used across runs (several seeds per noise level) for SPEC 6.4's "rises with
+    with ``seed``). Used across runs (several seeds per noise level) for the paper's "rises with
     noise"; with few runs the p-value can't be small (n = 4 points: at best 1/24)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if len(x) != len(y):

@@ -1,4 +1,4 @@
-"""Lane metrics (SPEC 6.2 lanes, 6.5 fast lanes) from rollout tables.
+"""Lane metrics (lanes at a junction, fast lanes on a highway) from rollout tables.
 
 Lanes: the normalised lane position is the ``lane_offset`` column (signed offset from the road
 axis / (W/2), + = right of the direction of travel). A *crossing* is one car's pass through the

@@ -1,4 +1,4 @@
-"""Traffic-light metrics (SPEC 6.1).
+"""Traffic-light metrics (``docs/traffic_lights.md``).
 
 For every car that enters the junction box, the light value it saw last before entering (its
 observation on the decision before the first decision it is inside). The two light groups are
@@ -72,7 +72,7 @@ def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def traffic_light_metrics(table: dict[str, np.ndarray]) -> dict:
-    """SPEC 6.1 summary: outcome rates plus the violation rate with its convention."""
+    """The lights summary: outcome rates plus the violation rate with its convention."""
     entries = junction_entries(table)
     v = violation_rate(entries["light"])
     return {

@@ -1,4 +1,4 @@
-"""Crosswalk metrics (SPEC 6.7).
+"""Crosswalk metrics (slowing down for pedestrians; ``docs/crosswalk.md``).
 
 Per sample (one car, one decision, car still driving): the distance to the nearest pedestrian
 ahead (within the ``ahead_half_angle`` cone of the heading, centre to centre) and the car's speed.

@@ -1,4 +1,4 @@
-"""Right of way (SPEC 6.3) and safe following distance (SPEC 6.6) from rollout tables.
+"""Right of way (first in, first out) and safe following distance from rollout tables.
 
 Right of way, first in first out: ``t_a(i)`` is the first decision car ``i`` is inside the junction
 area and ``t_d(i)`` the first decision after that on which it is outside again (``inf`` if its
@@ -153,7 +153,7 @@ def safety_distance_metrics(table: dict[str, np.ndarray], a_max: float, car_leng
 def safety_distance_from_samples(s: dict[str, np.ndarray], a_max: float) -> dict:
     """:func:`safety_distance_metrics` of samples already drawn by :func:`leader_samples`.
 
-    Besides the share over all closing samples (SPEC 6.6), the closing samples whose leader is a
+    Besides the share over all closing samples (the paper's measure), the closing samples whose leader is a
     wreck are counted and the share is also given without them (``safe_share_moving_leader``):
     a car closing on a crash that just happened ahead of it is the pile-up case, which human
     driving data (the paper's 99.56 %) hardly contains."""
