@@ -4,12 +4,28 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 
 from training.reproduce import Group, ResultsError, main
 from training.seeds import REPORT, SELECTION
 from training.stats import mean_ci, t95
+
+
+def _ragged_tables(text: str) -> list[str]:
+    """Markdown table rows whose number of cells differs from their table's header (an unescaped
+    ``|`` inside a cell splits it)."""
+    bad, width = [], None
+    for line in text.splitlines():
+        if not line.startswith("|"):
+            width = None
+            continue
+        cells = len(re.split(r"(?<!\\)\|", line)) - 2
+        width = cells if width is None else width
+        if cells != width:
+            bad.append(line)
+    return bad
 
 
 def _summary(path, violations, first_seed=REPORT.start, statuses=None):
@@ -276,6 +292,7 @@ def test_the_committed_page_and_readme_table_match_the_committed_summaries(tmp_p
     summaries = [load_summary(p) for p in default_summaries(Path("assets/sweeps"))]
     readme = (root / "README.md").read_text()
     assert readme.split(README_START + "\n")[1].split("\n" + README_END)[0] == readme_table(summaries)
+    assert not _ragged_tables(readme) and not _ragged_tables((root / "docs" / "results.md").read_text())
     page, figures = tmp_path / "docs" / "results.md", tmp_path / "docs" / "images" / "results"
     shutil.copytree(root / "docs" / "images" / "results", figures)  # the animations are linked, not drawn
     assert write_page(summaries, page, figures) == (root / "docs" / "results.md").read_text()
@@ -324,6 +341,7 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     page = tmp_path / "docs" / "results.md"
     assert main([str(tmp_path / "communication.json"), "--out", str(page)]) == 0
     section = page.read_text().split("## Turn signals (communication)")[1].split("\n## ")[0]
+    assert "| \\|Pearson(heading change, bit)\\| |" in section and not _ragged_tables(page.read_text())
     assert f"| 0 | 3 | {mean_ci([0.1, 0.11, 0.12]).format()}" in section
     assert f"{mean_ci([0.10, 0.12, 0.11]).format()} (0.100, 0.120, 0.110)" in section  # sizes, not signed values
     assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section

@@ -130,11 +130,11 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                       + (f", {summary['sweep']['minutes']} min" if summary['sweep'].get('minutes') else "")
                       + f", {summary['sweep']['episodes']} report episodes each). {section.setting}", ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
-            parts += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+            parts += [_row(header), "|" + "---|" * len(header)]
             for g in groups:
                 cells = [g.point[k] for k in keys] + [str(len(g.seeds))]
                 cells += [_estimate_cell(g.estimates[m]) for m in metrics]
-                parts.append("| " + " | ".join(cells) + " |")
+                parts.append(_row(cells))
             parts.append("")
             blind = light_blind_rates(summary, groups) if section.key == "traffic-lights" else {}
             notes = statements(section, groups, blind, reference_group(section, summaries))
@@ -164,6 +164,12 @@ README_START = "<!-- results over training seeds: written by box2d-driving repro
 README_END = "<!-- end of results over training seeds -->"
 
 
+def _row(cells: list[str]) -> str:
+    """One Markdown table row; a ``|`` inside a cell (as in ``|Pearson|``) is escaped, else it would
+    split the cell."""
+    return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
+
+
 def anchor(title: str) -> str:
     """The heading's link anchor as GitHub makes it (lower case, punctuation dropped, spaces to -)."""
     return "".join(c for c in title.lower() if c.isalnum() or c in " -_").replace(" ", "-")
@@ -183,8 +189,7 @@ def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md")
                 seeds = str(len(g.seeds))
             else:
                 result, seeds = "not run yet", "0"
-            lines.append(f"| {h.rule} | {h.setting} | {result} | {seeds} | "
-                         f"[{section.title}]({page}#{anchor(section.title)}) |")
+            lines.append(_row([h.rule, h.setting, result, seeds, f"[{section.title}]({page}#{anchor(section.title)})"]))
     return "\n".join(lines)
 
 
