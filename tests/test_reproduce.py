@@ -8,7 +8,7 @@ import re
 
 import pytest
 
-from training.reproduce import Group, ResultsError, main
+from training.reproduce import Group, ResultsError, main, trial_budget
 from training.seeds import REPORT, SELECTION
 from training.stats import mean_ci, t95
 
@@ -68,7 +68,8 @@ def test_page_shows_means_intervals_seeds_statements_and_the_figure(tmp_path):
     assert "`lights_lidar_noise=0.5_num_cars=4_seed=2` (error)" in text
     assert "no different: the light is ignored, as in the paper" in text  # 0.457 against the blind 0.415 ± 0.068
     assert "fewer violations with more cars, intervals apart" in text
-    assert "11 of 12 planned trials done" in text
+    assert "11 of 12 planned trials done" in text and "991,552 decisions per trial" in text
+    assert "runs them again, from their last checkpoint where their run folder" in text
     assert "have not learnt" not in text  # success 0.9 everywhere
     assert (tmp_path / "docs" / "images" / "results" / "traffic-lights.png").stat().st_size > 10_000
     assert "![Stopping at red lights](images/results/traffic-lights.png)" in text
@@ -442,3 +443,11 @@ def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
     unlearnt = [line for line in lines if "have not learnt" in line]
     assert len(unlearnt) == 1 and unlearnt[0].startswith("- num_cars=8: success noise 0 0.200")
     assert "; noise 0.5 0.200" in unlearnt[0] and "these rows" in unlearnt[0]
+
+
+def test_a_trials_budget_is_said_in_its_own_unit():
+    base = {"fixed": {}, "timesteps": None, "minutes": None}
+    assert trial_budget({**base, "timesteps": 991552}) == "991,552 decisions"
+    assert trial_budget({**base, "fixed": {"rounds": "48"}}) == "48 bilevel rounds"  # lanes, fast lanes
+    assert trial_budget({**base, "fixed": {"rounds": "48"}, "minutes": 30.0}) == "48 bilevel rounds (at most 30 min)"
+    assert trial_budget(base) == "the behaviour's default budget"

@@ -125,12 +125,10 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             done = sum(r.get("status") == "done" for r in trials)
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
-                      + (f"{summary['sweep']['timesteps']:,}" if summary['sweep'].get('timesteps') else "the default")
-                      + " decisions per trial"
-                      + (f", {summary['sweep']['minutes']} min" if summary['sweep'].get('minutes') else "")
-                      + f", {summary['sweep']['episodes']} report episodes each). {section.setting}", ""]
+                      f"{trial_budget(summary['sweep'])} per trial, {summary['sweep']['episodes']} report episodes "
+                      f"each). {section.setting}", ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
-            parts += [_row(header), "|" + "---|" * len(header)]
+            parts += [_row(header), _separator(len(header))]
             for g in groups:
                 cells = [g.point[k] for k in keys] + [str(len(g.seeds))]
                 cells += [_estimate_cell(g.estimates[m]) for m in metrics]
@@ -146,7 +144,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
             failed = [r for r in trials if r.get("status") in ("error", "stopped")]
             if failed:
-                parts += ["Trials not finished (a rerun continues them): "
+                parts += ["Trials not finished (`box2d-driving reproduce --run` runs them again, from their last "
+                          "checkpoint where their run folder under `runs/` is still there, else from the start): "
                           + ", ".join(f"`{r['trial']}` ({r['status']})" for r in failed), ""]
         parts += [f"To rerun: `box2d-driving reproduce --run --only {section.key}` continues from the committed "
                   "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
@@ -170,6 +169,23 @@ def _row(cells: list[str]) -> str:
     return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
 
 
+def _separator(columns: int) -> str:
+    """The row under a Markdown table's header."""
+    return "|" + "---|" * columns
+
+
+def trial_budget(sweep: dict[str, Any]) -> str:
+    """What one trial of ``sweep`` trains for, in words: its decisions, its bilevel rounds (the lanes and
+    fast-lanes sweeps fix ``rounds``) or the behaviour's default, and the wall-clock cap if one was set."""
+    if sweep.get("timesteps"):
+        budget = f"{sweep['timesteps']:,} decisions"
+    elif sweep.get("fixed", {}).get("rounds"):
+        budget = f"{sweep['fixed']['rounds']} bilevel rounds"
+    else:
+        budget = "the behaviour's default budget"
+    return budget + (f" (at most {sweep['minutes']:g} min)" if sweep.get("minutes") else "")
+
+
 def anchor(title: str) -> str:
     """The heading's link anchor as GitHub makes it (lower case, punctuation dropped, spaces to -)."""
     return "".join(c for c in title.lower() if c.isalnum() or c in " -_").replace(" ", "-")
@@ -178,8 +194,9 @@ def anchor(title: str) -> str:
 def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md") -> str:
     """The README's results table: each rule's headline grid points as mean ± 95 % half-width over
     training seeds, with the number of seeds and a link to the rule's section of ``page``."""
-    lines = ["| rule | setting | ours on report episodes: mean ± 95 % half-width over training seeds | seeds | details |",
-             "|---|---|---|---|---|"]
+    header = ["rule", "setting", "ours on report episodes: mean ± 95 % half-width over training seeds", "seeds",
+              "details"]
+    lines = [_row(header), _separator(len(header))]
     for section in SECTIONS:
         labels = dict(section.metrics)
         for h in section.headlines:
