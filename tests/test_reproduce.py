@@ -451,3 +451,5 @@ def test_a_trials_budget_is_said_in_its_own_unit():
     assert trial_budget({**base, "fixed": {"rounds": "48"}}) == "48 bilevel rounds"  # lanes, fast lanes
     assert trial_budget({**base, "fixed": {"rounds": "48"}, "minutes": 30.0}) == "48 bilevel rounds (at most 30 min)"
     assert trial_budget(base) == "the behaviour's default budget"
+    over_rounds = {**base, "grid": {"rounds": ["24", "48"]}}  # a sweep over budgets: each row says its own
+    assert trial_budget(over_rounds) == "the bilevel rounds in the table's `rounds` column"

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from training.results_data import Group, ResultsError, grid_product, groups_of, load_summary
-from training.results_statements import light_blind_rates, statements
+from training.results_statements import statements
 from training.results_sections import SECTIONS, PaperValue, Section
 from training.seeds import REPORT
 from training.stats import Estimate
@@ -134,13 +134,13 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 cells += [_estimate_cell(g.estimates[m]) for m in metrics]
                 parts.append(_row(cells))
             parts.append("")
-            blind = light_blind_rates(summary, groups) if section.key == "traffic-lights" else {}
-            notes = statements(section, groups, blind, reference_group(section, summaries))
+            baseline = section.baseline(summary, groups) if section.baseline is not None else {}
+            notes = statements(section, groups, baseline, reference_group(section, summaries))
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:
                 name = f"{section.key}.png"
-                section.figure(groups, keys, figures / name, **({"blind": blind} if blind else {}))
+                section.figure(groups, keys, figures / name, baseline)
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
             failed = [r for r in trials if r.get("status") in ("error", "stopped")]
             if failed:
@@ -176,8 +176,13 @@ def _separator(columns: int) -> str:
 
 def trial_budget(sweep: dict[str, Any]) -> str:
     """What one trial of ``sweep`` trains for, in words: its decisions, its bilevel rounds (the lanes and
-    fast-lanes sweeps fix ``rounds``) or the behaviour's default, and the wall-clock cap if one was set."""
-    if sweep.get("timesteps"):
+    fast-lanes sweeps fix ``rounds``; a sweep over budgets has them in its table) or the behaviour's
+    default, and the wall-clock cap if one was set."""
+    in_grid = [(key, unit) for key, unit in (("timesteps", "decisions"), ("rounds", "bilevel rounds"))
+               if key in sweep.get("grid", {})]
+    if in_grid:
+        budget = " and ".join(f"the {unit} in the table's `{key}` column" for key, unit in in_grid)
+    elif sweep.get("timesteps"):
         budget = f"{sweep['timesteps']:,} decisions"
     elif sweep.get("fixed", {}).get("rounds"):
         budget = f"{sweep['fixed']['rounds']} bilevel rounds"

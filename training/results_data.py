@@ -20,6 +20,11 @@ from training.stats import Estimate, mean_ci
 LEARNT_SUCCESS = 0.5
 
 
+# per grid value (a LiDAR noise level), a scripted reference driver's rate on a trial's report
+# episodes and the number of events it was measured on (its binomial margin follows from both)
+Baseline = dict[str, tuple[float, int]]
+
+
 class ResultsError(ValueError):
     """A summary that cannot go on the results page."""
 
@@ -125,3 +130,12 @@ def light_blind_violation_rate(num_cars: int, lidar_noise: float, first_seed: in
     finally:
         env.close()
     return float(traffic_light_metrics(table)["red_light_violation_rate"])
+
+
+def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> Baseline:
+    """Per noise level with a 1-car grid point: the light-blind driver's violation rate on the
+    trials' report episodes, and its number of junction entries (1 car: one per episode)."""
+    first, episodes = report_episodes(summary)
+    return {g.point["lidar_noise"]: (light_blind_violation_rate(1, as_number(g.point["lidar_noise"]), first, episodes),
+                                     episodes)
+            for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}

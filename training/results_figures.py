@@ -8,7 +8,11 @@ from typing import Callable, Optional
 import numpy as np
 
 from training import figure_data as fd
-from training.results_data import LEARNT_SUCCESS, Group, as_number
+from training.results_data import LEARNT_SUCCESS, Baseline, Group, as_number
+
+# every figure is drawn as figure(groups, grid keys, PNG path, baseline); only the lights figure
+# draws a baseline (the light-blind driver), the others take it to share one signature
+Figure = Callable[[list[Group], list[str], Path, Baseline], None]
 
 
 def _plt():
@@ -19,8 +23,7 @@ def _plt():
     return plt
 
 
-def lights_figure(groups: list[Group], keys: list[str], path: Path,
-                  blind: Optional[dict[str, tuple[float, int]]] = None) -> None:
+def lights_figure(groups: list[Group], keys: list[str], path: Path, blind: Baseline) -> None:
     """Red-light violation rate against cars, one line per LiDAR noise level, with 95 % intervals
     and the per-seed values as dots (the paper's Figure on traffic-light usage, as numbers).
     ``blind``: per noise level, a light-blind driver's 1-car rate on the same episodes (drawn as
@@ -46,7 +49,7 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path,
             if success is not None and success.n and success.mean < LEARNT_SUCCESS:
                 unlearnt = True
                 ax.scatter([x], [e.mean], s=70, facecolors="white", edgecolors=colour, zorder=3)
-    rates = sorted({round(rate, 3) for rate, _ in (blind or {}).values()})
+    rates = sorted({round(rate, 3) for rate, _ in blind.values()})
     if rates:  # full throttle ignores the sensor: one rate for every noise level (else each is drawn)
         for rate in rates:
             ax.axhline(rate, color="grey", ls=":", lw=1)
@@ -66,9 +69,9 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path,
     plt.close(fig)
 
 
-def bars_figure(metric: str, label: str) -> Callable[[list[Group], list[str], Path], None]:
+def bars_figure(metric: str, label: str) -> Figure:
     """One bar per grid point with its 95 % interval and per-seed dots."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+    def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         plt = _plt()
         fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(groups) + 2), 3.8))
         for i, g in enumerate(groups):
@@ -89,13 +92,13 @@ def _label(g: Group, keys: list[str]) -> str:
     return ", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
 
 
-def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Callable,
-                        mark: Optional[tuple[float, str]] = None) -> Callable:
+def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Figure,
+                        mark: Optional[tuple[float, str]] = None) -> Figure:
     """One normalised histogram per grid point (counts summed over its seeds); ``fallback`` draws
     when no trial stored the distribution."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+    def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         if not any(name in g.figures for g in groups):
-            return fallback(groups, keys, path)
+            return fallback(groups, keys, path, baseline)
         plt = _plt()
         fig, ax = plt.subplots(figsize=(6.5, 4.0))
         centres = (bins[:-1] + bins[1:]) / 2
@@ -114,13 +117,13 @@ def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Call
     return draw
 
 
-def gap_figure(fallback: Callable, a_max: float = 1.5) -> Callable:
+def gap_figure(fallback: Figure, a_max: float = 1.5) -> Figure:
     """Gap to the car ahead against closing speed (counts over seeds, log colour), with the
     speed-matching boundary ``gap = v^2 / (2 a_max)``: samples above it can still stop."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+    def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         have = [g for g in groups if "gap_closing_counts" in g.figures]
         if not have:
-            return fallback(groups, keys, path)
+            return fallback(groups, keys, path, baseline)
         plt = _plt()
         fig, axes = plt.subplots(1, len(have), figsize=(4.8 * len(have), 4.0), squeeze=False)
         v = np.linspace(0, fd.CLOSING_BINS[-1], 50)
@@ -139,10 +142,10 @@ def gap_figure(fallback: Callable, a_max: float = 1.5) -> Callable:
     return draw
 
 
-def against_noise_figure(panels: tuple[tuple[str, str], ...]) -> Callable[[list[Group], list[str], Path], None]:
+def against_noise_figure(panels: tuple[tuple[str, str], ...]) -> Figure:
     """One panel per (metric, label): the metric against LiDAR noise, mean with its 95 % interval
     over training seeds and the per-seed values as dots (the paper's communication figure)."""
-    def draw(groups: list[Group], keys: list[str], path: Path) -> None:
+    def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         plt = _plt()
         fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.8), squeeze=False)
         mine = sorted(groups, key=lambda g: as_number(g.point.get("lidar_noise")))

@@ -12,11 +12,11 @@ from __future__ import annotations
 import shlex
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 from training import figure_data as fd
-from training.results_data import Group
-from training.results_figures import (against_noise_figure, bars_figure, distribution_figure, gap_figure,
+from training.results_data import Baseline, Group, light_blind_rates
+from training.results_figures import (Figure, against_noise_figure, bars_figure, distribution_figure, gap_figure,
                                       lights_figure)
 
 __all__ = ["Headline", "PaperValue", "SECTIONS", "Section", "section"]
@@ -64,6 +64,8 @@ class Section:
         setting: what each trial trains, in words (shown above the table).
         paper_values: the paper's numbers to compare ours with.
         figure: draws the section's figure from the grouped estimates (None: table only).
+        baseline: measures a scripted reference driver on a summary's report episodes, for the
+            section's statements and figure (the lights: a light-blind driver); None: none.
         shipped: the shipped policy animated in the section (a folder in assets/policies).
         gif_size: the animation's frame size in pixels.
         headlines: its rows in the README's results table.
@@ -80,7 +82,8 @@ class Section:
     command: str
     setting: str = ""
     paper_values: tuple[PaperValue, ...] = ()
-    figure: Optional[Callable[[list[Group], list[str], Path], None]] = None
+    figure: Optional[Figure] = None
+    baseline: Optional[Callable[[dict[str, Any], list[Group]], Baseline]] = None
     shipped: Optional[str] = None
     gif_size: tuple[int, int] = (320, 320)
     headlines: tuple[Headline, ...] = ()
@@ -117,7 +120,7 @@ SECTIONS: tuple[Section, ...] = (
             "--out runs/sweep-lights",
             setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
                     "policy did.",
-            figure=lights_figure, shipped="traffic_lights_4cars_noise05",
+            figure=lights_figure, baseline=light_blind_rates, shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
                        Headline("lone car ignores the light", "1 car, LiDAR noise 0.5",
@@ -145,8 +148,8 @@ SECTIONS: tuple[Section, ...] = (
             f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=48 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--out runs/sweep-lanes",
-            setting="Each trial is the shipped lanes run: 48 bilevel rounds (as many as the shipped run "
-                    "reached), the acceleration policy starting from the shipped 4-car noise-0.5 lights "
+            setting="Each trial is the shipped lanes run, for as many bilevel rounds as the shipped run "
+                    "reached, the acceleration policy starting from the shipped 4-car noise-0.5 lights "
                     "policy, the path policy from scratch.",
             figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
                                        "lane position inside the junction (+ = right of the axis)",
@@ -196,8 +199,8 @@ SECTIONS: tuple[Section, ...] = (
             "Faster cars keep to one side of the highway.",
             f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=34 spline_updates_per_round=2 "
             "--out runs/sweep-fast-lanes",
-            setting="Each trial is the shipped fast-lanes run from scratch: 34 bilevel rounds (as many as "
-                    "the shipped run reached).",
+            setting="Each trial is the shipped fast-lanes run from scratch, for as many bilevel rounds as "
+                    "the shipped run reached.",
             figure=bars_figure("abs:fast_lanes.pearson_r", "Pearson(rating, lateral position), size"),
             shipped="fast_lanes_10cars", gif_size=(640, 200),
             headlines=(Headline("fast lanes", "`highway-spline-v0`, 10 cars", (),

@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from typing import Any, Optional
+from typing import Optional
 
-from training.results_data import (LEARNT_SUCCESS, Group, as_number, light_blind_violation_rate,
-                                   report_episodes)
+from training.results_data import LEARNT_SUCCESS, Baseline, Group, as_number
 from training.results_sections import SECTIONS, Section
 from training.stats import Estimate
 
-__all__ = ["light_blind_rates", "statements"]
+__all__ = ["statements"]
 
 
 def _where(point: dict[str, str]) -> str:
@@ -75,7 +74,7 @@ def by_verdict(subject: str, readings: list[tuple[str, str, str]]) -> list[str]:
             f"{'; '.join(parts)}: {verdict}" for verdict, parts in grouped.items()]
 
 
-def lights_statement(groups: list[Group], blind: dict[str, tuple[float, int]]) -> list[str]:
+def lights_statement(groups: list[Group], blind: Baseline) -> list[str]:
     """Plain statements of the lights trends, from the intervals. ``blind``: per noise level, the
     light-blind driver's violation rate on the same report episodes and its number of entries."""
     by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
@@ -131,15 +130,6 @@ def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]], p
         lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
                      f"{high.point['lidar_noise']} {b.format()}: {verdict}")
     return lines
-
-
-def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> dict[str, tuple[float, int]]:
-    """Per noise level with a 1-car grid point: the light-blind driver's violation rate on the
-    trials' report episodes, and its number of junction entries (1 car: one per episode)."""
-    first, episodes = report_episodes(summary)
-    return {g.point["lidar_noise"]: (light_blind_violation_rate(1, as_number(g.point["lidar_noise"]), first, episodes),
-                                     episodes)
-            for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}
 
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:
@@ -202,17 +192,18 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
     return lines
 
 
-def statements(section: Section, groups: list[Group], blind: dict[str, tuple[float, int]],
+def statements(section: Section, groups: list[Group], baseline: Baseline,
                reference: Optional[Group] = None) -> list[str]:
-    """Every statement of ``section``'s part of the page, for its grouped trials; ``reference``:
-    the grid point named by ``section.compare_with``, if measured."""
+    """Every statement of ``section``'s part of the page, for its grouped trials; ``baseline``: what
+    ``section.baseline`` measured for them (empty if it has none); ``reference``: the grid point
+    named by ``section.compare_with``, if measured."""
     lines = paper_comparison(section, groups)
     if reference is not None and section.compare_with is not None:
         other = next(s.title for s in SECTIONS if s.key == section.compare_with[0])
         label = f"the row {', '.join(f'{k}={v}' for k, v in section.compare_with[1])} of {other}"
         lines += reference_statement(groups, reference, label)
     if section.key == "traffic-lights":
-        lines += lights_statement(groups, blind)
+        lines += lights_statement(groups, baseline)
     elif section.key == "lanes":
         lines += apart_statement(groups, "num_cars", "2", "8", "lanes.majority_share", "crossings on the majority side",
                                  "more one-sided with 8 cars")
