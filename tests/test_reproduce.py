@@ -48,6 +48,15 @@ VIOLATIONS = {("0", "1"): [0.40, 0.47, 0.50], ("0", "4"): [0.10, 0.12, 0.08],
               ("0.5", "1"): [0.30, 0.35, 0.40], ("0.5", "4"): [0.05, 0.07, 0.06]}
 
 
+def test_a_metric_is_a_column_its_size_or_the_difference_of_two_columns():
+    from training.results_data import metric_value
+
+    row = {"a": 0.8, "b": 0.65, "r": -0.3, "text": "x"}
+    assert metric_value(row, "a") == 0.8 and metric_value(row, "abs:r") == 0.3
+    assert metric_value(row, "a - b") == pytest.approx(0.15) and metric_value(row, "b - abs:r") == pytest.approx(0.35)
+    assert math.isnan(metric_value(row, "a - missing")) and math.isnan(metric_value(row, "text"))
+
+
 def test_mean_and_interval_match_a_hand_computation():
     e = mean_ci([0.10, 0.12, 0.08])
     sd = math.sqrt(((0.0) ** 2 + 0.02 ** 2 + 0.02 ** 2) / 2)
@@ -329,12 +338,15 @@ def test_a_lone_car_that_stops_on_red_is_told_apart_from_a_light_blind_driver(tm
 def test_communication_averages_the_correlations_size_and_draws_both_measures_against_noise(tmp_path):
     trials = []
     pearson = {"0": [-0.10, 0.12, -0.11], "0.5": [0.20, -0.18, 0.22]}
+    success = {"0": [0.80, 0.70, 0.75], "0.5": [0.80, 0.78, 0.79]}
+    unheard = {"0": [0.73, 0.64, 0.67], "0.5": [0.81, 0.77, 0.79]}  # lost: 0.07, 0.06, 0.08 and -0.01, 0.01, 0
     for noise, values in pearson.items():
         for seed, r in enumerate(values):
             trials.append({"trial": f"real-junction_lidar_noise={noise}_seed={seed}", "behaviour": "real-junction",
                            "seed": seed, "lidar_noise": noise, "status": "done", "error": "", "report_episodes": 200,
                            "report_first_seed": REPORT.start, "communication.speaker_consistency_bits": 0.1 + seed / 100,
-                           "communication.pearson_heading_change_bit": r, "success_rate": 0.8})
+                           "communication.pearson_heading_change_bit": r, "success_rate": success[noise][seed],
+                           "messages_unheard.success_rate": unheard[noise][seed]})
     sweep = {"behaviour": "real-junction", "grid": {"lidar_noise": ["0", "0.5"]}, "seeds": 3,
              "fixed": {"communication": "true", "num_cars": "8"}, "timesteps": 5887232, "minutes": None,
              "episodes": 200, "quick": False}
@@ -348,6 +360,13 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section
     assert "- speaker consistency (bits): noise 0" in section and "no rise shown, unlike the paper" in section
     assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, intervals apart, as in the paper" in section
+    # the ablation is differenced per trial (the seeds' own success spread cancels), then estimated over seeds
+    lost_0, lost_05 = mean_ci([0.07, 0.06, 0.08]), mean_ci([-0.01, 0.01, 0.0])
+    assert f"{lost_0.format()} (0.070, 0.060, 0.080) |" in section and f"{lost_05.format()} (-0.010, 0.010, " in section
+    assert (f"- success lost with messages unheard (lidar_noise=0): {lost_0.format()}: the listeners rely on the "
+            "message, as in the paper.") in section
+    assert "(lidar_noise=0.5): " in section and "straddles zero: neither shown." in section
+    assert "- success lost with messages unheard: noise 0" in section and "falls, intervals apart, unlike the paper" in section
     assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
     assert "## Right of way" in page.read_text() and "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]
 

@@ -78,6 +78,15 @@ def reference_group(section: Section, summaries: list[dict[str, Any]]) -> Option
     return group_at(other, summaries, [m for m, _ in other.metrics], point)
 
 
+def reference_label(section: Section) -> str:
+    """The grid point ``section.compare_with`` names, in words (empty if none)."""
+    if section.compare_with is None:
+        return ""
+    key, point = section.compare_with
+    other = next(s.title for s in SECTIONS if s.key == key)
+    return f"the row {', '.join(f'{k}={v}' for k, v in point)} of {other}"
+
+
 def _estimate_cell(e: Estimate) -> str:
     if e.n == 0:
         return "n/a"
@@ -135,7 +144,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 parts.append(_row(cells))
             parts.append("")
             baseline = section.baseline(summary, groups) if section.baseline is not None else {}
-            notes = statements(section, groups, baseline, reference_group(section, summaries))
+            notes = statements(section, groups, baseline, reference_group(section, summaries), reference_label(section))
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:

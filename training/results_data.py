@@ -81,12 +81,20 @@ def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
 
 
 def metric_value(row: dict[str, Any], metric: str) -> float:
-    """A trial's value of ``metric``: a summary column, or ``abs:COLUMN`` for its size (a measure
+    """A trial's value of ``metric``: a summary column; ``abs:COLUMN`` for its size (a measure
     whose sign is arbitrary per run, such as a correlation with a bit whose meaning each run
-    picks, is averaged over seeds by size)."""
+    picks, is averaged over seeds by size); ``COLUMN - COLUMN`` for the difference of two columns
+    of the same trial (an ablation measured on the same episodes: the difference is taken per
+    trial, then estimated over seeds, so seed-to-seed spread common to both cancels)."""
+    if DIFFERENCE in metric:
+        first, second = metric.split(DIFFERENCE, 1)
+        return metric_value(row, first) - metric_value(row, second)
     if metric.startswith("abs:"):
         return abs(as_number(row.get(metric[4:])))
     return as_number(row.get(metric))
+
+
+DIFFERENCE = " - "  # joins two columns in a metric name: their difference per trial
 
 
 def grid_product(lists: list[list[str]]) -> list[list[str]]:

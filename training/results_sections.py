@@ -18,6 +18,8 @@ from training import figure_data as fd
 from training.results_data import Baseline, Group, light_blind_rates
 from training.results_figures import (Figure, against_noise_figure, bars_figure, distribution_figure, gap_figure,
                                       lights_figure)
+from training.results_statements import (Statement, above_statement, apart_statement, lights_statement,
+                                         noise_trend_statement)
 
 __all__ = ["Headline", "PaperValue", "SECTIONS", "Section", "section"]
 
@@ -66,6 +68,9 @@ class Section:
         figure: draws the section's figure from the grouped estimates (None: table only).
         baseline: measures a scripted reference driver on a summary's report episodes, for the
             section's statements and figure (the lights: a light-blind driver); None: none.
+        statements: the section's own plain statements of what the intervals say against the
+            paper's claim (beside the comparisons every section gets: with ``paper_values``, with
+            ``compare_with`` and the grid points not learnt).
         shipped: the shipped policy animated in the section (a folder in assets/policies).
         gif_size: the animation's frame size in pixels.
         headlines: its rows in the README's results table.
@@ -84,6 +89,7 @@ class Section:
     paper_values: tuple[PaperValue, ...] = ()
     figure: Optional[Figure] = None
     baseline: Optional[Callable[[dict[str, Any], list[Group]], Baseline]] = None
+    statements: tuple[Statement, ...] = ()
     shipped: Optional[str] = None
     gif_size: tuple[int, int] = (320, 320)
     headlines: tuple[Headline, ...] = ()
@@ -110,6 +116,9 @@ SWEEP = "box2d-driving sweep"
 # which bit value a run's cars use for what is each run's own choice: the correlation's sign is
 # arbitrary per seed, so its size is what is averaged
 PEARSON = "abs:communication.pearson_heading_change_bit"
+# success lost when every message is replaced by silence, on the same report episodes: how much
+# the listeners rely on the message
+SUCCESS_LOST_UNHEARD = "success_rate - messages_unheard.success_rate"
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
             (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
@@ -120,7 +129,8 @@ SECTIONS: tuple[Section, ...] = (
             "--out runs/sweep-lights",
             setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
                     "policy did.",
-            figure=lights_figure, baseline=light_blind_rates, shipped="traffic_lights_4cars_noise05",
+            figure=lights_figure, baseline=light_blind_rates, statements=(lights_statement,),
+            shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
                        Headline("lone car ignores the light", "1 car, LiDAR noise 0.5",
@@ -154,6 +164,8 @@ SECTIONS: tuple[Section, ...] = (
             figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
                                        "lane position inside the junction (+ = right of the axis)",
                                        bars_figure("lanes.majority_share", "share on the majority side")),
+            statements=(apart_statement("num_cars", "2", "8", "lanes.majority_share", "crossings on the majority side",
+                                        "more one-sided with 8 cars"),),
             shipped="lanes_8cars_noise05",
             headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
                                 (("num_cars", "8"),), ("lanes.majority_share", "success_rate")),
@@ -178,16 +190,27 @@ SECTIONS: tuple[Section, ...] = (
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
             (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-             (PEARSON, "|Pearson(heading change, bit)|"), ("success_rate", "success")),
-            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise.",
+             (PEARSON, "|Pearson(heading change, bit)|"), ("success_rate", "success"),
+             (SUCCESS_LOST_UNHEARD, "success lost with messages unheard")),
+            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
+            "more on the message when their perception is less reliable.",
             f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
             "--set communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
             "--out runs/sweep-communication",
             setting="Each trial widens the shipped 8-car base policy to the 1-bit message and trains as "
                     "many decisions as the shipped noise-0.5 communication policy did (entropy 0.01 at "
-                    "every noise level).",
+                    "every noise level). *Success lost with messages unheard*: the trial's success minus its "
+                    "success on the same report episodes with every message replaced by silence, so above "
+                    "zero where the listeners rely on the message.",
             figure=against_noise_figure((("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-                                         (PEARSON, "|Pearson(heading change, bit)|"))),
+                                         (PEARSON, "|Pearson(heading change, bit)|"),
+                                         (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))),
+            statements=(noise_trend_statement((("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+                                               (PEARSON, "|Pearson(heading change, bit)|"),
+                                               (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))),
+                        above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
+                                        "the listeners rely on the message", "success rises without the message",
+                                        level=0.0, level_text="zero")),
             shipped="real_junction_comm_8cars/noise05",
             headlines=tuple(Headline("turn signals (communication)",
                                      f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
@@ -219,6 +242,8 @@ SECTIONS: tuple[Section, ...] = (
                                        "distance to the nearest pedestrian ahead (m)",
                                        bars_figure("safe_stopping_share", "safe-stopping share"),
                                        mark=(6.0, "6 m")),
+            statements=(above_statement("share_more_than_6m", "samples > 6 m from the pedestrian ahead",
+                                        "most samples keep more than 6 m", "most samples keep less than 6 m"),),
             shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200),
             headlines=(Headline("slow down for pedestrians",
                                 "`crosswalk-v0`, 4 cars, crosswalk in the sat-nav, collision reward -6", (),

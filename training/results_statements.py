@@ -8,13 +8,20 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from typing import Optional
+from typing import TYPE_CHECKING, Callable, Optional
 
 from training.results_data import LEARNT_SUCCESS, Baseline, Group, as_number
-from training.results_sections import SECTIONS, Section
 from training.stats import Estimate
 
-__all__ = ["statements"]
+if TYPE_CHECKING:  # the sections name their statements, so they import this module, not the reverse
+    from training.results_sections import Section
+
+__all__ = ["Statement", "above_statement", "apart_statement", "lights_statement", "noise_trend_statement",
+           "statements"]
+
+# a section's own statements: from its grouped trials and its baseline's measurements, the lines
+# it adds to the page
+Statement = Callable[[list[Group], Baseline], list[str]]
 
 
 def _where(point: dict[str, str]) -> str:
@@ -33,7 +40,7 @@ def apart(a: Estimate, b: Estimate) -> int:
     return 1 if b.low > a.high else -1 if b.high < a.low else 0
 
 
-def paper_comparison(section: Section, groups: list[Group]) -> list[str]:
+def paper_comparison(section: "Section", groups: list[Group]) -> list[str]:
     lines = []
     for pv in section.paper_values:
         for g in groups:
@@ -105,12 +112,16 @@ def lights_statement(groups: list[Group], blind: Baseline) -> list[str]:
         lines += by_verdict(f"red-light violations, 1 car against {n:g} cars", readings)
     # the paper's second trend: with more LiDAR noise, fewer violations (at each number of cars)
     for n in sorted(c for c in by_cars if c > 1.0):
-        lines += noise_trend_statement(by_cars[n], [("red_light_violation_rate", f"{n:g} cars, red-light violations")],
-                                       paper=-1)
+        lines += noise_trend(by_cars[n], [("red_light_violation_rate", f"{n:g} cars, red-light violations")], paper=-1)
     return lines
 
 
-def noise_trend_statement(groups: list[Group], metrics: list[tuple[str, str]], paper: int = 1) -> list[str]:
+def noise_trend_statement(metrics: tuple[tuple[str, str], ...], paper: int = 1) -> Statement:
+    """States :func:`noise_trend` for (metric, label) pairs."""
+    return lambda groups, baseline: noise_trend(groups, list(metrics), paper)
+
+
+def noise_trend(groups: list[Group], metrics: list[tuple[str, str]], paper: int = 1) -> list[str]:
     """Whether each metric rises or falls from the lowest to the highest LiDAR noise, from the
     intervals; ``paper``: the direction the paper reports (1 rises, -1 falls)."""
     by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
@@ -150,30 +161,37 @@ def unlearnt_statement(groups: list[Group]) -> list[str]:
     return lines
 
 
-def apart_statement(groups: list[Group], key: str, few: str, many: str, metric: str, label: str,
-                    claim: str) -> list[str]:
-    """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals."""
-    by = {g.point.get(key): g.estimates[metric] for g in groups}
-    if few not in by or many not in by or by[few].high is None or by[many].high is None:
-        return []
-    a, b = by[few], by[many]
-    verdict = {1: f"{claim}, intervals apart, as in the paper.",
-               0: "the intervals overlap: no difference shown, unlike the paper.",
-               -1: f"the opposite of {claim}, intervals apart, unlike the paper."}[apart(a, b)]
-    return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
+def apart_statement(key: str, few: str, many: str, metric: str, label: str, claim: str) -> Statement:
+    """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals; ``claim``:
+    the paper's reading of that, in words."""
+    def say(groups: list[Group], baseline: Baseline) -> list[str]:
+        by = {g.point.get(key): g.estimates[metric] for g in groups}
+        if few not in by or many not in by or by[few].high is None or by[many].high is None:
+            return []
+        a, b = by[few], by[many]
+        verdict = {1: f"{claim}, intervals apart, as in the paper.",
+                   0: "the intervals overlap: no difference shown, unlike the paper.",
+                   -1: f"the opposite of {claim}, intervals apart, unlike the paper."}[apart(a, b)]
+        return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
+    return say
 
 
-def majority_statement(groups: list[Group], metric: str, label: str, claim: str) -> list[str]:
-    """Whether ``metric`` (a share) is above one half at every grid point, from the intervals."""
-    lines = []
-    for g in groups:
-        e = g.estimates[metric]
-        if e.high is None:
-            continue
-        verdict = (f"{claim}, as in the paper." if e.low > 0.5 else
-                   f"not {claim}, unlike the paper." if e.high < 0.5 else "the interval straddles one half.")
-        lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
-    return lines
+def above_statement(metric: str, label: str, above: str, below: str, level: float = 0.5,
+                    level_text: str = "one half") -> Statement:
+    """Whether ``metric`` is above ``level`` at every grid point, from the intervals; ``above`` (the
+    paper's reading) and ``below``: what each side means, in words."""
+    def say(groups: list[Group], baseline: Baseline) -> list[str]:
+        lines = []
+        for g in groups:
+            e = g.estimates[metric]
+            if e.high is None:
+                continue
+            verdict = (f"{above}, as in the paper." if e.low > level else
+                       f"{below}, unlike the paper." if e.high < level else
+                       f"the interval straddles {level_text}: neither shown.")
+            lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
+        return lines
+    return say
 
 
 def reference_statement(groups: list[Group], reference: Group, label: str) -> list[str]:
@@ -192,24 +210,15 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
     return lines
 
 
-def statements(section: Section, groups: list[Group], baseline: Baseline,
-               reference: Optional[Group] = None) -> list[str]:
-    """Every statement of ``section``'s part of the page, for its grouped trials; ``baseline``: what
-    ``section.baseline`` measured for them (empty if it has none); ``reference``: the grid point
-    named by ``section.compare_with``, if measured."""
+def statements(section: "Section", groups: list[Group], baseline: Baseline, reference: Optional[Group] = None,
+               reference_label: str = "") -> list[str]:
+    """Every statement of ``section``'s part of the page, for its grouped trials: against the paper's
+    numbers, against ``reference`` (the grid point named by ``section.compare_with``, if measured;
+    ``reference_label`` names it), the section's own (``section.statements``, given ``baseline``:
+    what ``section.baseline`` measured, empty if it has none) and the grid points not learnt."""
     lines = paper_comparison(section, groups)
-    if reference is not None and section.compare_with is not None:
-        other = next(s.title for s in SECTIONS if s.key == section.compare_with[0])
-        label = f"the row {', '.join(f'{k}={v}' for k, v in section.compare_with[1])} of {other}"
-        lines += reference_statement(groups, reference, label)
-    if section.key == "traffic-lights":
-        lines += lights_statement(groups, baseline)
-    elif section.key == "lanes":
-        lines += apart_statement(groups, "num_cars", "2", "8", "lanes.majority_share", "crossings on the majority side",
-                                 "more one-sided with 8 cars")
-    elif section.key == "communication":
-        lines += noise_trend_statement(groups, list(section.metrics[:2]))
-    elif section.key == "pedestrians":
-        lines += majority_statement(groups, "share_more_than_6m", "samples > 6 m from the pedestrian ahead",
-                                    "most samples keep more than 6 m")
+    if reference is not None:
+        lines += reference_statement(groups, reference, reference_label)
+    for own in section.statements:
+        lines += own(groups, baseline)
     return lines + unlearnt_statement(groups)
