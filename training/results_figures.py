@@ -157,6 +157,7 @@ def against_noise_figure(panels: tuple[tuple[str, str], ...]) -> Figure:
             ax.errorbar(xs, [e.mean for e in est], yerr=[lows, highs], marker="o", capsize=3, color="tab:blue")
             for x, e in zip(xs, est):
                 ax.scatter([x] * len(e.values), e.values, color="black", s=10, alpha=0.6, zorder=3)
+            ax.axhline(0.0, color="grey", lw=0.8, zorder=1)  # where "above zero" is the question, zero is drawn
             ax.set_xlabel("LiDAR noise (share of rays dropped)")
             ax.set_ylabel(label)
             ax.set_xticks(xs)
