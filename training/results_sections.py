@@ -119,6 +119,10 @@ PEARSON = "abs:communication.pearson_heading_change_bit"
 # success lost when every message is replaced by silence, on the same report episodes: how much
 # the listeners rely on the message
 SUCCESS_LOST_UNHEARD = "success_rate - messages_unheard.success_rate"
+# the communication measures drawn and stated against LiDAR noise
+AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+                 (PEARSON, "|Pearson(heading change, bit)|"),
+                 (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
             (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
@@ -189,9 +193,7 @@ SECTIONS: tuple[Section, ...] = (
                                 "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
-            (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-             (PEARSON, "|Pearson(heading change, bit)|"), ("success_rate", "success"),
-             (SUCCESS_LOST_UNHEARD, "success lost with messages unheard")),
+            (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2]),
             "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
             "more on the message when their perception is less reliable.",
             f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
@@ -202,12 +204,8 @@ SECTIONS: tuple[Section, ...] = (
                     "every noise level). *Success lost with messages unheard*: the trial's success minus its "
                     "success on the same report episodes with every message replaced by silence, so above "
                     "zero where the listeners rely on the message.",
-            figure=against_noise_figure((("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-                                         (PEARSON, "|Pearson(heading change, bit)|"),
-                                         (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))),
-            statements=(noise_trend_statement((("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-                                               (PEARSON, "|Pearson(heading change, bit)|"),
-                                               (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))),
+            figure=against_noise_figure(AGAINST_NOISE),
+            statements=(noise_trend_statement(AGAINST_NOISE),
                         above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
                                         "the listeners rely on the message", "success rises without the message",
                                         level=0.0, level_text="zero")),
