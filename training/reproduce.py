@@ -69,22 +69,15 @@ def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[st
     return max(found, key=lambda g: len(g.seeds)) if found else None
 
 
-def reference_group(section: Section, summaries: list[dict[str, Any]]) -> Optional[Group]:
-    """The grid point ``section.compare_with`` names, from the summaries (None if not measured)."""
+def reference(section: Section, summaries: list[dict[str, Any]]) -> tuple[Optional[Group], str]:
+    """The grid point ``section.compare_with`` names, from the summaries (None if not measured or
+    none named), and its name in words."""
     if section.compare_with is None:
-        return None
+        return None, ""
     key, point = section.compare_with
     other = next(s for s in SECTIONS if s.key == key)
-    return group_at(other, summaries, [m for m, _ in other.metrics], point)
-
-
-def reference_label(section: Section) -> str:
-    """The grid point ``section.compare_with`` names, in words (empty if none)."""
-    if section.compare_with is None:
-        return ""
-    key, point = section.compare_with
-    other = next(s.title for s in SECTIONS if s.key == key)
-    return f"the row {', '.join(f'{k}={v}' for k, v in point)} of {other}"
+    label = f"the row {', '.join(f'{k}={v}' for k, v in point)} of {other.title}"
+    return group_at(other, summaries, [m for m, _ in other.metrics], point), label
 
 
 def _estimate_cell(e: Estimate) -> str:
@@ -144,7 +137,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 parts.append(_row(cells))
             parts.append("")
             baseline = section.baseline(summary, groups) if section.baseline is not None else {}
-            notes = statements(section, groups, baseline, reference_group(section, summaries), reference_label(section))
+            notes = statements(section, groups, baseline, *reference(section, summaries))
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:

@@ -80,6 +80,9 @@ def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
     return groups
 
 
+DIFFERENCE = " - "  # joins two columns in a metric name: their difference per trial
+
+
 def metric_value(row: dict[str, Any], metric: str) -> float:
     """A trial's value of ``metric``: a summary column; ``abs:COLUMN`` for its size (a measure
     whose sign is arbitrary per run, such as a correlation with a bit whose meaning each run
@@ -93,8 +96,6 @@ def metric_value(row: dict[str, Any], metric: str) -> float:
         return abs(as_number(row.get(metric[4:])))
     return as_number(row.get(metric))
 
-
-DIFFERENCE = " - "  # joins two columns in a metric name: their difference per trial
 
 
 def grid_product(lists: list[list[str]]) -> list[list[str]]:
