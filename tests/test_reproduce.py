@@ -48,13 +48,17 @@ VIOLATIONS = {("0", "1"): [0.40, 0.47, 0.50], ("0", "4"): [0.10, 0.12, 0.08],
               ("0.5", "1"): [0.30, 0.35, 0.40], ("0.5", "4"): [0.05, 0.07, 0.06]}
 
 
-def test_a_metric_is_a_column_its_size_or_the_difference_of_two_columns():
-    from training.results_data import metric_value
+def test_a_metric_is_a_column_its_size_or_the_difference_of_two_metrics():
+    from training.results_data import Difference, Size, metric_value
 
-    row = {"a": 0.8, "b": 0.65, "r": -0.3, "text": "x"}
-    assert metric_value(row, "a") == 0.8 and metric_value(row, "abs:r") == 0.3
-    assert metric_value(row, "a - b") == pytest.approx(0.15) and metric_value(row, "b - abs:r") == pytest.approx(0.35)
-    assert math.isnan(metric_value(row, "a - missing")) and math.isnan(metric_value(row, "text"))
+    row = {"a": 0.8, "b": 0.65, "r": -0.3, "text": "x", "c - d": 0.5, "abs:a": 2.0}
+    assert metric_value(row, "a") == 0.8 and metric_value(row, Size("r")) == 0.3
+    assert metric_value(row, Difference("a", "b")) == pytest.approx(0.15)
+    assert metric_value(row, Difference("b", Size("r"))) == pytest.approx(0.35)
+    assert math.isnan(metric_value(row, Difference("a", "missing"))) and math.isnan(metric_value(row, "text"))
+    # a column is read by its name whatever characters it holds
+    assert metric_value(row, "c - d") == 0.5 and metric_value(row, "abs:a") == 2.0
+    assert str(Difference("a", Size("r"))) == "a - |r|"
 
 
 def test_mean_and_interval_match_a_hand_computation():

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any, Optional
 
-from training.results_data import Group, ResultsError, grid_product, groups_of, load_summary
+from training.results_data import Group, Metric, ResultsError, grid_product, groups_of, load_summary
 from training.results_statements import statements
 from training.results_sections import SECTIONS, PaperValue, Section
 from training.seeds import REPORT
@@ -60,7 +60,7 @@ def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list
     return out
 
 
-def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[str],
+def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[Metric],
              point: tuple[tuple[str, str], ...]) -> Optional[Group]:
     """``section``'s trials at the grid ``point`` (the summary with most seeds there), with
     ``metrics`` estimated; None if not measured."""

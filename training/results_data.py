@@ -8,7 +8,7 @@ import json
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Union
 
 import numpy as np
 
@@ -25,6 +25,34 @@ LEARNT_SUCCESS = 0.5
 Baseline = dict[str, tuple[float, int]]
 
 
+@dataclass(frozen=True)
+class Size:
+    """The size of a summary column: a measure whose sign is arbitrary per run (a correlation with
+    a bit whose meaning each run picks) is averaged over seeds by size."""
+
+    column: str
+
+    def __str__(self) -> str:
+        return f"|{self.column}|"
+
+
+@dataclass(frozen=True)
+class Difference:
+    """``first`` minus ``second`` of the same trial: an ablation measured on the same episodes.
+    The difference is taken per trial, then estimated over seeds, so seed-to-seed spread common
+    to both cancels."""
+
+    first: "Metric"
+    second: "Metric"
+
+    def __str__(self) -> str:
+        return f"{self.first} - {self.second}"
+
+
+# a summary column by name, its size, or the difference of two metrics
+Metric = Union[str, Size, Difference]
+
+
 class ResultsError(ValueError):
     """A summary that cannot go on the results page."""
 
@@ -36,7 +64,7 @@ class Group:
 
     point: dict[str, str]
     seeds: list[int]
-    estimates: dict[str, Estimate]
+    estimates: dict[Metric, Estimate]
     figures: dict[str, Any] = field(default_factory=dict)
 
 
@@ -59,7 +87,7 @@ def load_summary(path: Path) -> dict[str, Any]:
     return {"path": str(path), "sweep": sweep, "grid": grid, "trials": trials}
 
 
-def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
+def groups_of(summary: dict[str, Any], metrics: list[Metric]) -> list[Group]:
     """Finished trials grouped by grid point, in grid order, each metric estimated over seeds."""
     by_point: dict[tuple, list[dict]] = defaultdict(list)
     keys = list(summary["grid"])
@@ -80,22 +108,13 @@ def groups_of(summary: dict[str, Any], metrics: list[str]) -> list[Group]:
     return groups
 
 
-DIFFERENCE = " - "  # joins two columns in a metric name: their difference per trial
-
-
-def metric_value(row: dict[str, Any], metric: str) -> float:
-    """A trial's value of ``metric``: a summary column; ``abs:COLUMN`` for its size (a measure
-    whose sign is arbitrary per run, such as a correlation with a bit whose meaning each run
-    picks, is averaged over seeds by size); ``COLUMN - COLUMN`` for the difference of two columns
-    of the same trial (an ablation measured on the same episodes: the difference is taken per
-    trial, then estimated over seeds, so seed-to-seed spread common to both cancels)."""
-    if DIFFERENCE in metric:
-        first, second = metric.split(DIFFERENCE, 1)
-        return metric_value(row, first) - metric_value(row, second)
-    if metric.startswith("abs:"):
-        return abs(as_number(row.get(metric[4:])))
+def metric_value(row: dict[str, Any], metric: Metric) -> float:
+    """A trial's value of ``metric`` (NaN where a column is missing or not a number)."""
+    if isinstance(metric, Difference):
+        return metric_value(row, metric.first) - metric_value(row, metric.second)
+    if isinstance(metric, Size):
+        return abs(as_number(row.get(metric.column)))
     return as_number(row.get(metric))
-
 
 
 def grid_product(lists: list[list[str]]) -> list[list[str]]:

@@ -8,7 +8,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from training import figure_data as fd
-from training.results_data import LEARNT_SUCCESS, Baseline, Group, as_number
+from training.results_data import LEARNT_SUCCESS, Baseline, Group, Metric, as_number
 
 # every figure is drawn as figure(groups, grid keys, PNG path, baseline); only the lights figure
 # draws a baseline (the light-blind driver), the others take it to share one signature
@@ -69,7 +69,7 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path, blind: Basel
     plt.close(fig)
 
 
-def bars_figure(metric: str, label: str) -> Figure:
+def bars_figure(metric: Metric, label: str) -> Figure:
     """One bar per grid point with its 95 % interval and per-seed dots."""
     def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         plt = _plt()
@@ -142,7 +142,7 @@ def gap_figure(fallback: Figure, a_max: float = 1.5) -> Figure:
     return draw
 
 
-def against_noise_figure(panels: tuple[tuple[str, str], ...]) -> Figure:
+def against_noise_figure(panels: tuple[tuple[Metric, str], ...]) -> Figure:
     """One panel per (metric, label): the metric against LiDAR noise, mean with its 95 % interval
     over training seeds and the per-seed values as dots (the paper's communication figure)."""
     def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:

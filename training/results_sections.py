@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional
 
 from training import figure_data as fd
-from training.results_data import Baseline, Group, light_blind_rates
+from training.results_data import Baseline, Difference, Group, Metric, Size, light_blind_rates
 from training.results_figures import (Figure, against_noise_figure, bars_figure, distribution_figure, gap_figure,
                                       lights_figure)
 from training.results_statements import (Statement, above_statement, apart_statement, lights_statement,
@@ -28,7 +28,7 @@ __all__ = ["Headline", "PaperValue", "SECTIONS", "Section", "section"]
 class PaperValue:
     """A number the paper reports for a metric: value and, where given, its +- spread."""
 
-    metric: str
+    metric: Metric
     value: float
     spread: Optional[float] = None
     text: str = ""
@@ -48,7 +48,7 @@ class Headline:
     rule: str
     setting: str
     point: tuple[tuple[str, str], ...] = ()
-    metrics: tuple[str, ...] = ()
+    metrics: tuple[Metric, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,7 @@ class Section:
     title: str
     behaviour: str
     match: tuple[tuple[str, str], ...]
-    metrics: tuple[tuple[str, str], ...]
+    metrics: tuple[tuple[Metric, str], ...]
     paper: str
     command: str
     setting: str = ""
@@ -115,10 +115,12 @@ class Section:
 SWEEP = "box2d-driving sweep"
 # which bit value a run's cars use for what is each run's own choice: the correlation's sign is
 # arbitrary per seed, so its size is what is averaged
-PEARSON = "abs:communication.pearson_heading_change_bit"
+PEARSON = Size("communication.pearson_heading_change_bit")
 # success lost when every message is replaced by silence, on the same report episodes: how much
 # the listeners rely on the message
-SUCCESS_LOST_UNHEARD = "success_rate - messages_unheard.success_rate"
+SUCCESS_LOST_UNHEARD = Difference("success_rate", "messages_unheard.success_rate")
+# which side the fast cars take is each run's choice (seeds give +0.999 and -0.997): the size
+FAST_LANES_R = Size("fast_lanes.pearson_r")
 # the communication measures drawn and stated against LiDAR noise
 AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
                  (PEARSON, "|Pearson(heading change, bit)|"),
@@ -215,17 +217,16 @@ SECTIONS: tuple[Section, ...] = (
                                      (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
                             for noise in ("0", "0.25", "0.5", "0.75"))),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
-            # which side the fast cars take is each run's choice (seeds give +0.999 and -0.997): the size
-            (("abs:fast_lanes.pearson_r", "Pearson(rating, lateral), size"), ("success_rate", "success")),
+            ((FAST_LANES_R, "Pearson(rating, lateral), size"), ("success_rate", "success")),
             "Faster cars keep to one side of the highway.",
             f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=34 spline_updates_per_round=2 "
             "--out runs/sweep-fast-lanes",
             setting="Each trial is the shipped fast-lanes run from scratch, for as many bilevel rounds as "
                     "the shipped run reached.",
-            figure=bars_figure("abs:fast_lanes.pearson_r", "Pearson(rating, lateral position), size"),
+            figure=bars_figure(FAST_LANES_R, "Pearson(rating, lateral position), size"),
             shipped="fast_lanes_10cars", gif_size=(640, 200),
             headlines=(Headline("fast lanes", "`highway-spline-v0`, 10 cars", (),
-                                ("abs:fast_lanes.pearson_r", "success_rate")),)),
+                                (FAST_LANES_R, "success_rate")),)),
     Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
             (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
              ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),

@@ -10,7 +10,7 @@ import math
 from collections import defaultdict
 from typing import TYPE_CHECKING, Callable, Optional
 
-from training.results_data import LEARNT_SUCCESS, Baseline, Group, as_number
+from training.results_data import LEARNT_SUCCESS, Baseline, Group, Metric, as_number
 from training.stats import Estimate
 
 if TYPE_CHECKING:  # the sections name their statements, so they import this module, not the reverse
@@ -116,12 +116,12 @@ def lights_statement(groups: list[Group], blind: Baseline) -> list[str]:
     return lines
 
 
-def noise_trend_statement(metrics: tuple[tuple[str, str], ...], paper: int = 1) -> Statement:
+def noise_trend_statement(metrics: tuple[tuple[Metric, str], ...], paper: int = 1) -> Statement:
     """States :func:`noise_trend` for (metric, label) pairs."""
     return lambda groups, baseline: noise_trend(groups, list(metrics), paper)
 
 
-def noise_trend(groups: list[Group], metrics: list[tuple[str, str]], paper: int = 1) -> list[str]:
+def noise_trend(groups: list[Group], metrics: list[tuple[Metric, str]], paper: int = 1) -> list[str]:
     """Whether each metric rises or falls from the lowest to the highest LiDAR noise, from the
     intervals; ``paper``: the direction the paper reports (1 rises, -1 falls)."""
     by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
@@ -161,7 +161,7 @@ def unlearnt_statement(groups: list[Group]) -> list[str]:
     return lines
 
 
-def apart_statement(key: str, few: str, many: str, metric: str, label: str, claim: str) -> Statement:
+def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, claim: str) -> Statement:
     """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals; ``claim``:
     the paper's reading of that, in words."""
     def say(groups: list[Group], baseline: Baseline) -> list[str]:
@@ -176,7 +176,7 @@ def apart_statement(key: str, few: str, many: str, metric: str, label: str, clai
     return say
 
 
-def above_statement(metric: str, label: str, above: str, below: str, level: float = 0.5,
+def above_statement(metric: Metric, label: str, above: str, below: str, level: float = 0.5,
                     level_text: str = "one half") -> Statement:
     """Whether ``metric`` is above ``level`` at every grid point, from the intervals; ``above`` (the
     paper's reading) and ``below``: what each side means, in words."""
