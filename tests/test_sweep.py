@@ -106,6 +106,8 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     run = subprocess.run(_sweep(out, BUDGET), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
     assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-3000:]  # one trial failed
     assert "1 of 2 trials done" in run.stdout
+    # Ray Tune continues with the concurrency the sweep began with: said, not silently dropped
+    assert "continues with the settings it started with: --max-concurrent 1 (asked: (none))" in run.stderr
     rows = {r["trial"]: r for r in csv.DictReader((out / "summary.csv").open())}
     assert rows[good]["status"] == "done" and int(rows[good]["decisions"]) == BUDGET
     bad = next(r for name, r in rows.items() if name != good)
@@ -135,6 +137,18 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     rows3 = {r["trial"]: r for r in csv.DictReader((moved / "summary.csv").open())}
     assert rows3[good] == rows2[good]  # taken as it was: same metrics, same run folder named
     assert not list((moved / "tune" / good).glob("checkpoint_*"))  # nothing trained for it
+
+
+def test_a_continued_sweep_says_which_started_settings_it_keeps(tmp_path):
+    from training.sweep import PLACEMENT_FILE, kept_placement
+
+    asked = {"cpus_per_trial": 1.0, "gpus_per_trial": 0.0, "max_concurrent": 2}
+    assert kept_placement(tmp_path, asked) == ""  # begun before settings were recorded
+    (tmp_path / PLACEMENT_FILE).write_text(json.dumps(asked))
+    assert kept_placement(tmp_path, asked) == ""
+    note = kept_placement(tmp_path, {**asked, "cpus_per_trial": 0.66, "max_concurrent": 3})
+    assert "--cpus-per-trial 1 (asked: 0.66), --max-concurrent 2 (asked: 3)" in note
+    assert "gpus" not in note and f"--reuse {tmp_path / 'summary.json'}" in note
 
 
 def test_reuse_refuses_another_sweeps_summary(tmp_path):
