@@ -107,7 +107,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-3000:]  # one trial failed
     assert "1 of 2 trials done" in run.stdout
     # Ray Tune continues with the concurrency the sweep began with: said, not silently dropped
-    assert "continues with the settings it started with: --max-concurrent 1 (asked: (none))" in run.stderr
+    assert "continues with the --max-concurrent it started with: 1 (asked: (none))" in run.stderr
     rows = {r["trial"]: r for r in csv.DictReader((out / "summary.csv").open())}
     assert rows[good]["status"] == "done" and int(rows[good]["decisions"]) == BUDGET
     bad = next(r for name, r in rows.items() if name != good)
@@ -139,16 +139,16 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert not list((moved / "tune" / good).glob("checkpoint_*"))  # nothing trained for it
 
 
-def test_a_continued_sweep_says_which_started_settings_it_keeps(tmp_path):
-    from training.sweep import PLACEMENT_FILE, kept_placement
+def test_a_continued_sweep_says_it_keeps_the_concurrency_it_started_with(tmp_path):
+    from training.sweep import CONCURRENCY_FILE, kept_concurrency
 
-    asked = {"cpus_per_trial": 1.0, "gpus_per_trial": 0.0, "max_concurrent": 2}
-    assert kept_placement(tmp_path, asked) == ""  # begun before settings were recorded
-    (tmp_path / PLACEMENT_FILE).write_text(json.dumps(asked))
-    assert kept_placement(tmp_path, asked) == ""
-    note = kept_placement(tmp_path, {**asked, "cpus_per_trial": 0.66, "max_concurrent": 3})
-    assert "--cpus-per-trial 1 (asked: 0.66), --max-concurrent 2 (asked: 3)" in note
-    assert "gpus" not in note and f"--reuse {tmp_path / 'summary.json'}" in note
+    assert kept_concurrency(tmp_path, 3) == ""  # begun before the limit was recorded
+    (tmp_path / CONCURRENCY_FILE).write_text(json.dumps({"max_concurrent": 2}))
+    assert kept_concurrency(tmp_path, 2) == ""
+    note = kept_concurrency(tmp_path, 3)
+    assert "--max-concurrent it started with: 2 (asked: 3)" in note
+    assert f"--reuse {tmp_path / 'summary.json'}" in note
+    assert "(asked: (none))" in kept_concurrency(tmp_path, None)
 
 
 def test_reuse_refuses_another_sweeps_summary(tmp_path):

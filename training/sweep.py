@@ -161,29 +161,27 @@ def prepare_out(out: Path, spec: SweepSpec) -> bool:
     return False
 
 
-PLACEMENT_FILE = "placement.json"  # the per-trial resources and concurrency a sweep started with
+CONCURRENCY_FILE = "concurrency.json"  # the --max-concurrent a sweep started with
 
 
-def kept_placement(out: Path, asked: dict[str, Any]) -> str:
-    """What a continued sweep in ``out`` keeps from its first start, when ``asked`` differs ('' if
-    not): Ray Tune restores a sweep with the concurrency and per-trial resources it began with,
-    so a continued run cannot change them (a new ``--out`` can)."""
+def kept_concurrency(out: Path, asked: Optional[int]) -> str:
+    """What a continued sweep in ``out`` says when ``asked`` differs from the ``--max-concurrent``
+    it started with ('' if not): Ray Tune restores a sweep's search state, concurrency limit
+    included, so a continued run keeps it (per-trial resources, by contrast, take the new values)."""
     try:
-        started = json.loads((out / PLACEMENT_FILE).read_text())
-    except (OSError, ValueError):
+        started = json.loads((out / CONCURRENCY_FILE).read_text())["max_concurrent"]
+    except (OSError, ValueError, KeyError, TypeError):
         return ""  # begun before this was recorded: nothing to compare
-    changed = [k for k in asked if k in started and started[k] != asked[k]]
-    if not changed:
+    if started == asked:
         return ""
 
-    def shown(value: Any) -> str:
-        return "(none)" if value is None else f"{value:g}" if isinstance(value, float) else str(value)
+    def shown(value: Optional[int]) -> str:
+        return "(none)" if value is None else str(value)
 
-    kept = ", ".join(f"--{k.replace('_', '-')} {shown(started[k])} (asked: {shown(asked[k])})" for k in changed)
-    return (f"{out}: this sweep continues with the settings it started with: {kept}; Ray Tune keeps a sweep's "
-            f"concurrency and per-trial resources when it continues. To change them, start a new sweep folder "
-            f"that reuses this one's summary (sweep --out NEW --reuse {out / 'summary.json'}, or reproduce --run "
-            f"--runs NEW): finished trials are taken from the summary, unfinished ones start over.")
+    return (f"{out}: this sweep continues with the --max-concurrent it started with: {shown(started)} (asked: "
+            f"{shown(asked)}); Ray Tune keeps a sweep's concurrency limit when it continues. To change it, start "
+            f"a new sweep folder that reuses this one's summary (sweep --out NEW --reuse {out / 'summary.json'}, "
+            f"or reproduce --run --runs NEW): finished trials are taken from the summary, unfinished ones start over.")
 
 
 def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_trial: float = 0,
@@ -215,14 +213,13 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     # descriptions reach the trials through the object store
     trainable = tune.with_resources(tune.with_parameters(run_trial, trials=trials),
                                     {"cpu": cpus_per_trial, "gpu": gpus_per_trial})
-    placement = {"cpus_per_trial": cpus_per_trial, "gpus_per_trial": gpus_per_trial, "max_concurrent": max_concurrent}
     if restoring and tune.Tuner.can_restore(str(out / "tune")):
-        kept = kept_placement(out, placement)
+        kept = kept_concurrency(out, max_concurrent)
         if kept:
             print(kept, file=sys.stderr)
         tuner = tune.Tuner.restore(str(out / "tune"), trainable, resume_unfinished=True, resume_errored=True)
     else:
-        write_json_atomic(out / PLACEMENT_FILE, placement)
+        write_json_atomic(out / CONCURRENCY_FILE, {"max_concurrent": max_concurrent})
         tuner = tune.Tuner(
             trainable,
             param_space={"name": tune.grid_search(list(trials))},
