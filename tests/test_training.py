@@ -74,47 +74,127 @@ def test_vec_env_seeding_is_deterministic_and_attrs_work():
     a.close()
 
 
-def test_masked_buffer_yields_only_live_transitions():
+def _slot_rows(lay, instances, t, alive):
+    """Slot observations of ``instances`` instances at step ``t``: each car's own observation is
+    ``[t * 100 + slot, 0.5]`` (zeros when dead), the team block and alive flags as the env
+    writes them."""
+    n = lay.n_cars
+    own = np.zeros((instances * n, lay.obs_dim), np.float32)
+    own[:, 0] = t * 100 + np.arange(instances * n)
+    own[:, 1] = 0.5
+    own *= alive[:, None]
+    obs = np.zeros((instances * n, lay.size), np.float32)
+    for k in range(instances):
+        cars = slice(k * n, (k + 1) * n)
+        obs[cars, lay.team] = own[cars].reshape(-1)
+        obs[cars, lay.alive] = alive[cars]
+    obs[:, lay.own] = own
+    obs[:, lay.self_alive] = alive
+    return obs
+
+
+def _filled_buffer(steps, instances, cars, group_size, seed=0):
     from gymnasium import spaces
 
-    obs_space = spaces.Box(-1, 1, (3,), np.float32)
-    buf = MaskedRolloutBuffer(4, obs_space, spaces.Discrete(2), n_envs=3, alive_index=2,
-                              gae_lambda=0.9, gamma=0.9)
-    alive = np.array([[1, 0, 1], [1, 1, 0], [0, 1, 1], [1, 1, 1]], dtype=np.float32)
-    for t in range(4):
-        obs = np.zeros((3, 3), np.float32)
-        obs[:, 2] = alive[t]
-        obs[:, 0] = t * 10 + np.arange(3)  # identifies the transition
-        buf.add(obs, np.zeros((3, 1)), np.ones(3), np.zeros(3), th.zeros(3), th.zeros(3))
-    buf.compute_returns_and_advantage(th.zeros(3), np.zeros(3))
-    seen = np.concatenate([b.observations[:, 0].numpy() for b in buf.get(batch_size=2)])
-    expected = [t * 10 + e for t in range(4) for e in range(3) if alive[t, e]]
-    assert sorted(seen.tolist()) == sorted(expected)
+    from training.vec_env import TeamLayout, slot_observation_space
+
+    lay = TeamLayout(2, cars)
+    space = slot_observation_space(spaces.Box(-1e6, 1e6, (2,), np.float32), cars)
+    slots = instances * cars
+    buf = MaskedRolloutBuffer(steps, space, spaces.Discrete(2), n_envs=slots, layout=lay,
+                              group_size=group_size, gae_lambda=0.9, gamma=0.9)
+    rng = np.random.default_rng(seed)
+    alive = (rng.random((steps, slots)) < 0.7).astype(np.float32)
+    full = []
+    for t in range(steps):
+        full.append(_slot_rows(lay, instances, t, alive[t]))
+        buf.add(full[-1], np.zeros((slots, 1)), np.ones(slots), np.zeros(slots), th.zeros(slots), th.zeros(slots))
+    buf.compute_returns_and_advantage(th.zeros(slots), np.zeros(slots))
+    return buf, lay, alive, np.stack(full)
+
+
+def test_masked_buffer_yields_only_live_transitions_with_their_team_rebuilt():
+    buf, lay, alive, full = _filled_buffer(steps=4, instances=2, cars=3, group_size=1)
+    batches = list(buf.get(batch_size=5))
+    rows = np.concatenate([b.observations.numpy() for b in batches])
+    assert rows.shape[1] == lay.size  # full slot observations, the team block rebuilt
+    ids = rows[:, 0].astype(int)
+    expected = [t * 100 + s for t in range(4) for s in range(6) if alive[t, s]]
+    assert sorted(ids.tolist()) == sorted(expected)  # each live transition once, no padding
+    for row, i in zip(rows, ids):
+        np.testing.assert_array_equal(row, full[i // 100, i % 100])
     assert buf.n_valid == int(alive.sum())
 
 
-def test_masked_buffer_by_step_keeps_each_step_together():
-    from gymnasium import spaces
-
-    steps, instances, cars = 5, 2, 3
-    obs_space = spaces.Box(-1, 1, (3,), np.float32)
-    buf = MaskedRolloutBuffer(steps, obs_space, spaces.Discrete(2), n_envs=instances * cars,
-                              alive_index=2, group_size=cars, gae_lambda=0.9, gamma=0.9)
-    rng = np.random.default_rng(0)
-    alive = (rng.random((steps, instances * cars)) < 0.7).astype(np.float32)
-    for t in range(steps):
-        obs = np.zeros((instances * cars, 3), np.float32)
-        obs[:, 2] = alive[t]
-        obs[:, 0] = t * 100 + np.arange(instances * cars)  # identifies the transition
-        buf.add(obs, np.zeros((instances * cars, 1)), np.ones(instances * cars), np.zeros(instances * cars),
-                th.zeros(instances * cars), th.zeros(instances * cars))
-    buf.compute_returns_and_advantage(th.zeros(instances * cars), np.zeros(instances * cars))
-    seen = np.concatenate([b.observations[:, 0].numpy() for b in buf.get(batch_size=4)]).astype(int)
+def test_masked_buffer_by_step_packs_whole_steps_into_one_minibatch():
+    steps, instances, cars = 6, 3, 3
+    buf, lay, alive, _ = _filled_buffer(steps, instances, cars, group_size=cars, seed=1)
+    seen, batches = [], list(buf.get(batch_size=4))
+    for batch in batches[:-1]:  # cut after the step that reaches 4 rows, never inside one
+        assert 4 <= len(batch.observations) < 4 + cars
+    for batch in batches:
+        rows = batch.observations.numpy()
+        assert rows.shape[1] == lay.obs_dim + 1  # packed: own observation and group number
+        ids, group = rows[:, 0].astype(int), rows[:, -1].astype(int)
+        assert group[0] == 0 and np.all(np.diff(group) >= 0) and np.all(np.diff(group) <= 1)
+        for g in np.unique(group):
+            members = ids[group == g]
+            steps_of = {(v // 100, (v % 100) // cars) for v in members}  # (t, instance)
+            assert len(steps_of) == 1
+            t, k = steps_of.pop()
+            live = [t * 100 + k * cars + i for i in range(cars) if alive[t, k * cars + i]]
+            assert sorted(members.tolist()) == live  # the group is the step's whole live team
+        seen.extend(ids.tolist())
     expected = [t * 100 + s for t in range(steps) for s in range(instances * cars) if alive[t, s]]
-    assert sorted(seen.tolist()) == sorted(expected)  # each live transition exactly once
-    step_of = [(v // 100, (v % 100) // cars) for v in seen]  # (t, instance)
-    runs = [k for i, k in enumerate(step_of) if i == 0 or k != step_of[i - 1]]
-    assert len(runs) == len(set(runs))  # one env step's cars are never split up
+    assert sorted(seen) == sorted(expected)  # each live transition exactly once
+
+
+@pytest.mark.parametrize("critic", ["mean", "own+mean", "own"])
+def test_packed_rows_give_the_values_and_gradients_of_full_rows(critic):
+    """The update's packed path (one encoder pass, team mean over a group's rows) computes what
+    the slot-observation path computes, gradients included."""
+    th.manual_seed(0)
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    net = CTDENetwork(**policy_kwargs_for(env, critic))
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)] * 2)
+    venv.seed(2)
+    lay, rows = venv.layout, [venv.reset()]
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        rows.append(venv.step(rng.integers(0, 13, size=8))[0])
+    full = th.as_tensor(np.concatenate(rows))
+    full = full[full[:, lay.self_alive] > 0.5]  # live rows; a step's team stays together
+    steps = full[:, lay.alive].sum(dim=1)
+    assert (steps < 4).any()  # some cars have finished: dead slots are in the test
+    first = th.ones(len(full), dtype=th.bool)
+    first[1:] = (full[1:, lay.team] != full[:-1, lay.team]).any(dim=1)
+    packed = th.cat([full[:, lay.own], (th.cumsum(first, 0) - 1)[:, None].float()], dim=1)
+    pi_full, vf_full = net(full)
+    grads_full = th.autograd.grad((pi_full.sum() + vf_full.square().sum()), list(net.parameters()))
+    pi_packed, vf_packed = net(packed)
+    grads_packed = th.autograd.grad((pi_packed.sum() + vf_packed.square().sum()), list(net.parameters()))
+    assert th.allclose(pi_packed, pi_full, atol=1e-5) and th.allclose(vf_packed, vf_full, atol=1e-5)
+    assert th.allclose(net.forward_critic(packed), vf_full, atol=1e-5)
+    for g_packed, g_full in zip(grads_packed, grads_full):
+        assert th.allclose(g_packed, g_full, rtol=1e-4, atol=1e-4 * float(g_full.abs().max()))
+
+
+@pytest.mark.parametrize("n_rays", [100, 36, 7])
+def test_fast_lidar_encoder_equals_the_convolution(n_rays):
+    from training.encoder import LidarEncoder, encode
+
+    th.manual_seed(n_rays)
+    encoders = [LidarEncoder(5, n_rays, 4), LidarEncoder(5, n_rays, 4)]
+    x = th.randn(50, 5 * n_rays + 20)
+    fast, slow = encode(encoders, x), [e.reference(x) for e in encoders]
+    params = [p for e in encoders for p in e.parameters()]
+    g_fast = th.autograd.grad(sum((o * o).sum() for o in fast), params)
+    g_slow = th.autograd.grad(sum((o * o).sum() for o in slow), params)
+    for a, b in zip(fast, slow):
+        assert th.allclose(a, b, atol=1e-5)
+    for a, b in zip(g_fast, g_slow):
+        assert th.allclose(a, b, rtol=1e-4, atol=1e-4 * float(b.abs().max()))
+    assert not th.allclose(g_fast[0], th.zeros_like(g_fast[0]))
 
 
 def test_critic_encodes_a_repeated_team_once_with_the_same_values():

@@ -11,7 +11,15 @@ timed ones, and splits the timed wall clock into:
 * ``env``: waiting for the vector env's step (stepping the envs in-process, or waiting for the
   workers and copying their observations);
 * ``inference``: the rest of the rollout (the policy's forward pass, the rollout buffer, callbacks);
-* ``update``: PPO's epochs over the batch (and the advantage computation).
+* ``update``: PPO's epochs over the batch.
+
+After the timed updates each row runs PPO's epochs once more on the last batch, timed alone, and
+once under ``torch.utils.flop_counter.FlopCounterMode`` to count the floating-point operations of
+the update's matrix products and convolutions (forward and backward; element-wise operations are
+not counted; the LiDAR convolutions counted as convolutions, not as the zero-padded products
+``training/encoder.py`` computes them with). Their ratio is the update's achieved GFLOP/s, printed beside a plain matrix product
+of the update's widest layer (minibatch x 256 times 256 x 256) timed in the same run on the same
+device and threads: how close the learner comes to what the machine can do.
 
 Prints a table and writes it as JSON (``--json FILE``, never replacing an existing file).
 """
@@ -48,6 +56,9 @@ class TrainBenchRow:
     env_share: float
     inference_share: float
     update_share: float
+    update_gflop: float
+    update_gflops: float
+    matmul_gflops: float
 
 
 class _Clock(BaseCallback):
@@ -100,6 +111,43 @@ class _TimedStep:
         venv.step_wait = timed
 
 
+def update_flops(model) -> tuple[float, float]:
+    """FLOPs of one PPO update on the model's last batch (matrix products and convolutions,
+    forward and backward) and the seconds the same update takes without counting, scaled to the
+    epochs the counted update ran (PPO may stop early on its KL target)."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    from training.encoder import reference_convolutions
+
+    before = model._n_updates
+    t0 = time.perf_counter()
+    model.train()
+    seconds, timed_epochs = time.perf_counter() - t0, model._n_updates - before
+    counter = FlopCounterMode(display=False)
+    with counter, reference_convolutions():  # the model's own operations, not the fast way's zeros
+        model.train()
+    counted_epochs = model._n_updates - before - timed_epochs
+    return float(counter.get_total_flops()), seconds * counted_epochs / max(1, timed_epochs)
+
+
+def matmul_gflops(rows: int, width: int, device: str, repeats: int = 50) -> float:
+    """GFLOP/s of a ``(rows, width) @ (width, width)`` product on ``device`` (best of 3)."""
+    a = th.randn(rows, width, device=device)
+    b = th.randn(width, width, device=device)
+    best = 0.0
+    for _ in range(3):
+        a @ b
+        if device == "cuda":
+            th.cuda.synchronize()
+        t0 = time.perf_counter()
+        for _ in range(repeats):
+            a @ b
+        if device == "cuda":
+            th.cuda.synchronize()
+        best = max(best, 2.0 * rows * width * width * repeats / (time.perf_counter() - t0) / 1e9)
+    return best
+
+
 def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
     """Train ``warmup + updates`` PPO updates of ``config`` and time the last ``updates``."""
     th.set_num_threads(torch_threads(config))
@@ -116,7 +164,8 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
             clock = _Clock(warmup)
             per_update = model.n_steps * venv.num_envs
             model.learn(per_update * (warmup + updates), callback=clock)
-        wall = time.perf_counter() - clock.t_start
+            wall = time.perf_counter() - clock.t_start
+            flops, update_s = update_flops(model)
     finally:
         venv.close()
     env_s = venv.env_wait_s
@@ -124,7 +173,9 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         num_cpus=config.num_cpus, device=resolve_device(config.device), threads=torch_threads(config),
         agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
         env_share=env_s / wall, inference_share=max(0.0, clock.rollout_s - env_s) / wall,
-        update_share=max(0.0, wall - clock.rollout_s) / wall)
+        update_share=max(0.0, wall - clock.rollout_s) / wall, update_gflop=flops / 1e9,
+        update_gflops=flops / update_s / 1e9,
+        matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)))
 
 
 def worker_counts(cores: int) -> list[int]:
@@ -139,11 +190,14 @@ def worker_counts(cores: int) -> list[int]:
 
 
 def format_table(rows: list[TrainBenchRow]) -> str:
-    lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update |",
-             "|---:|---|---:|---:|---:|---:|---:|"]
+    lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update "
+             "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul |",
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r.num_cpus} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
-                     f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} |")
+                     f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
+                     f"{r.update_gflop:.1f} | {r.update_gflops:.1f} | {r.matmul_gflops:.0f} | "
+                     f"{r.update_gflops / r.matmul_gflops:.0%} |")
     return "\n".join(lines)
 
 

@@ -10,7 +10,9 @@
   decentralised baseline (plain PPO: the critic sees only the slot's own observation).
 
 Extension goes through SB3's documented hook (``_build_mlp_extractor``); features are the raw
-slot observation (``FlattenExtractor``).
+slot observation (``FlattenExtractor``), or during a PPO update by env step the packed rows of
+:class:`training.buffer.MaskedRolloutBuffer` (own observation and group number, see
+:meth:`CTDENetwork.forward`). The LiDAR encoders are computed as in ``training/encoder.py``.
 """
 
 from __future__ import annotations
@@ -21,42 +23,9 @@ import torch as th
 from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
+from training.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
+
 CRITICS = ("mean", "own+mean", "own")
-
-
-class CircularConv1d(nn.Conv1d):
-    """1-D convolution with wrap-around padding (the LiDAR is a ring). Pads by concatenation,
-    which is about twice as fast on CPU as ``padding_mode="circular"``."""
-
-    def __init__(self, in_channels: int, out_channels: int, kernel: int) -> None:
-        super().__init__(in_channels, out_channels, kernel)
-        self.pad = kernel // 2
-
-    def forward(self, x: th.Tensor) -> th.Tensor:
-        p = self.pad
-        if p:
-            x = th.cat([x[..., -p:], x, x[..., :p]], dim=-1)
-        return super().forward(x)
-
-
-class LidarEncoder(nn.Module):
-    """Circular conv encoder of the LiDAR history, concatenated with the sat-nav history."""
-
-    def __init__(self, history: int, n_rays: int, n_satnav: int, channels: int = 8,
-                 kernel: int = 5, pooled: int = 25) -> None:
-        super().__init__()
-        self.history, self.n_rays = history, n_rays
-        self.conv = nn.Sequential(
-            CircularConv1d(history, channels, kernel), nn.ReLU(),
-            CircularConv1d(channels, 1, kernel), nn.ReLU(),
-            nn.AdaptiveAvgPool1d(pooled),
-        )
-        self.out_dim = pooled + history * n_satnav
-
-    def forward(self, obs: th.Tensor) -> th.Tensor:
-        n_lidar = self.history * self.n_rays
-        lidar = obs[:, :n_lidar].reshape(-1, self.history, self.n_rays)
-        return th.cat([self.conv(lidar).flatten(1), obs[:, n_lidar:]], dim=1)
 
 
 class CTDENetwork(nn.Module):
@@ -79,13 +48,37 @@ class CTDENetwork(nn.Module):
         self.critic_mlp = nn.Sequential(nn.Linear(width, hidden), nn.Tanh())
 
     def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        if features.shape[1] == self.obs_dim + 1:
+            return self._forward_packed(features)
         return self.forward_actor(features), self.forward_critic(features)
+
+    def _forward_packed(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """Rows packed as ``[own observation (D) | group number]``, the live cars of one env
+        step as consecutive rows of one group numbered 0, 1, ... (what
+        :class:`training.buffer.MaskedRolloutBuffer` yields by env step). A group's rows are its
+        team, so the critic's team mean is the mean over the group's rows and both encoders run
+        once, together, on the same rows."""
+        own = features[:, : self.obs_dim]
+        group = features[:, self.obs_dim].long()
+        actor_in, critic_in = encode([self.actor_encoder, self.critic_encoder], own)
+        latent_pi = self.actor_mlp(actor_in)
+        z = self.critic_proj(critic_in)
+        if self.critic == "own":
+            return latent_pi, self.critic_mlp(z)
+        n_groups = int(group[-1]) + 1
+        sums = z.new_zeros(n_groups, z.shape[1]).index_add_(0, group, z)
+        mean = sums / th.bincount(group, minlength=n_groups).clamp(min=1)[:, None].to(z.dtype)
+        if self.critic == "mean":  # one value per team: the MLP runs once per group
+            return latent_pi, self.critic_mlp(mean).index_select(0, group)
+        return latent_pi, self.critic_mlp(th.cat([z, mean.index_select(0, group)], dim=1))
 
     def forward_actor(self, features: th.Tensor) -> th.Tensor:
         return self.actor_mlp(self.actor_encoder(features[:, : self.obs_dim]))
 
     def forward_critic(self, features: th.Tensor) -> th.Tensor:
         d, n = self.obs_dim, self.n_cars
+        if features.shape[1] == d + 1:
+            return self._forward_packed(features)[1]
         b = features.shape[0]
         if self.critic == "own":
             return self.critic_mlp(self.critic_proj(self.critic_encoder(features[:, :d])))

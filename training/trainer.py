@@ -179,7 +179,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
         gae_lambda=config.gae_lambda, clip_range=config.clip_range, ent_coef=config.ent_coef,
         target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
         rollout_buffer_class=MaskedRolloutBuffer,
-        rollout_buffer_kwargs={"alive_index": venv.layout.self_alive},
+        rollout_buffer_kwargs={"layout": venv.layout},
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
 
