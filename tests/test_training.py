@@ -179,6 +179,30 @@ def test_packed_rows_give_the_values_and_gradients_of_full_rows(critic):
         assert th.allclose(g_packed, g_full, rtol=1e-4, atol=1e-4 * float(g_full.abs().max()))
 
 
+@pytest.mark.parametrize("critic", ["mean", "own+mean"])
+def test_a_rollout_step_takes_the_grouped_path_with_the_same_values(critic):
+    """Whole instances in slot order (a rollout step) are recognised and give what the general
+    path gives, padding slots of finished cars included; anything else takes the general path."""
+    th.manual_seed(1)
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    net = CTDENetwork(**policy_kwargs_for(env, critic))
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)] * 3)
+    venv.seed(5)
+    obs, rng, checked_dead = venv.reset(), np.random.default_rng(1), False
+    for _ in range(30):
+        x = th.as_tensor(obs)
+        assert net._whole_instances(x) is not None
+        pi, vf = net(x)
+        assert th.allclose(pi, net.forward_actor(x), atol=1e-5)
+        assert th.allclose(vf, net.forward_critic(x), atol=1e-5)
+        checked_dead |= bool((x[:, venv.layout.self_alive] == 0).any())
+        obs = venv.step(rng.integers(0, 13, size=12))[0]
+    assert checked_dead
+    x = th.as_tensor(obs)
+    assert net._whole_instances(x[[1, 0, 2, 3] + list(range(4, 12))]) is None  # not in slot order
+    assert net._whole_instances(x[:6]) is None
+
+
 @pytest.mark.parametrize("n_rays", [100, 36, 7])
 def test_fast_lidar_encoder_equals_the_convolution(n_rays):
     from training.encoder import LidarEncoder, encode

@@ -189,3 +189,44 @@ def test_world_benchmark_prints_its_table_and_the_machine(tmp_path, capsys):
     assert "agent-steps/s" in printed and "machine: " in printed
     saved = json.loads(out.read_text())
     assert saved["results"][0]["agent_steps_per_s"] > 0 and "cores" in saved["machine"]
+
+
+def test_slot_rows_match_the_env_dicts_step_by_step():
+    """Every slot row is [own | team | alive | own alive] of the env's own observation dicts,
+    through finishes and resets (a reference written out plainly here)."""
+    import box2d_driving
+    from training.vec_env import SlotVecEnv
+
+    def reference(obs, lay, agents):
+        team = np.zeros((len(agents), lay.obs_dim), np.float32)
+        alive = np.zeros(len(agents), np.float32)
+        for i, a in enumerate(agents):
+            if a in obs:
+                team[i], alive[i] = obs[a], 1.0
+        rows = np.zeros((len(agents), lay.size), np.float32)
+        for i in range(len(agents)):
+            rows[i] = np.concatenate([team[i], team.reshape(-1), alive, [alive[i]]])
+        return rows
+
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)])
+    env = box2d_driving.make("intersection-v0", num_cars=4)
+    venv.seed(11)
+    lay, agents = venv.layout, env.possible_agents
+    obs_dict, _ = env.reset(seed=11)
+    rows = venv.reset()
+    rng, resets = np.random.default_rng(0), 0
+    for _ in range(120):
+        np.testing.assert_array_equal(rows, reference(obs_dict, lay, agents))
+        actions = rng.integers(0, 13, size=4)
+        rows, _, dones, infos = venv.step(actions)
+        obs_dict, _, term, trunc, _ = env.step({a: int(actions[i]) for i, a in enumerate(agents) if a in env.agents})
+        for i, a in enumerate(agents):
+            if a in obs_dict and (term[a] or trunc[a]):
+                assert dones[i]
+                np.testing.assert_array_equal(infos[i]["terminal_observation"],
+                                              reference(obs_dict, lay, agents)[i])
+        obs_dict = {a: o for a, o in obs_dict.items() if a in env.agents}
+        if not env.agents:
+            obs_dict, _ = env.reset()
+            resets += 1
+    assert resets >= 2

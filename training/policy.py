@@ -17,7 +17,7 @@ slot observation (``FlattenExtractor``), or during a PPO update by env step the 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Optional
 
 import torch as th
 from stable_baselines3.common.policies import ActorCriticPolicy
@@ -48,26 +48,48 @@ class CTDENetwork(nn.Module):
         self.critic_mlp = nn.Sequential(nn.Linear(width, hidden), nn.Tanh())
 
     def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
-        if features.shape[1] == self.obs_dim + 1:
-            return self._forward_packed(features)
+        d = self.obs_dim
+        if features.shape[1] == d + 1:  # packed rows of an update by env step
+            return self._forward_grouped(features[:, :d], features[:, d].long(), None)
+        slots = self._whole_instances(features)
+        if slots is not None:  # a rollout step: every slot of every instance, in slot order
+            return self._forward_grouped(features[:, :d], *slots)
         return self.forward_actor(features), self.forward_critic(features)
 
-    def _forward_packed(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
-        """Rows packed as ``[own observation (D) | group number]``, the live cars of one env
-        step as consecutive rows of one group numbered 0, 1, ... (what
-        :class:`training.buffer.MaskedRolloutBuffer` yields by env step). A group's rows are its
-        team, so the critic's team mean is the mean over the group's rows and both encoders run
-        once, together, on the same rows."""
-        own = features[:, : self.obs_dim]
-        group = features[:, self.obs_dim].long()
+    def _whole_instances(self, features: th.Tensor) -> Optional[tuple[th.Tensor, th.Tensor]]:
+        """``(group, alive)`` of slot observations that are whole env instances in slot order
+        (row ``k * N + i`` is car ``i`` of instance ``k``, as a rollout step passes them), else
+        None. Then each instance's team block is its own rows again, so the critic can read the
+        team from the rows the actor encodes."""
+        d, n, b = self.obs_dim, self.n_cars, features.shape[0]
+        if b % n or b == 0:
+            return None
+        rows = features.reshape(b // n, n, -1)
+        block = rows[:, :1, d:]  # team observations, alive flags and own alive of each first slot
+        alive = features[:, d * (1 + n) + n]
+        if not (th.equal(rows[:, :, d:d * (1 + n) + n], block[..., : d * n + n].expand(-1, n, -1))
+                and th.equal(block[:, 0, : d * n].reshape(b, d), features[:, :d])
+                and th.equal(block[:, 0, d * n: d * n + n].reshape(b), alive)):
+            return None
+        return th.arange(b, device=features.device) // n, alive
+
+    def _forward_grouped(self, own: th.Tensor, group: th.Tensor,
+                         alive: Optional[th.Tensor]) -> tuple[th.Tensor, th.Tensor]:
+        """Latents of rows ``own`` (observations, D) whose teams are groups of rows: ``group``
+        numbers them 0, 1, ... in order, ``alive`` (None: all) says which rows count in their
+        team's mean. Packed update rows (:class:`training.buffer.MaskedRolloutBuffer` by env step)
+        and whole instances of a rollout step come this way: both encoders run once, together,
+        on the same rows, and the critic averages each group's encodings."""
         actor_in, critic_in = encode([self.actor_encoder, self.critic_encoder], own)
         latent_pi = self.actor_mlp(actor_in)
         z = self.critic_proj(critic_in)
         if self.critic == "own":
             return latent_pi, self.critic_mlp(z)
         n_groups = int(group[-1]) + 1
-        sums = z.new_zeros(n_groups, z.shape[1]).index_add_(0, group, z)
-        mean = sums / th.bincount(group, minlength=n_groups).clamp(min=1)[:, None].to(z.dtype)
+        live = z if alive is None else z * alive[:, None]
+        sums = z.new_zeros(n_groups, z.shape[1]).index_add_(0, group, live)
+        counts = th.bincount(group, weights=alive, minlength=n_groups).to(z.dtype)
+        mean = sums / counts.clamp(min=1)[:, None]
         if self.critic == "mean":  # one value per team: the MLP runs once per group
             return latent_pi, self.critic_mlp(mean).index_select(0, group)
         return latent_pi, self.critic_mlp(th.cat([z, mean.index_select(0, group)], dim=1))
@@ -78,7 +100,7 @@ class CTDENetwork(nn.Module):
     def forward_critic(self, features: th.Tensor) -> th.Tensor:
         d, n = self.obs_dim, self.n_cars
         if features.shape[1] == d + 1:
-            return self._forward_packed(features)[1]
+            return self.forward(features)[1]
         b = features.shape[0]
         if self.critic == "own":
             return self.critic_mlp(self.critic_proj(self.critic_encoder(features[:, :d])))

@@ -126,22 +126,35 @@ class InstanceSlots(gym.vector.VectorEnv):
         self.num_envs = self.n_cars
         self.observation_space = self.single_observation_space = slot_observation_space(base_space, self.n_cars)
         self.action_space = self.single_action_space = self.env.action_space(self.agents[0])
-        self._obs = np.zeros((self.n_cars, self.layout.size), dtype=np.float32)
+        self._slot = {a: i for i, a in enumerate(self.agents)}
 
-    def _write(self, obs: dict[str, np.ndarray], out: np.ndarray) -> None:
+    def _rows(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         """Slot observations from the agents' observation dict (padding for absent agents)."""
         lay = self.layout
-        out[:] = 0.0
-        team = np.zeros((self.n_cars, lay.obs_dim), dtype=np.float32)
-        alive = np.zeros(self.n_cars, dtype=np.float32)
-        for i, agent in enumerate(self.agents):
-            if agent in obs:
-                team[i] = obs[agent]
-                alive[i] = 1.0
-        out[:, lay.team] = team.reshape(-1)
-        out[:, lay.alive] = alive
-        out[:, lay.own] = team
-        out[:, lay.self_alive] = alive
+        out = np.zeros((self.n_cars, lay.size), dtype=np.float32)
+        if obs:
+            slots = [self._slot[a] for a in obs]
+            own = np.zeros((self.n_cars, lay.obs_dim), dtype=np.float32)
+            own[slots] = np.stack(list(obs.values()))
+            out[:, lay.own] = own
+            out[:, lay.team] = own.reshape(-1)  # every slot carries the whole team
+            alive = np.zeros(self.n_cars, dtype=np.float32)
+            alive[slots] = 1.0
+            out[:, lay.alive] = alive
+            out[:, lay.self_alive] = alive
+        return out
+
+    def _without(self, rows: np.ndarray, gone: list[int]) -> np.ndarray:
+        """``rows`` with the slots ``gone`` turned to padding (as :meth:`_rows` would write them
+        without those agents)."""
+        lay = self.layout
+        rows = rows.copy()
+        for i in gone:
+            rows[:, lay.team.start + i * lay.obs_dim: lay.team.start + (i + 1) * lay.obs_dim] = 0.0
+            rows[:, lay.alive.start + i] = 0.0
+            rows[i, lay.own] = 0.0
+            rows[i, lay.self_alive] = 0.0
+        return rows
 
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         # SuperSuit adds worker and position offsets to ``seed``; the one that counts comes in options
@@ -149,37 +162,36 @@ class InstanceSlots(gym.vector.VectorEnv):
         base = options.pop("slot_seed_base", None)
         obs, _ = self.env.reset(seed=None if base is None else base + self.index,
                                 **({"options": options} if options else {}))
-        self._write(obs, self._obs)
-        return self._obs.copy(), [{} for _ in range(self.n_cars)]
+        return self._rows(obs), [{} for _ in range(self.n_cars)]
 
     def step(self, actions):
         n = self.n_cars
-        actions = np.asarray(actions).reshape(n)
+        actions = np.asarray(actions).reshape(n).tolist()
         rewards = np.zeros(n, dtype=np.float32)
         terms = np.zeros(n, dtype=bool)
         truncs = np.zeros(n, dtype=bool)
         infos: list[dict[str, Any]] = [{} for _ in range(n)]  # distinct dicts
         env = self.env
-        acts = {a: int(actions[i]) for i, a in enumerate(self.agents) if a in env.agents}
+        acts = {a: int(actions[self._slot[a]]) for a in env.agents}
         obs, rew, term, trunc, info = env.step(acts)
-        final = np.zeros((n, self.layout.size), dtype=np.float32)
-        self._write(obs, final)
-        for i, agent in enumerate(self.agents):
-            if agent not in obs:
-                continue
+        final = self._rows(obs)
+        gone = []
+        for agent in obs:
+            i = self._slot[agent]
             rewards[i] = rew[agent]
-            slot_info = dict(info[agent])
+            slot_info = info[agent]  # the env's own fresh dict: no copy needed
             if term[agent] or trunc[agent]:
                 terms[i] = bool(term[agent])
                 truncs[i] = bool(trunc[agent] and not term[agent])
                 slot_info["terminal_observation"] = final[i].copy()
                 slot_info["TimeLimit.truncated"] = bool(truncs[i])
+                gone.append(i)
             infos[i] = slot_info
         if env.agents:
-            self._write({a: o for a, o in obs.items() if a in env.agents}, self._obs)
+            rows = self._without(final, gone) if gone else final
         else:
-            self._write(env.reset()[0], self._obs)
-        return self._obs.copy(), rewards, terms, truncs, infos
+            rows = self._rows(env.reset()[0])
+        return rows, rewards, terms, truncs, infos
 
     def close(self, **kwargs: Any) -> None:
         self.env.close()
@@ -270,7 +282,7 @@ class SlotVecEnv(CarSlots, VecEnv):
     def step_wait(self):
         obs, rewards, terms, truncs, infos = self._inner.step_wait()
         dones = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
-        infos = [dict(info) for info in infos]  # one dict per slot, never shared
+        infos = _unshared(infos)
         return np.asarray(obs, dtype=np.float32), np.asarray(rewards, dtype=np.float32), dones, infos
 
     def close(self) -> None:
@@ -281,6 +293,19 @@ class SlotVecEnv(CarSlots, VecEnv):
         if self.num_cpus:  # static attributes: every instance has the probe's
             return [getattr(self.probe.env, attr_name) for _ in self._get_indices(indices)]
         return super().get_attr(attr_name, indices)
+
+
+def _unshared(infos: Sequence[dict]) -> list[dict]:
+    """One dict per slot: a dict that appears a second time (SuperSuit's worker path hands every
+    empty slot the same ``{}``) is copied."""
+    seen: set[int] = set()
+    out = []
+    for info in infos:
+        if id(info) in seen:
+            info = dict(info)
+        seen.add(id(info))
+        out.append(info)
+    return out
 
 
 def _same(obj: Any) -> Any:

@@ -171,17 +171,14 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._bits = np.zeros(n)
         self._received = np.zeros(n)
         self._seen = np.full(n, NO_LIGHT)
-        self._lane_axes = [c.lane_axis for c in self.layout.cars]
+        self._lane_origin, self._lane_right, self._lane_half_width = _lane_axes(self.layout)
         cars = np.arange(n)
         lidar_frame, satnav_frame = self._frames(cars, senders=np.zeros(0, dtype=np.int64))
         self.history = FrameHistory(self.observation_layout, n)
         self.history.reset(lidar_frame, satnav_frame)
         obs = self.history.observations(cars)
         observations = {a: obs[i] for i, a in enumerate(self.agents)}
-        facts = self._facts(cars)
-        extra = self.scenario_info(cars)
-        infos = {a: {**self._info(i, facts[j]), **extra[j]}
-                 for j, (i, a) in enumerate(zip(cars, self.agents))}
+        infos = dict(zip(self.agents, self._infos(cars)))
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
@@ -217,19 +214,22 @@ class DrivingEnv(ParallelEnv, EzPickle):
 
         done = events.arrived[acting] | events.collided[acting]
         truncated = self.decision >= cfg.horizon
-        observations, rewards, terminations, truncations, infos = {}, {}, {}, {}, {}
-        facts = self._facts(acting)
-        extra = self.scenario_info(acting)
-        for j, i in enumerate(acting.tolist()):
-            agent = self.possible_agents[i]
-            observations[agent] = obs[j]
-            rewards[agent] = float(total[j])
-            terminations[agent] = bool(done[j])
-            truncations[agent] = bool(truncated and not done[j])
-            infos[agent] = self._info(i, facts[j])
-            infos[agent].update(extra[j])
-            infos[agent]["reward_terms"] = {t: float(terms[t][j]) for t in TERMS}
-        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        # per-car dicts only here, at the PettingZoo boundary, from whole-array columns
+        agents = [self.possible_agents[i] for i in acting.tolist()]
+        done_list = done.tolist()
+        observations = dict(zip(agents, obs))
+        rewards = dict(zip(agents, total.tolist()))
+        terminations = dict(zip(agents, done_list))
+        truncations = {a: truncated and not d for a, d in zip(agents, done_list)}
+        term_columns = [terms[t].tolist() for t in TERMS]
+        infos = {}
+        for agent, info, values in zip(agents, self._infos(acting), zip(*term_columns)):
+            info["reward_terms"] = dict(zip(TERMS, values))
+            infos[agent] = info
+        if truncated:
+            self.agents = []
+        else:
+            self.agents = [a for a, d in zip(agents, done_list) if not d]
         return observations, rewards, terminations, truncations, infos
 
     def state(self) -> np.ndarray:
@@ -361,44 +361,61 @@ class DrivingEnv(ParallelEnv, EzPickle):
         out[has] = self._bits[senders[best[has]]]
         return out
 
-    def _facts(self, cars: np.ndarray) -> list[tuple]:
-        """Per-car geometric facts for infos, computed for all ``cars`` at once."""
+    def _infos(self, cars: np.ndarray) -> list[dict[str, Any]]:
+        """One info dict per car in ``cars`` (see the docs of the envs for the keys), built from
+        whole-array columns, with the scenario's own facts (:meth:`scenario_info`) added."""
         w = self.world
         pos = w.positions[cars]
-        inside = self.layout.in_junction(pos).tolist()
-        offsets = [float(self._lane_axes[i].offset(pos[j])) if self._lane_axes[i] is not None
-                   else None for j, i in enumerate(cars.tolist())]
+        status = w.status[cars]
+        offset = np.full(len(cars), np.nan)
+        has_axis = ~np.isnan(self._lane_half_width[cars])
+        if has_axis.any():
+            rel = pos[has_axis] - self._lane_origin[cars[has_axis]]
+            right = self._lane_right[cars[has_axis]]
+            # a stack of vector products: the same rounding as one car's ``rel @ right``
+            dot = np.matmul(rel[:, None, :], right[:, :, None])[:, 0, 0]
+            offset[has_axis] = dot / self._lane_half_width[cars[has_axis]]
         stop = np.full(len(cars), np.nan)
         lights, li = self.layout.lights, self._light_index[cars]
         if lights is not None and (li >= 0).any():
             has = li >= 0
             stop[has] = np.einsum("ij,ij->i", lights.stop_points[li[has]] - pos[has],
                                   lights.directions[li[has]])
-        stop = [None if np.isnan(d) else d for d in stop.tolist()]  # None: no light (NaN != NaN)
-        return list(zip(inside, offsets, stop))
-
-    def _info(self, i: int, facts: tuple) -> dict[str, Any]:
-        w = self.world
-        info = {
-            "position": w.positions[i].copy(),
-            "heading": float(w.headings[i]),
-            "speed": float(w.speed[i]),
-            "acceleration": float(w.accel[i]),
-            "light": float(self._seen[i]),
-            "in_junction": facts[0],
-            "lane_offset": facts[1],
-            "stop_line_distance": facts[2],
-            "distance_to_goal": float(w.s_end[i] - w.s[i]),
-            "arrived": bool(w.status[i] == ARRIVED),
-            "collided": bool(w.status[i] == COLLIDED),
-            "collided_with": w.collided_with[i],
-            "collision_partner": int(w.collision_partner[i]),
-            "partner_halted": bool(w.partner_halted[i]),
-            "rating": float(w.ratings[i]),
-            "decision": self.decision,
-            "approach": self.layout.cars[i].approach,
+        columns = {
+            "position": list(pos),
+            "heading": w.headings[cars].tolist(),
+            "speed": w.speed[cars].tolist(),
+            "acceleration": w.accel[cars].tolist(),
+            "light": self._seen[cars].tolist(),
+            "in_junction": self.layout.in_junction(pos).tolist(),
+            "lane_offset": [None if np.isnan(v) else v for v in offset.tolist()],  # None: no axis
+            "stop_line_distance": [None if np.isnan(v) else v for v in stop.tolist()],  # no light
+            "distance_to_goal": (w.s_end[cars] - w.s[cars]).tolist(),
+            "arrived": (status == ARRIVED).tolist(),
+            "collided": (status == COLLIDED).tolist(),
+            "collided_with": [w.collided_with[i] for i in cars.tolist()],
+            "collision_partner": w.collision_partner[cars].tolist(),
+            "partner_halted": w.partner_halted[cars].tolist(),
+            "rating": w.ratings[cars].tolist(),
+            "decision": [self.decision] * len(cars),
+            "approach": [self.layout.cars[i].approach for i in cars.tolist()],
         }
         if self.config.communication:
-            info["bit_sent"] = int(self._bits[i])
-            info["bit_received"] = int(self._received[i])
-        return info
+            columns["bit_sent"] = self._bits[cars].astype(np.int64).tolist()
+            columns["bit_received"] = self._received[cars].astype(np.int64).tolist()
+        names = list(columns)
+        infos = [dict(zip(names, row)) for row in zip(*columns.values())]
+        for info, extra in zip(infos, self.scenario_info(cars)):
+            info.update(extra)
+        return infos
+
+
+def _lane_axes(layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every car's lane axis as arrays: origins ``(N, 2)``, right-hand unit vectors ``(N, 2)`` and
+    half widths ``(N,)``, NaN for cars without an axis."""
+    n = len(layout.cars)
+    origin, right, half = np.full((n, 2), np.nan), np.full((n, 2), np.nan), np.full(n, np.nan)
+    for i, car in enumerate(layout.cars):
+        if car.lane_axis is not None:
+            origin[i], right[i], half[i] = car.lane_axis.origin, car.lane_axis.right, car.lane_axis.half_width
+    return origin, right, half

@@ -166,9 +166,11 @@ class DrivingWorld:
         xy = np.empty((n, k_steps + 1, 2))
         heading = np.empty((n, k_steps + 1))
         path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
-        velocity = (np.diff(xy, axis=1) / dt).tolist()
-        angular = (wrap_angle(np.diff(heading, axis=1)) / dt).tolist()
-        arrive_at = arrive.tolist()
+        velocity = ((xy[:, 1:] - xy[:, :-1]) / dt).tolist()
+        angular = (wrap_angle(heading[:, 1:] - heading[:, :-1]) / dt).tolist()
+        arriving: dict[int, list[int]] = {}  # physics step (1-based) -> cars reaching their goal
+        for i in np.flatnonzero(moving & (arrive > 0)).tolist():
+            arriving.setdefault(int(arrive[i]), []).append(i)
 
         events = DecisionEvents(
             arrived=np.zeros(n, dtype=bool), collided=np.zeros(n, dtype=bool),
@@ -192,8 +194,8 @@ class DrivingWorld:
                     self.s[i] = s_out[i, k + 1]
                     if i in live:
                         live.remove(i)
-            for i in list(live):
-                if arrive_at[i] == k + 1:
+            for i in arriving.get(k + 1, ()):
+                if i in live:  # not halted by a contact earlier in this decision
                     live.remove(i)
                     self.status[i] = ARRIVED
                     events.arrived[i] = True
@@ -254,13 +256,9 @@ class DrivingWorld:
     # -- reading ------------------------------------------------------------------------------
     def read_poses(self) -> None:
         """Cache car and pedestrian poses from Box2D (float64 copies)."""
-        pos = np.empty((self.n_cars, 2))
-        ang = np.empty(self.n_cars)
-        for i, body in enumerate(self.car_bodies):
-            pos[i] = body.position.tuple
-            ang[i] = body.angle
-        self.positions = pos
-        self.headings = wrap_angle(ang)
+        bodies = self.car_bodies
+        self.positions = np.array([b.position.tuple for b in bodies], dtype=float).reshape(-1, 2)
+        self.headings = wrap_angle(np.array([b.angle for b in bodies], dtype=float))
         self.ped_positions = np.array([b.position.tuple for b in self.ped_bodies],
                                       dtype=float).reshape(-1, 2)
 

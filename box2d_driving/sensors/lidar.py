@@ -184,15 +184,13 @@ def dropout_mask(rng: np.random.Generator, n_cars: int, n_rays: int, noise: floa
     """``(n_cars, n_rays)`` boolean mask with exactly ``round(noise * n_rays)`` True per row,
     chosen uniformly at random (the rays to drop)."""
     k = int(math.floor(noise * n_rays + 0.5))
-    mask = np.zeros((n_cars, n_rays), dtype=bool)
     if k == 0 or n_cars == 0:
-        return mask
+        return np.zeros((n_cars, n_rays), dtype=bool)
     if k >= n_rays:
-        mask[:] = True
-        return mask
-    idx = np.argpartition(rng.random((n_cars, n_rays)), k, axis=1)[:, :k]
-    np.put_along_axis(mask, idx, True, axis=1)
-    return mask
+        return np.ones((n_cars, n_rays), dtype=bool)
+    draws = rng.random((n_cars, n_rays))
+    # the k smallest draws of each row (draws are distinct doubles: exactly k per row)
+    return draws <= np.partition(draws, k - 1, axis=1)[:, k - 1:k]
 
 
 # Hits closer than this (m) read as this distance, so the inverse encoding is bounded by
