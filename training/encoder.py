@@ -13,8 +13,9 @@ encoders on the same rows as two matrix products:
 * layer 1 as a block-Toeplitz product: rays are cut into blocks of ``P`` neighbours; one row of
   the left matrix holds the ``P + 4`` rays (all ``H`` frames) a block's outputs read, the right
   matrix is built from the kernels of every encoder (``P x E x 8`` columns);
-* layer 2 (``8 -> 1``, kernel 5) as one product to ``E x 5`` kernel taps per ray followed by the
-  sum of the ring-shifted taps.
+* layer 2 (``8 -> 1``, kernel 5) as one product to ``E x 5`` kernel taps per ray (on the same
+  blocks of ``P`` rays, so the product is ``P`` times wider) followed by the sum of the
+  ring-shifted taps.
 
 The result equals the convolution (same sums, other order: within float rounding), which
 ``tests/test_training.py`` checks with gradients.
@@ -133,9 +134,11 @@ def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
     w1 = th.cat([th.stack([c.weight for c in conv1s]).reshape(-1), obs.new_zeros(1)])
     m1 = w1[_toeplitz_index(n, out_ch, h, kernel, block).to(w1.device)]
     b1 = th.stack([c.bias for c in conv1s]).reshape(-1).repeat(block)
-    hidden = th.addmm(b1, cols, m1).relu_().reshape(b * r, n * out_ch)  # ray-major, (enc, ch)
+    hidden = th.addmm(b1, cols, m1).relu_()  # (B * R / P, P x E x out_ch): ray-major, (enc, ch)
     m2 = th.block_diag(*[c.weight[0] for c in conv2s])  # (E * out_ch, E * kernel)
-    taps = (hidden @ m2).reshape(b, r, n, kernel)
+    # one product per block of P rays (P copies of m2 on the diagonal): wider than one per ray,
+    # whose (B * R, 16) x (16, 10) shape and its weight gradient ran far below the matmul speed
+    taps = (hidden @ th.block_diag(*([m2] * block))).reshape(b, r, n, kernel)
     # output ray p reads hidden ray p + k - pad with tap k: roll tap k by pad - k and sum
     out = sum(th.roll(tap, pad - k, dims=1) for k, tap in enumerate(taps.unbind(-1)))
     out = (out + th.cat([c.bias for c in conv2s])).relu_()  # (B, R, E)
