@@ -7,7 +7,8 @@ physics and Python glue, and the process's peak memory.
 
 Usage: ``python -m box2d_driving.bench [--seconds 5] [--cars 4 8 16 32] [--json FILE]``;
 ``--memory`` measures memory growth over resets instead (``box2d_driving/memcheck.py``), and
-``--train`` training throughput with PPO updates (``training/bench_train.py``).
+``--train`` training throughput with PPO updates (the training package's ``bench-train``
+command).
 """
 
 from __future__ import annotations
@@ -134,12 +135,18 @@ def main(argv: list[str] | None = None) -> int:
 
         return memcheck.main([a for a in argv if a != "--memory"])
     if "--train" in argv:  # training throughput, updates included (needs the train extra)
+        from box2d_driving import plugins
+
         try:
-            from training import bench_train
+            bench_train = plugins.command("bench-train")
         except ImportError as exc:
-            print(f"box2d-driving bench --train: error: needs the train extra ({exc})", file=sys.stderr)
+            bench_train, missing = None, f" ({exc})"
+        else:
+            missing = ""
+        if bench_train is None:
+            print(f"box2d-driving bench --train: error: needs the train extra{missing}", file=sys.stderr)
             return 2
-        return bench_train.main([a for a in argv if a != "--train"])
+        return bench_train([a for a in argv if a != "--train"])
     parser = argparse.ArgumentParser(prog="box2d-driving bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=5.0, help="timed seconds per car count")
     parser.add_argument("--cars", type=int, nargs="+", default=[4, 8, 16, 32])

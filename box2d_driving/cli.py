@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 import box2d_driving
+from box2d_driving import plugins
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -67,11 +68,9 @@ def _render(args: argparse.Namespace) -> int:
         env = box2d_driving.make(args.env_id, **overrides)
         policy = make_policy(args.policy, env, seed=args.seed)
     elif Path(args.policy).exists():
-        try:
-            from training import load_policy
-        except ImportError as exc:
-            raise ValueError(f"loading {args.policy} needs the train extra ({exc})") from exc
-        policy = load_policy(args.policy)
+        from box2d_driving.policies import load_trained
+
+        policy = load_trained(args.policy)
         if policy.env_id != args.env_id:
             raise ValueError(f"{args.policy} was trained on {policy.env_id}, not {args.env_id}")
         env = policy.make_env(**overrides)
@@ -179,7 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("env_id", help="intersection-v0, highway-v0, crosswalk-v0 or real-junction-v0")
     g.add_argument("--policy", help="who drives the other cars: a scripted policy (rule, random, "
                                     "full-throttle, pedestrian-oracle) or a checkpoint "
-                                    "(default: the scenario's shipped policy, or a scripted one without the train extra)")
+                                    "(default: the scenario's shipped policy in a source checkout, else a scripted one)")
     g.add_argument("--fps", type=float, default=2.0, help="decisions (seconds of the world) per real second (default 2)")
     g.add_argument("--seed", type=int, help="seed of the first episode (default: a new one each time)")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -219,37 +218,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-TRAINERS = {"lights": "training.traffic_lights", "crosswalk": "training.crosswalk",
-            "lanes": "training.lanes", "fast-lanes": "training.fast_lanes",
-            "real-junction": "training.real_junction"}
-
-
 def _delegate(argv: list[str]) -> int:
-    """``train`` and ``evaluate`` run the training scripts (they need the train extra)."""
-    import importlib
-
-    if argv[0] in ("evaluate", "convert-checkpoint", "sweep", "reproduce"):
-        module, rest = "training." + argv[0].replace("-", "_"), argv[1:]
+    """``train``, ``evaluate``, ``sweep``, ... run the training package's scripts (they need the
+    train extra)."""
+    if argv[0] != "train":
+        name, rest = argv[0], argv[1:]
     else:
+        trainers = plugins.behaviours()
         if len(argv) >= 2 and argv[1] in ("-h", "--help"):
-            print(f"usage: box2d-driving train {{{','.join(TRAINERS)}}} [options]\n\n"
+            print(f"usage: box2d-driving train {{{','.join(trainers)}}} [options]\n\n"
                   f"Train a behaviour; `box2d-driving train BEHAVIOUR --help` lists its options.")
             return 0
-        if len(argv) < 2 or argv[1] not in TRAINERS:
-            print(f"box2d-driving: error: train needs a behaviour: {', '.join(TRAINERS)} "
+        if len(argv) < 2 or argv[1] not in trainers:
+            print(f"box2d-driving: error: train needs a behaviour: {', '.join(trainers) or 'none installed'} "
                   f"(got {argv[1] if len(argv) > 1 else 'none'!r})", file=sys.stderr)
             return 2
-        module, rest = TRAINERS[argv[1]], argv[2:]
+        name, rest = f"train:{argv[1]}", argv[2:]
     try:
-        script = importlib.import_module(module)
+        script = plugins.command(name)
     except ImportError as exc:
+        script, missing = None, f": {exc}"
+    else:
+        missing = ""
+    if script is None:
         print(f"box2d-driving: error: {argv[0]} needs the train extra "
-              f"(pip install -c constraints-cpu.txt -e \".[train]\"): {exc}", file=sys.stderr)
+              f"(pip install -c constraints-cpu.txt -e \".[train]\"){missing}", file=sys.stderr)
         return 2
     # usage lines and error prefixes name the command the user typed, not the script's file
     saved, sys.argv[0] = sys.argv[0], "box2d-driving " + " ".join(argv[:1] if argv[0] != "train" else argv[:2])
     try:
-        return script.main(rest)
+        return script(rest)
     finally:
         sys.argv[0] = saved
 

@@ -63,12 +63,12 @@ def test_the_learner_is_car_0_of_the_multi_agent_env_exactly():
         env.step(0)
 
 
-def test_backgrounds_shipped_scripted_and_without_the_training_extra(monkeypatch):
+def test_backgrounds_shipped_scripted_and_without_the_assets_folder(monkeypatch):
     env = gym.make("box2d_driving/Intersection-v0").unwrapped
     assert env.background_name == "shipped:traffic_lights_4cars_noise05"
     assert env.parallel.config.lidar_noise == 0.5  # the settings its policy was trained with
     assert gym.make("box2d_driving/Intersection-v0", num_cars=8).unwrapped.parallel.config.num_cars == 8
-    monkeypatch.setattr(single_agent, "_load", lambda path: None)  # as without torch
+    monkeypatch.setattr(single_agent, "SHIPPED", single_agent.SHIPPED / "absent")  # as installed from a wheel
     assert gym.make("box2d_driving/Intersection-v0").unwrapped.background_name == "rule"
     assert gym.make("box2d_driving/Crosswalk-v0").unwrapped.background_name == "pedestrian-oracle"
     with pytest.raises(ValueError, match="not a scripted policy"):

@@ -1,18 +1,7 @@
-"""Checkpoints that cannot run code when they are read.
-
-SB3's ``model.zip`` stores cloudpickled objects, and ``PPO.load`` unpickles them: a crafted file
-runs whatever it likes on the machine that loads it. Policies are files people download, so this
-project never unpickles a checkpoint. A checkpoint is one ``model.safetensors`` file:
-
-* tensors ``policy/<name>``: the policy's ``state_dict`` (actor, critic, action and value heads);
-* tensors ``optimizer/<param index>/<name>``: the Adam state (moments and step), present in
-  training checkpoints so that ``--resume`` continues exactly; shipped policies may leave it out;
-* string metadata: ``format`` and ``version`` (what this module writes), ``counters`` (JSON:
-  ``num_timesteps``, ``n_updates``) and ``optimizer_param_groups`` (JSON).
-
-The network's shape is rebuilt from the run folder's ``config.json`` (plain JSON: env id, env
-overrides, critic, PPO settings), never from the checkpoint. safetensors is a JSON header followed
-by raw little-endian numbers: reading one parses JSON and copies bytes, nothing else.
+"""Checkpoints that cannot run code when they are read: the trainer's side (torch tensors,
+optimiser state, writing). The file format, its safety checks and :class:`CheckpointError` live in
+:mod:`box2d_driving.policies.checkpoint_file`, which runs policies without torch; this module
+reads the same files into torch and writes them.
 
 An older ``model.zip`` of the user's own can be converted once with
 ``box2d-driving convert-checkpoint RUN --trust-pickle`` (which unpickles it: see that command).
@@ -22,22 +11,15 @@ from __future__ import annotations
 
 import json
 import os
-import struct
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Union
 
 import torch as th
 
-FORMAT = "box2d-driving-checkpoint"
-VERSION = 1
-FILE = "model.safetensors"
-LEGACY_FILE = "model.zip"
-_MAX_HEADER = 100 * 2**20  # bytes; a safetensors header is JSON, this bounds what we parse
-
-
-class CheckpointError(ValueError):
-    """A checkpoint file is missing, unsafe, unreadable or does not fit the model."""
+from box2d_driving.policies.checkpoint_file import (FILE, FORMAT, LEGACY_FILE, VERSION,  # noqa: F401
+                                                    CheckpointError, check_header, check_metadata,
+                                                    find_checkpoint, legacy_message)
 
 
 @dataclass
@@ -48,28 +30,6 @@ class Checkpoint:
     policy: dict[str, th.Tensor]
     optimizer: Optional[dict[str, Any]]  # an ``optimizer.state_dict()``, or None
     counters: dict[str, int]
-
-
-def legacy_message(path: Path) -> str:
-    return (f"{path} is an SB3 model.zip: it holds pickled Python objects, which can run any code "
-            f"when loaded, so it is refused. Shipped and new checkpoints are {FILE} files. If this "
-            f"file is your own (you trained it and nobody else could have changed it), convert it "
-            f"once: box2d-driving convert-checkpoint {path} --trust-pickle")
-
-
-def find_checkpoint(path: Union[str, Path]) -> Path:
-    """The ``model.safetensors`` of a run folder (or the file itself). A folder that holds only a
-    pickled ``model.zip``, or a path to one, is refused with :func:`legacy_message`."""
-    path = Path(path)
-    if path.is_dir():
-        if (path / FILE).is_file():
-            return path / FILE
-        if (path / LEGACY_FILE).exists():
-            raise CheckpointError(legacy_message(path / LEGACY_FILE))
-        raise CheckpointError(f"no checkpoint in {path}: {FILE} is missing")
-    if not path.exists():
-        raise CheckpointError(f"no checkpoint at {path}")
-    return path
 
 
 def _tensor_bytes(t: th.Tensor) -> th.Tensor:
@@ -99,37 +59,19 @@ def save_model(model: Any, path: Union[str, Path], *, with_optimizer: bool = Tru
     return path
 
 
-def _check_header(path: Path) -> None:
-    """Refuse anything that is not a safetensors file before any library parses it."""
-    with path.open("rb") as fh:
-        head = fh.read(9)
-    if head[:2] == b"PK":
-        raise CheckpointError(legacy_message(path))
-    if len(head) < 9:
-        raise CheckpointError(f"{path} is not a {FORMAT} file (too short)")
-    (size,) = struct.unpack("<Q", head[:8])
-    if head[8:9] != b"{" or not 2 <= size <= min(_MAX_HEADER, path.stat().st_size - 8):
-        raise CheckpointError(f"{path} is not a {FORMAT} file (no safetensors header)")
-
-
 def read_checkpoint(path: Union[str, Path]) -> Checkpoint:
     """Read a checkpoint (a run folder or its ``model.safetensors``); never runs code from it."""
     from safetensors import safe_open
 
     path = find_checkpoint(path)
-    _check_header(path)
+    check_header(path)
     try:
         with safe_open(str(path), framework="pt") as fh:
             meta = fh.metadata() or {}
             tensors = {key: fh.get_tensor(key) for key in fh.keys()}
     except Exception as exc:  # corrupt or truncated file
         raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from None
-    if meta.get("format") != FORMAT:
-        raise CheckpointError(f"{path} is a safetensors file but not a {FORMAT} "
-                              f"(format {meta.get('format')!r})")
-    if meta.get("version") != str(VERSION):
-        raise CheckpointError(f"{path}: checkpoint version {meta.get('version')!r}; this release "
-                              f"reads version {VERSION}")
+    check_metadata(path, meta)
     try:
         counters = {k: int(v) for k, v in json.loads(meta.get("counters", "{}")).items()}
         groups = json.loads(meta["optimizer_param_groups"]) if "optimizer_param_groups" in meta else None

@@ -12,6 +12,7 @@ from typing import Any, Union
 import numpy as np
 import torch as th
 
+from box2d_driving.policies.checkpoint_file import find_config, read_json
 from training.checkpoint import CheckpointError, load_policy_weights, read_checkpoint
 
 
@@ -110,7 +111,7 @@ def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPo
         return policy
     ckpt = read_checkpoint(path)
     config_path = find_config(ckpt.path)
-    config = _read_json(config_path)
+    config = read_json(config_path)
     net = build_ctde_policy(config, config_path)
     load_policy_weights(net, ckpt)
     policy = TrainedPolicy(net, config, deterministic)
@@ -142,7 +143,7 @@ def _load_spline_policy(run: Path) -> Any:
     from stable_baselines3.common.policies import ActorCriticPolicy
 
     ckpt = read_checkpoint(run / "spline")
-    config = _read_json(run / "config.json")
+    config = read_json(run / "config.json")
     try:
         env = box2d_driving.make(config["accel"]["env_id"], **config["accel"]["env_overrides"])
         hidden = [int(h) for h in config.get("spline_hidden", (64, 64))]
@@ -153,20 +154,3 @@ def _load_spline_policy(run: Path) -> Any:
     env.close()
     load_policy_weights(policy, ckpt)
     return policy.eval()
-
-
-def _read_json(path: Path) -> dict:
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise CheckpointError(f"{path}: not a readable JSON config ({exc})") from None
-    if not isinstance(data, dict):
-        raise CheckpointError(f"{path}: expected a JSON object")
-    return data
-
-
-def find_config(model_path: Path) -> Path:
-    for folder in (model_path.parent, model_path.parent.parent):
-        if (folder / "config.json").exists():
-            return folder / "config.json"
-    raise CheckpointError(f"no config.json next to {model_path} or in its parent folder")

@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from box2d_driving.policies.numpy_actor import greedy_from_layers
+
 
 class SharedSplinePicker:
     """Greedy actions of an SB3 ``MlpPolicy`` (tanh hidden layers) from weights in shared memory.
@@ -74,16 +76,6 @@ class SharedSplinePicker:
             b[...] = layer.bias.detach().cpu().numpy()
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        """Greedy stage-0 actions for ``(N, D0)`` observations."""
-        x = np.asarray(obs, dtype=np.float32).reshape(len(obs), -1)
-        layers = self._layers()
-        for w, b in layers[:-1]:
-            x = np.tanh(x @ w.T + b)
-        w, b = layers[-1]
-        out = x @ w.T + b
-        space = self.action_space
-        if isinstance(space, spaces.Box):
-            return np.clip(out, space.low, space.high).reshape((len(obs),) + space.shape).astype(space.dtype)
-        picks = [part.argmax(axis=1) for part in np.split(out, np.cumsum(self._splits)[:-1], axis=1)]
-        actions = np.stack(picks, axis=1).astype(np.int64)
-        return actions[:, 0] if isinstance(space, spaces.Discrete) else actions
+        """Greedy stage-0 actions for ``(N, D0)`` observations (the same forward pass as a shipped
+        bilevel policy's spline actor, :func:`box2d_driving.policies.numpy_actor.greedy_from_layers`)."""
+        return greedy_from_layers(self._layers(), self.action_space, obs)

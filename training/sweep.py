@@ -254,12 +254,12 @@ def _trial_name(trial) -> str:
 def build_parser():
     from training.cli_args import OneLineParser
 
-    from box2d_driving.cli import TRAINERS
+    from box2d_driving.plugins import behaviours
 
     p = OneLineParser(prog=sys.argv[0].rsplit("/", 1)[-1] if sys.argv[0].startswith("box2d-driving") else "box2d-driving sweep",
                description="Train a grid of settings x training seeds on Ray Tune; every trial is "
                            "evaluated on held-out report seeds and summarised in OUT/summary.csv.")
-    p.add_argument("behaviour", choices=list(TRAINERS), help="what to train")
+    p.add_argument("behaviour", choices=behaviours(), help="what to train")
     p.add_argument("--grid", nargs="+", default=[], metavar="KEY=V1,V2",
                    help="training options to vary (names as the behaviour's --help lists them, "
                         "underscores or dashes), every combination runs")

@@ -79,11 +79,12 @@ def trial_name(behaviour: str, point: dict[str, str], seed: int) -> str:
 
 
 def script_module(behaviour: str):
-    from box2d_driving.cli import TRAINERS
+    """The training script of ``behaviour`` (the module of its ``train:NAME`` command)."""
+    from box2d_driving import plugins
 
-    if behaviour not in TRAINERS:
-        raise SweepError(f"unknown behaviour {behaviour!r}; choose one of {', '.join(TRAINERS)}")
-    return importlib.import_module(TRAINERS[behaviour])
+    if behaviour not in plugins.behaviours():
+        raise SweepError(f"unknown behaviour {behaviour!r}; choose one of {', '.join(plugins.behaviours())}")
+    return importlib.import_module(plugins.command(f"train:{behaviour}").__module__)
 
 
 def is_bilevel(behaviour: str) -> bool:

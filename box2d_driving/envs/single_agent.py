@@ -10,8 +10,8 @@
 The learner drives ``car_0`` (its observation, action, reward, termination and truncation are
 exactly the multi-agent env's for that car); every other car is driven by a **background policy**:
 
-* the scenario's shipped policy (``assets/policies/...``) when the training extra (torch) is
-  installed and this is a source checkout, with the env settings it was trained on (LiDAR noise,
+* the scenario's shipped policy (``assets/policies/...``) when this is a source checkout, run with
+  numpy alone (no training extra needed), with the env settings it was trained on (LiDAR noise,
   sat-nav fields; the number of cars and the reward stay yours to set);
 * otherwise a scripted one: the light rule (brake on yellow and red) at junctions, the
   privileged pedestrian oracle at the crosswalk, full throttle on the highway.
@@ -54,7 +54,7 @@ class SingleAgentDrivingEnv(gym.Env):
         env_id: the multi-agent env id (``intersection-v0``, ...).
         background: ``None`` (the shipped policy if it can be loaded, else ``fallback``), a
             scripted policy name (``rule``, ``random``, ``full-throttle``, ``pedestrian-oracle``)
-            or a path to a trained policy (needs the training extra).
+            or a path to a trained policy (a run folder or its ``model.safetensors``).
         fallback: the scripted policy used when no shipped policy can be loaded.
         shipped: the shipped policy's folder name under ``assets/policies`` (or None).
         **overrides: config fields of the multi-agent env (``num_cars``, ``render_mode``, ...).
@@ -112,26 +112,23 @@ def _background(env_id: str, background: Optional[str], fallback: str, shipped: 
     if background in SCRIPTED:
         return SCRIPTED[background], background, {}
     if background is not None:
-        policy = _load(Path(background))
-        if policy is None:
+        if not Path(background).exists():
             raise ValueError(f"background {background!r}: not a scripted policy ({', '.join(SCRIPTED)}) "
-                             f"and not a trained policy that loads here (needs the training extra)")
+                             f"and no trained policy at that path")
+        policy = _load(Path(background))
         return policy, str(background), _observation_settings(policy)
     if shipped is not None and (SHIPPED / shipped).is_dir():
         policy = _load(SHIPPED / shipped)
-        if policy is not None:
-            return policy, f"shipped:{shipped}", _observation_settings(policy)
+        return policy, f"shipped:{shipped}", _observation_settings(policy)
     return SCRIPTED[fallback], fallback, {}
 
 
 def _load(path: Path) -> Any:
-    """A trained policy, or None when the training extra is missing (the world package imports the
-    trainers only here, lazily, and only for this optional background)."""
-    try:
-        from training.inference import load_policy
-    except ImportError:
-        return None
-    return load_policy(path)
+    """A trained policy run with numpy (:func:`box2d_driving.policies.load_trained`): the base
+    install drives the background cars with it, no training extra needed."""
+    from box2d_driving.policies import load_trained
+
+    return load_trained(path)
 
 
 def _observation_settings(policy: Any) -> dict:

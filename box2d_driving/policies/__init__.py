@@ -1,0 +1,19 @@
+"""Policies that drive the cars of a ParallelEnv: ``policy.act(observations) -> actions``.
+
+* :mod:`~box2d_driving.policies.scripted`: hand-written drivers (random, full throttle, the light
+  rule, the privileged pedestrian oracle), references for every metric.
+* :mod:`~box2d_driving.policies.trained`: a trained checkpoint run with numpy alone
+  (:func:`load_trained`); :mod:`~box2d_driving.policies.numpy_actor` holds its networks and
+  :mod:`~box2d_driving.policies.checkpoint_file` the safe file format.
+
+This package imports nothing from the trainer (``training``), so the base install runs the
+shipped policies.
+"""
+
+from box2d_driving.policies.checkpoint_file import CheckpointError
+from box2d_driving.policies.scripted import (SCRIPTED, FullThrottlePolicy, LightRulePolicy,
+                                             PedestrianOraclePolicy, RandomPolicy, make_policy)
+from box2d_driving.policies.trained import TrainedPolicy, load_trained
+
+__all__ = ["CheckpointError", "FullThrottlePolicy", "LightRulePolicy", "PedestrianOraclePolicy",
+           "RandomPolicy", "SCRIPTED", "TrainedPolicy", "load_trained", "make_policy"]

@@ -1,0 +1,125 @@
+"""The checkpoint file format, read without any learning library and without running code.
+
+SB3's ``model.zip`` stores cloudpickled objects, and ``PPO.load`` unpickles them: a crafted file
+runs whatever it likes on the machine that loads it. Policies are files people download, so this
+project never unpickles a checkpoint. A checkpoint is one ``model.safetensors`` file:
+
+* tensors ``policy/<name>``: the policy's ``state_dict`` (actor, critic, action and value heads);
+* tensors ``optimizer/<param index>/<name>``: the Adam state (moments and step), present in
+  training checkpoints so that ``--resume`` continues exactly; shipped policies may leave it out;
+* string metadata: ``format`` and ``version`` (what the trainer writes), ``counters`` (JSON:
+  ``num_timesteps``, ``n_updates``) and ``optimizer_param_groups`` (JSON).
+
+The network's shape is rebuilt from the run folder's ``config.json`` (plain JSON: env id, env
+overrides, critic, PPO settings), never from the checkpoint. safetensors is a JSON header followed
+by raw little-endian numbers: reading one parses JSON and copies bytes, nothing else.
+
+This module reads the file into numpy arrays (:func:`read_arrays`), which is all that running a
+policy needs (:mod:`box2d_driving.policies.trained`); the trainer reads the same files into torch
+tensors with the same checks.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+
+FORMAT = "box2d-driving-checkpoint"
+VERSION = 1
+FILE = "model.safetensors"
+LEGACY_FILE = "model.zip"
+MAX_HEADER = 100 * 2**20  # bytes; a safetensors header is JSON, this bounds what we parse
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file is missing, unsafe, unreadable or does not fit the model."""
+
+
+def legacy_message(path: Path) -> str:
+    return (f"{path} is an SB3 model.zip: it holds pickled Python objects, which can run any code "
+            f"when loaded, so it is refused. Shipped and new checkpoints are {FILE} files. If this "
+            f"file is your own (you trained it and nobody else could have changed it), convert it "
+            f"once: box2d-driving convert-checkpoint {path} --trust-pickle")
+
+
+def find_checkpoint(path: Union[str, Path]) -> Path:
+    """The ``model.safetensors`` of a run folder (or the file itself). A folder that holds only a
+    pickled ``model.zip``, or a path to one, is refused with :func:`legacy_message`."""
+    path = Path(path)
+    if path.is_dir():
+        if (path / FILE).is_file():
+            return path / FILE
+        if (path / LEGACY_FILE).exists():
+            raise CheckpointError(legacy_message(path / LEGACY_FILE))
+        raise CheckpointError(f"no checkpoint in {path}: {FILE} is missing")
+    if not path.exists():
+        raise CheckpointError(f"no checkpoint at {path}")
+    return path
+
+
+def check_header(path: Path) -> None:
+    """Refuse anything that is not a safetensors file before any library parses it."""
+    with path.open("rb") as fh:
+        head = fh.read(9)
+    if head[:2] == b"PK":
+        raise CheckpointError(legacy_message(path))
+    if len(head) < 9:
+        raise CheckpointError(f"{path} is not a {FORMAT} file (too short)")
+    (size,) = struct.unpack("<Q", head[:8])
+    if head[8:9] != b"{" or not 2 <= size <= min(MAX_HEADER, path.stat().st_size - 8):
+        raise CheckpointError(f"{path} is not a {FORMAT} file (no safetensors header)")
+
+
+def check_metadata(path: Path, meta: dict[str, str]) -> None:
+    """The file's ``format`` and ``version`` must be the ones this release reads."""
+    if meta.get("format") != FORMAT:
+        raise CheckpointError(f"{path} is a safetensors file but not a {FORMAT} "
+                              f"(format {meta.get('format')!r})")
+    if meta.get("version") != str(VERSION):
+        raise CheckpointError(f"{path}: checkpoint version {meta.get('version')!r}; this release "
+                              f"reads version {VERSION}")
+
+
+def read_arrays(path: Union[str, Path]) -> tuple[Path, dict[str, np.ndarray], dict[str, str]]:
+    """``(file, policy arrays by state_dict name, metadata)`` of a checkpoint (a run folder or its
+    ``model.safetensors``), read with the safetensors numpy API; never runs code from the file."""
+    from safetensors import safe_open
+
+    path = find_checkpoint(path)
+    check_header(path)
+    try:
+        with safe_open(str(path), framework="numpy") as fh:
+            meta = fh.metadata() or {}
+            check_metadata(path, meta)
+            policy = {key[len("policy/"):]: fh.get_tensor(key) for key in fh.keys()
+                      if key.startswith("policy/")}
+    except CheckpointError:
+        raise
+    except Exception as exc:  # corrupt or truncated file
+        raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from None
+    if not policy:
+        raise CheckpointError(f"{path} holds no policy weights")
+    return path, policy, meta
+
+
+def find_config(model_path: Path) -> Path:
+    """The run's ``config.json``: beside the model file, or one folder up (bilevel runs)."""
+    for folder in (model_path.parent, model_path.parent.parent):
+        if (folder / "config.json").exists():
+            return folder / "config.json"
+    raise CheckpointError(f"no config.json next to {model_path} or in its parent folder")
+
+
+def read_json(path: Path) -> dict:
+    """A run's JSON config as a dict, or :class:`CheckpointError` naming the file."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise CheckpointError(f"{path}: not a readable JSON config ({exc})") from None
+    if not isinstance(data, dict):
+        raise CheckpointError(f"{path}: expected a JSON object")
+    return data

@@ -1,0 +1,142 @@
+"""Trained actors evaluated with numpy alone: no torch, no SB3.
+
+Two networks are run here, from the weights of a checkpoint (``state_dict`` names, as the trainer
+writes them):
+
+* :class:`DrivingActor`: the acceleration policy. The LiDAR history ``(H, n_rays)`` goes through
+  two circular 1-D convolutions (``H -> 8`` channels, then ``8 -> 1``, kernel 5, ReLU after each),
+  is average-pooled to 25 features and concatenated with the sat-nav history; then two tanh layers
+  of 256 and the action logits. Greedy action: the largest logit.
+* :class:`MlpActor`: the spline (stage-0) policy of a bilevel run, an SB3 ``MlpPolicy`` actor:
+  tanh hidden layers, then the action head. Greedy action: what SB3's
+  ``predict(deterministic=True)`` returns (the most likely category of each discrete component,
+  or the Gaussian mean clipped to a ``Box``'s bounds).
+
+The sums are the same as the trainer's (float32), in another order, so logits agree within float
+rounding; ``tests/test_numpy_actor.py`` checks equal actions on recorded observations of every
+shipped policy.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+from gymnasium import spaces
+from numpy.lib.stride_tricks import sliding_window_view
+
+Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
+
+
+def _weight(weights: Mapping[str, np.ndarray], name: str) -> np.ndarray:
+    from box2d_driving.policies.checkpoint_file import CheckpointError
+
+    if name not in weights:
+        raise CheckpointError(f"the checkpoint has no {name!r}: not an actor of this kind")
+    return np.ascontiguousarray(weights[name], dtype=np.float32)
+
+
+def linear_layers(weights: Mapping[str, np.ndarray], names: list[str]) -> Layers:
+    """``(weight, bias)`` of each named linear layer (``NAME.weight`` / ``NAME.bias``)."""
+    return [(_weight(weights, f"{n}.weight"), _weight(weights, f"{n}.bias")) for n in names]
+
+
+def circular_conv(x: np.ndarray, weight: np.ndarray, bias: np.ndarray) -> np.ndarray:
+    """``(B, C_in, L)`` -> ``(B, C_out, L)``: a 1-D convolution (cross-correlation, as
+    ``torch.nn.Conv1d``) over a ring, padded by wrapping ``kernel // 2`` values round each end."""
+    out_ch, in_ch, kernel = weight.shape
+    pad = kernel // 2
+    b, _, length = x.shape
+    ring = np.concatenate([x[..., length - pad:], x, x[..., :pad]], axis=2)
+    windows = sliding_window_view(ring, kernel, axis=2)  # (B, C_in, L, K)
+    cols = windows.transpose(0, 2, 1, 3).reshape(b * length, in_ch * kernel)
+    out = cols @ weight.reshape(out_ch, in_ch * kernel).T + bias
+    return out.reshape(b, length, out_ch).transpose(0, 2, 1)
+
+
+def adaptive_average(length: int, size: int) -> np.ndarray:
+    """``(length, size)`` matrix of ``torch.nn.AdaptiveAvgPool1d(size)``: output ``i`` averages
+    inputs ``floor(i L / size)`` up to ``ceil((i + 1) L / size)``."""
+    m = np.zeros((length, size), dtype=np.float32)
+    for i in range(size):
+        lo, hi = (i * length) // size, math.ceil((i + 1) * length / size)
+        m[lo:hi, i] = 1.0 / (hi - lo)
+    return m
+
+
+class DrivingActor:
+    """The acceleration policy's actor (see the module docstring) from checkpoint weights.
+
+    Args:
+        weights: the checkpoint's policy arrays by ``state_dict`` name.
+        history: frames in an observation (H).
+        n_rays: LiDAR rays per frame.
+        pooled: LiDAR features after pooling (25 in the paper's encoder).
+    """
+
+    def __init__(self, weights: Mapping[str, np.ndarray], history: int, n_rays: int,
+                 pooled: int = 25) -> None:
+        prefix = "mlp_extractor.actor_encoder.conv"
+        self.conv1 = (_weight(weights, f"{prefix}.0.weight"), _weight(weights, f"{prefix}.0.bias"))
+        self.conv2 = (_weight(weights, f"{prefix}.2.weight"), _weight(weights, f"{prefix}.2.bias"))
+        self.mlp = linear_layers(weights, ["mlp_extractor.actor_mlp.0", "mlp_extractor.actor_mlp.2"])
+        self.head = linear_layers(weights, ["action_net"])[0]
+        self.history, self.n_rays = history, n_rays
+        self.pool = adaptive_average(n_rays, pooled)
+        self.obs_dim = history * n_rays + self.mlp[0][0].shape[1] - pooled
+        if self.conv1[0].shape[1] != history:
+            raise ValueError(f"the actor's first convolution reads {self.conv1[0].shape[1]} frames, "
+                             f"the observation has {history}")
+
+    def logits(self, obs: np.ndarray) -> np.ndarray:
+        """Action logits ``(B, n_actions)`` for own observations ``(B, D)``."""
+        x = np.asarray(obs, dtype=np.float32)
+        if x.ndim != 2 or x.shape[1] != self.obs_dim:
+            raise ValueError(f"observations must be (B, {self.obs_dim}), got {x.shape}: "
+                             f"wrong env settings for this policy?")
+        h, r = self.history, self.n_rays
+        lidar = x[:, : h * r].reshape(len(x), h, r)
+        hidden = np.maximum(circular_conv(lidar, *self.conv1), 0.0)
+        rays = np.maximum(circular_conv(hidden, *self.conv2), 0.0)[:, 0]  # (B, R)
+        z = np.concatenate([rays @ self.pool, x[:, h * r:]], axis=1)
+        for w, b in self.mlp:
+            z = np.tanh(z @ w.T + b)
+        w, b = self.head
+        return z @ w.T + b
+
+    def greedy(self, obs: np.ndarray) -> np.ndarray:
+        """The most likely action of each row, ``(B,)`` int64."""
+        return self.logits(obs).argmax(axis=1).astype(np.int64)
+
+
+def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarray) -> np.ndarray:
+    """Greedy actions of an SB3 ``MlpPolicy`` actor (tanh hidden ``layers[:-1]``, head
+    ``layers[-1]``) for ``(N, D)`` observations, shaped as ``action_space`` samples."""
+    x = np.asarray(obs, dtype=np.float32).reshape(len(obs), -1)
+    for w, b in layers[:-1]:
+        x = np.tanh(x @ w.T + b)
+    w, b = layers[-1]
+    out = x @ w.T + b
+    if isinstance(action_space, spaces.Box):
+        shape = (len(obs),) + action_space.shape
+        return np.clip(out, action_space.low.ravel(), action_space.high.ravel()).reshape(shape).astype(action_space.dtype)
+    if isinstance(action_space, spaces.Discrete):
+        return out.argmax(axis=1).astype(np.int64)
+    if isinstance(action_space, spaces.MultiDiscrete):
+        splits = np.cumsum([int(n) for n in action_space.nvec])[:-1]
+        return np.stack([part.argmax(axis=1) for part in np.split(out, splits, axis=1)], axis=1).astype(np.int64)
+    raise TypeError(f"unsupported action space {action_space}")
+
+
+class MlpActor:
+    """An SB3 ``MlpPolicy`` actor (tanh hidden layers) from checkpoint weights: the spline
+    policy of a bilevel run. ``hidden`` is how many hidden layers it has."""
+
+    def __init__(self, weights: Mapping[str, np.ndarray], action_space: spaces.Space, hidden: int) -> None:
+        names = [f"mlp_extractor.policy_net.{2 * k}" for k in range(hidden)] + ["action_net"]
+        self.layers = linear_layers(weights, names)
+        self.action_space = action_space
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return greedy_from_layers(self.layers, self.action_space, obs)

@@ -1,0 +1,150 @@
+"""Run a trained policy with numpy alone: ``load_trained(path).act(observations)``.
+
+A run folder holds ``model.safetensors`` (the weights, see
+:mod:`box2d_driving.policies.checkpoint_file`) and ``config.json`` (the env id and settings the
+policy was trained with). A bilevel run (lanes, fast lanes) holds ``accel/`` (the acceleration
+policy) and ``spline/`` (the path-choosing policy) beside one ``config.json``. Loading rebuilds the
+actor from those two files and nothing else: no torch, no SB3 (the base install runs the shipped
+policies, for instance as the background cars of the single-agent Gymnasium envs). The trainer's
+``training.load_policy`` gives the same actions through torch.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import numpy as np
+
+from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config, read_arrays,
+                                                    read_json)
+from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor
+
+
+class TrainedPolicy:
+    """A trained actor. ``act(observations)`` maps ``{agent: obs}`` to ``{agent: action}``: the
+    most likely action, or (``deterministic=False``) one drawn from the policy's distribution with
+    ``seed``'s generator. The actor reads only each car's own observation.
+
+    Attributes:
+        config: the run's ``config.json`` (for a bilevel run: its acceleration stage's).
+        run_dir: the folder the policy was loaded from (its evaluation report, if any).
+        spline_policy: for a bilevel run, the greedy path chooser (stage-0 observations
+            ``(N, D0)`` to actions); None otherwise.
+    """
+
+    def __init__(self, actor: DrivingActor, config: dict, run_dir: Path, deterministic: bool = True,
+                 seed: Optional[int] = None) -> None:
+        self.actor = actor
+        self.config = config
+        self.run_dir = run_dir
+        self.deterministic = deterministic
+        self.obs_dim = actor.obs_dim
+        self.spline_policy: Optional[MlpActor] = None
+        self._rng = np.random.default_rng(seed)
+
+    @property
+    def env_id(self) -> str:
+        return self.config["env_id"]
+
+    @property
+    def env_overrides(self) -> dict:
+        return dict(self.config["env_overrides"])
+
+    @property
+    def stop_value(self) -> Optional[float]:
+        """The light value this policy stops on (0.0 or 1.0), from its evaluation report
+        (``eval/metrics.json`` beside the checkpoint); None where unknown. The two light groups
+        are symmetric, so training may settle on either value as "stop"."""
+        for folder in (self.run_dir, self.run_dir.parent):  # a bilevel run keeps eval/ above accel/
+            report = folder / "eval" / "metrics.json"
+            if report.is_file():
+                try:
+                    value = json.loads(report.read_text()).get("stop_value")
+                except (OSError, ValueError):
+                    return None
+                return float(value) if value in (0.0, 1.0) else None
+        return None
+
+    def actions(self, obs: np.ndarray) -> np.ndarray:
+        """Actions ``(M,)`` for own observations ``(M, D)``."""
+        logits = self.actor.logits(obs)
+        if self.deterministic:
+            return logits.argmax(axis=1).astype(np.int64)
+        p = np.exp(logits - logits.max(axis=1, keepdims=True))
+        cdf = np.cumsum(p / p.sum(axis=1, keepdims=True), axis=1)
+        u = self._rng.random((len(cdf), 1))
+        return np.minimum((cdf < u).sum(axis=1), cdf.shape[1] - 1).astype(np.int64)
+
+    def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
+        if not observations:
+            return {}
+        agents = list(observations)
+        obs = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
+        return dict(zip(agents, self.actions(obs).tolist()))
+
+    def make_env(self, **extra: Any):
+        """A fresh env with the settings the policy was trained on (``extra`` overrides them).
+        A rendering env draws the light value the policy stops on red (``render_stop_value``);
+        a bilevel policy's env picks each car's path with its spline policy."""
+        import box2d_driving
+
+        if extra.get("render_mode") is not None and "render_stop_value" not in extra \
+                and self.stop_value is not None:
+            extra["render_stop_value"] = self.stop_value
+        env = box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
+        if self.spline_policy is not None:
+            env.spline_policy = self.spline_policy
+        return env
+
+
+def _env(config: dict, where: Path):
+    import box2d_driving
+
+    try:
+        return box2d_driving.make(config["env_id"], **config["env_overrides"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CheckpointError(f"{where}: cannot rebuild the policy's env ({exc!r})") from None
+
+
+def load_trained(path: Union[str, Path], deterministic: bool = True,
+                 seed: Optional[int] = None) -> TrainedPolicy:
+    """Load a checkpoint: a run folder (``model.safetensors`` + ``config.json``), the
+    ``.safetensors`` file itself, or a bilevel run folder with ``accel/`` and ``spline/``, whose
+    envs then pick their paths with the spline policy. Raises :class:`CheckpointError` (a
+    ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
+    malformed."""
+    path = Path(path)
+    if path.is_dir() and (path / "spline").is_dir() and (path / "accel").is_dir():
+        policy = load_trained(path / "accel", deterministic, seed)
+        policy.spline_policy = _spline_actor(path)
+        return policy
+    file, weights, _ = read_arrays(path)
+    config_path = find_config(file)
+    config = read_json(config_path)
+    env = _env(config, config_path)
+    layout = env.observation_layout
+    env.close()
+    try:
+        actor = DrivingActor(weights, layout.history, layout.n_rays)
+    except ValueError as exc:
+        raise CheckpointError(f"{file} does not fit {config_path}'s env ({exc})") from None
+    if actor.obs_dim != layout.size:
+        raise CheckpointError(f"{file} reads {actor.obs_dim} observation values, {config_path}'s env "
+                              f"gives {layout.size}: another scenario's checkpoint?")
+    return TrainedPolicy(actor, config, config_path.parent, deterministic, seed)
+
+
+def _spline_actor(run: Path) -> MlpActor:
+    """The greedy stage-0 (spline) actor of a bilevel run folder."""
+    _, weights, _ = read_arrays(run / "spline")
+    config = read_json(run / "config.json")
+    try:
+        env = _env(config["accel"], run / "config.json")
+        space = env.spline_action_space
+        hidden = len(config.get("spline_hidden", (64, 64)))
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
+    env.close()
+    return MlpActor(weights, space, hidden)
