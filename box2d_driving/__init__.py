@@ -15,7 +15,7 @@ Single-agent Gymnasium envs (the learner drives one car, the others a background
 __version__ = "0.1.0"
 
 from box2d_driving.config import ConfigError, DrivingConfig
-from box2d_driving.envs.base import ActionError
+from box2d_driving.envs.actions import ActionError
 from box2d_driving.registry import make, registry
 from box2d_driving.envs.single_agent import register_single_agent_envs
 

@@ -93,7 +93,7 @@ def assert_nested_close(actual, expected, atol: float = 1e-6, where: str = "") -
 def tiny_train_config(**overrides):
     """A TrainConfig small enough for a test to train in seconds (2 cars, horizon 8, updates of
     80 decisions); ``overrides`` replace any field."""
-    from training.trainer import TrainConfig
+    from training.trainers.trainer import TrainConfig
 
     base = dict(env_overrides={"num_cars": 2, "horizon": 8}, timesteps=320, n_envs=2,
                 batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=2, threads=1)

@@ -55,7 +55,7 @@ def test_cli_set_reads_true_and_false_as_booleans():
         {"remove_collided": False, "render_lidar": True, "num_cars": 8, "map": "helsinki"}
 
 
-training = pytest.importorskip("training.trainer")
+training = pytest.importorskip("training.trainers.trainer")
 
 
 @pytest.mark.parametrize("field, value", [

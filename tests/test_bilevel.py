@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import box2d_driving
-from training.bandit import SplineBanditVecEnv
-from training.bilevel import BilevelConfig, train_bilevel
-from training.inference import load_policy
-from training.trainer import RunError, TrainConfig
+from training.ppo.bandit import SplineBanditVecEnv
+from training.trainers.bilevel import BilevelConfig, train_bilevel
+from training.runs.inference import load_policy
+from training.trainers.trainer import RunError, TrainConfig
 
 
 def _always(action):
@@ -103,8 +103,8 @@ def test_shared_spline_picker_gives_the_greedy_actions_of_the_latest_weights(env
     and follows the spline policy after every ``load`` (the weights live in shared memory)."""
     import torch
 
-    from training.bilevel import build_spline_model, make_bandit, make_picker
-    from training.trainer import build_model, make_vec_env
+    from training.trainers.bilevel import build_spline_model, make_bandit, make_picker
+    from training.trainers.trainer import build_model, make_vec_env
 
     cfg = _config(env_id)
     picker = make_picker(cfg)
@@ -131,7 +131,7 @@ def test_shared_spline_picker_gives_the_greedy_actions_of_the_latest_weights(env
 def test_bilevel_with_env_workers_trains_exactly_as_in_process(tmp_path):
     """With ``num_cpus=2`` the acceleration envs step in worker processes that pick paths from the
     shared spline weights: same rounds, same weights as in the learner's process."""
-    from training.checkpoint import read_checkpoint
+    from training.runs.checkpoint import read_checkpoint
 
     for name, num_cpus in (("local", 0), ("workers", 2)):
         cfg = _config(rounds=2)
@@ -152,7 +152,7 @@ def test_bilevel_with_env_workers_trains_exactly_as_in_process(tmp_path):
 def test_bilevel_scripts_train_and_evaluate(tmp_path, script, report):
     import importlib
 
-    from training import evaluate
+    from training.evaluation import evaluate
 
     module = importlib.import_module(f"training.{script}")
     out = tmp_path / "run"

@@ -17,9 +17,9 @@ th = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
 from tests.helpers import tiny_train_config  # noqa: E402
-from training.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
-from training.inference import load_policy  # noqa: E402
-from training.trainer import RunError, TrainConfig, build_model, load_ppo, make_vec_env, train  # noqa: E402
+from training.runs.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
+from training.runs.inference import load_policy  # noqa: E402
+from training.trainers.trainer import RunError, TrainConfig, build_model, load_ppo, make_vec_env, train  # noqa: E402
 
 
 class _Payload:
@@ -74,7 +74,7 @@ def crafted(run, tmp_path):
 
 def test_a_crafted_pickle_is_refused_everywhere_and_never_runs(crafted, tmp_path):
     from box2d_driving.cli import main as cli
-    from training import evaluate
+    from training.evaluation import evaluate
 
     folder, marker = crafted
     with pytest.raises(CheckpointError, match="pickled"):
@@ -97,7 +97,7 @@ def test_a_crafted_pickle_is_refused_everywhere_and_never_runs(crafted, tmp_path
         train(_tiny(init_from=str(folder)), tmp_path / "fine_tune")
     with pytest.raises(RunError, match="pickled"):
         train(_tiny(timesteps=320), folder, resume=True)
-    from training import convert_checkpoint
+    from training.runs import convert_checkpoint
     assert convert_checkpoint.main([str(folder)]) == 2  # no --trust-pickle: nothing is unpickled
     assert not marker.exists()
     # the payload is live: SB3's own loader runs it (so the checks above could have failed)
@@ -112,7 +112,7 @@ def test_a_crafted_pickle_is_refused_everywhere_and_never_runs(crafted, tmp_path
 def test_own_old_checkpoint_converts_with_trust_pickle(run, tmp_path):
     from stable_baselines3 import PPO
 
-    from training import convert_checkpoint
+    from training.runs import convert_checkpoint
 
     old = tmp_path / "old"
     old.mkdir()

@@ -183,8 +183,8 @@ FLAG_VALUES = st.one_of(st.sampled_from(["0", "-5", "1e9", "nan", "inf", "abc", 
                           FLAG_VALUES), min_size=1, max_size=4))
 def test_training_flags_parse_to_a_valid_config_or_exit_2(flags):
     """The training CLI up to the point a run would start: flags -> TrainConfig -> env check."""
-    from training.cli_args import parse
-    from training.scripts import ScriptArgs, config_from
+    from training.common.cli_args import parse
+    from training.behaviours.scripts import ScriptArgs, config_from
 
     argv = [x for pair in flags for x in pair]
     try:

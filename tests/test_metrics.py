@@ -98,7 +98,7 @@ def test_acceleration_by_light_keeps_each_values_colour_whatever_the_stop_value(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from training import plots
+    from training.evaluation import plots
 
     figures = []
     monkeypatch.setattr(plt, "close", lambda fig=None: figures.append(fig))

@@ -1,11 +1,9 @@
 """Shipped policies run with numpy alone: the same actions as the torch actor on 10,000 recorded
-observations of each, the same spline choices for the bilevel ones, the single-agent envs drive
-their background cars with them where torch and the trainer cannot be imported, and no module of
-the world package imports the trainer."""
+observations of each, the same spline choices for the bilevel ones, and the single-agent envs drive
+their background cars with them where torch and the trainer cannot be imported."""
 
 from __future__ import annotations
 
-import ast
 import subprocess
 import sys
 import textwrap
@@ -46,7 +44,7 @@ def _record(policy, n_obs: int, seed: int) -> np.ndarray:
 @pytest.mark.parametrize("run", SHIPPED, ids=lambda p: p.name)
 def test_numpy_actor_equals_the_torch_actor_on_recorded_observations(run):
     pytest.importorskip("torch")
-    from training.inference import actor_actions, load_policy
+    from training.runs.inference import actor_actions, load_policy
 
     mine, theirs = load_trained(run), load_policy(run)
     assert (mine.env_id, mine.env_overrides, mine.stop_value) == (theirs.env_id, theirs.env_overrides,
@@ -128,23 +126,3 @@ def test_single_agent_envs_use_the_shipped_policy_without_torch_or_the_trainer()
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip().endswith("ok []")
-
-
-def _imported_modules(path: Path) -> set[str]:
-    """Every module name ``path`` imports (``import x``, ``from x import y``, and string arguments
-    of ``importlib.import_module``)."""
-    names = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            names.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module)
-        elif isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", "")) == "import_module":
-            names.update(a.value for a in node.args if isinstance(a, ast.Constant) and isinstance(a.value, str))
-    return names
-
-
-def test_the_world_package_never_imports_the_trainer():
-    offenders = {str(p.relative_to(ROOT)): sorted(m for m in _imported_modules(p) if m.split(".")[0] == "training")
-                 for p in (ROOT / "box2d_driving").rglob("*.py")}
-    assert not {k: v for k, v in offenders.items() if v}

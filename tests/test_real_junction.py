@@ -146,7 +146,7 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     pytest.importorskip("matplotlib")
     from box2d_driving.metrics.rollouts import run_episodes
     from box2d_driving.policies import RandomPolicy
-    from training.reports import real_junction_report
+    from training.evaluation.reports import real_junction_report
 
     def make_env(**kw):
         return box2d_driving.make("real-junction-v0", num_cars=4, communication=True, **kw)
@@ -157,14 +157,14 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     assert 0.0 <= metrics["communication"]["bit_one_share"] <= 1.0
     assert set(metrics["messages_unheard"]) == {"success_rate", "collision_rate", "fifo_share", "safe_share"}
     assert (tmp_path / "safety_distance.png").exists()
-    from training.reports import add_collisions
+    from training.evaluation.reports import add_collisions
 
     crashes = add_collisions({}, table, tmp_path)["collisions"]  # every collided car in one class
     assert crashes["collided_cars"] == int(table["collided"].sum()) > 0
     assert sum(k["cars"] for k in crashes["by_kind"].values()) == crashes["collided_cars"]
     assert (tmp_path / "collisions.png").exists()
     # the noise-level table reads such reports (two "levels" here: the same report twice)
-    from training import communication_table
+    from training.evaluation import communication_table
 
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     out = tmp_path / "communication.png"
@@ -186,9 +186,9 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
 def test_remove_collided_option_reaches_training_config_and_evaluation(tmp_path):
     pytest.importorskip("matplotlib")
 
-    from training import evaluate
-    from training.real_junction import Args
-    from training.scripts import config_from
+    from training.evaluation import evaluate
+    from training.behaviours.real_junction import Args
+    from training.behaviours.scripts import config_from
 
     assert config_from("real-junction-v0", Args(remove_collided=True)).env_overrides["remove_collided"] is True
     assert "remove_collided" not in config_from("real-junction-v0", Args()).env_overrides
@@ -207,8 +207,8 @@ def test_evaluation_can_leave_wrecks_for_a_policy_trained_without_them(tmp_path)
     """--remove-collided is three-way: given, negated (--no-...), or absent (as trained)."""
     pytest.importorskip("torch")
 
-    from training import evaluate
-    from training.cli_args import parse
+    from training.evaluation import evaluate
+    from training.common.cli_args import parse
 
     assert parse(evaluate.Args, ["--checkpoint", "x", "--out", "y"]).remove_collided is None
     assert parse(evaluate.Args, ["--checkpoint", "x", "--out", "y", "--remove-collided"]).remove_collided is True
@@ -229,8 +229,8 @@ def test_checkpoint_curve_evaluates_every_checkpoint_on_selection_seeds(tmp_path
     import csv
 
     from tests.helpers import tiny_train_config
-    from training import checkpoint_curve
-    from training.trainer import train
+    from training.evaluation import checkpoint_curve
+    from training.trainers.trainer import train
 
     run = tmp_path / "run"
     train(tiny_train_config(env_id="real-junction-v0", timesteps=320, checkpoint_every=2), run)

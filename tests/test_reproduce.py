@@ -8,9 +8,9 @@ import re
 
 import pytest
 
-from training.reproduce import Group, ResultsError, main, trial_budget
-from training.seeds import REPORT, SELECTION
-from training.stats import mean_ci, t95
+from training.results.reproduce import Group, ResultsError, main, trial_budget
+from training.common.seeds import REPORT, SELECTION
+from training.results.stats import mean_ci, t95
 
 
 def _ragged_tables(text: str) -> list[str]:
@@ -49,7 +49,7 @@ VIOLATIONS = {("0", "1"): [0.40, 0.47, 0.50], ("0", "4"): [0.10, 0.12, 0.08],
 
 
 def test_a_metric_is_a_column_its_size_or_the_difference_of_two_metrics():
-    from training.results_data import Difference, Size, metric_value
+    from training.results.data import Difference, Size, metric_value
 
     row = {"a": 0.8, "b": 0.65, "r": -0.3, "text": "x", "c - d": 0.5, "abs:a": 2.0}
     assert metric_value(row, "a") == 0.8 and metric_value(row, Size("r")) == 0.3
@@ -98,18 +98,18 @@ def test_a_summary_evaluated_off_report_seeds_is_refused(tmp_path, capsys):
     assert "not on report seeds" in capsys.readouterr().err and not (tmp_path / "r.md").exists()
     (tmp_path / "junk.json").write_text("{}")
     with pytest.raises(ResultsError):
-        from training.reproduce import load_summary
+        from training.results.reproduce import load_summary
         load_summary(tmp_path / "junk.json")
 
 
 def test_the_paper_comparison_says_inside_or_outside(tmp_path):
-    from training.reproduce import SECTIONS, Group
-    from training.results_statements import paper_comparison
+    from training.results.reproduce import SECTIONS, Group
+    from training.results.statements import paper_comparison
 
     section = next(s for s in SECTIONS if s.key == "right-of-way")
     groups = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.90, 0.91, 0.92]),
                                     "safety_distance.safe_share": mean_ci([0.95, 0.96, 0.94])})]
-    lines = "\n".join(paper_comparison(section, groups))
+    lines = "\n".join(paper_comparison(section.paper_values, groups))
     assert "our mean is inside the paper's interval" in lines  # 0.91 within 0.8525 +- 0.089
     assert "the paper's value lies outside our interval" in lines  # 0.9845 vs 0.95 +- 0.025
 
@@ -117,7 +117,7 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
 def test_figure_data_counts_in_fixed_bins():
     import numpy as np
 
-    from training import figure_data as fd
+    from training.evaluation import figure_data as fd
 
     table = {"in_junction": np.array([True, True, True, False]), "lane_offset": np.array([0.5, 0.55, -0.9, 0.5])}
     counts = fd.figure_data("intersection-spline-v0", table, None)["lane_position_counts"]
@@ -127,7 +127,7 @@ def test_figure_data_counts_in_fixed_bins():
 
 
 def test_lanes_page_draws_the_lane_position_histograms_summed_over_seeds(tmp_path):
-    from training import figure_data as fd
+    from training.evaluation import figure_data as fd
 
     n = len(fd.LANE_BINS) - 1
     right = [0] * n
@@ -142,7 +142,7 @@ def test_lanes_page_draws_the_lane_position_histograms_summed_over_seeds(tmp_pat
              "timesteps": None, "minutes": None, "episodes": 200, "quick": False}
     path = tmp_path / "lanes.json"
     path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
-    from training.reproduce import groups_of, load_summary
+    from training.results.reproduce import groups_of, load_summary
 
     groups = groups_of(load_summary(path), ["lanes.majority_share"])
     assert groups[1].figures["lane_position_counts"][-3] == 20  # two seeds summed
@@ -155,8 +155,8 @@ def test_lanes_page_draws_the_lane_position_histograms_summed_over_seeds(tmp_pat
 def test_summary_rows_keep_figures_in_the_json_only(tmp_path):
     import csv as csv_module
 
-    from training.sweep_spec import SweepSpec
-    from training.sweep_summary import summary_row, write_summary
+    from training.sweeps.spec import SweepSpec
+    from training.sweeps.summary import summary_row, write_summary
 
     trial = {"name": "t", "behaviour": "lanes", "seed": 0, "point": {}}
     row = summary_row(trial, "done", {"report/success_rate": 0.5, "figures/lane_position_counts": [1, 2]})
@@ -170,7 +170,7 @@ def test_summary_rows_keep_figures_in_the_json_only(tmp_path):
 def test_gifs_animate_the_shipped_policy_and_the_page_links_them(tmp_path):
     import dataclasses
 
-    from training import reproduce
+    from training.results import reproduce
 
     section = next(s for s in reproduce.SECTIONS if s.key == "traffic-lights")
     small = dataclasses.replace(section, gif_size=(96, 96))
@@ -186,9 +186,9 @@ def test_gifs_animate_the_shipped_policy_and_the_page_links_them(tmp_path):
 def test_every_rules_rerun_command_is_a_valid_sweep():
     import shlex
 
-    from training.reproduce import SECTIONS
-    from training.sweep import build_parser, spec_from_args
-    from training.sweep_spec import check_spec
+    from training.results.reproduce import SECTIONS
+    from training.sweeps.sweep import build_parser, spec_from_args
+    from training.sweeps.spec import check_spec
 
     for section in SECTIONS:
         argv = shlex.split(section.command)
@@ -202,7 +202,7 @@ def _tiny_section(setting="A tiny grid."):
     """A rule whose sweep is two tiny trials (1 and 2 cars, one seed) from a shipped policy."""
     from pathlib import Path
 
-    from training.results_sections import Section
+    from training.results.sections import Section
 
     shipped = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars"
     return Section("traffic-lights", "Stopping at red lights", "lights", (),
@@ -218,7 +218,7 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
 
     import ray
 
-    from training import reproduce
+    from training.results import reproduce
 
     monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
     folder, runs, page = tmp_path / "sweeps", tmp_path / "runs", tmp_path / "results.md"
@@ -244,9 +244,9 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
 
 
 def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, monkeypatch, capsys):
-    from training import reproduce
-    from training.sweep_spec import SweepSpec
-    from training.sweep_summary import write_summary
+    from training.results import reproduce
+    from training.sweeps.spec import SweepSpec
+    from training.sweeps.summary import write_summary
 
     monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
     folder = tmp_path / "sweeps"
@@ -270,7 +270,7 @@ def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, m
 
 
 def test_readme_table_shows_each_rules_headline_over_seeds_and_links_its_section(tmp_path, capsys):
-    from training.reproduce import README_END, README_START
+    from training.results.reproduce import README_END, README_START
 
     summary = _summary(tmp_path / "lights.json", {**VIOLATIONS, ("0.5", "4"): [0.05, 0.07]})
     readme = tmp_path / "README.md"
@@ -299,7 +299,7 @@ def test_the_committed_page_and_readme_table_match_the_committed_summaries(tmp_p
     import shutil
     from pathlib import Path
 
-    from training.reproduce import README_END, README_START, default_summaries, load_summary, readme_table, write_page
+    from training.results.reproduce import README_END, README_START, default_summaries, load_summary, readme_table, write_page
 
     root = Path(__file__).resolve().parent.parent
     monkeypatch.chdir(root)
@@ -325,7 +325,7 @@ def test_a_grid_point_whose_cars_do_not_arrive_is_called_unlearnt(tmp_path):
 
 
 def test_a_lone_car_that_stops_on_red_is_told_apart_from_a_light_blind_driver(tmp_path):
-    from training.results_data import light_blind_violation_rate
+    from training.results.data import light_blind_violation_rate
 
     blind = light_blind_violation_rate(1, 0.0, REPORT.start, 200)
     assert 0.3 < blind < 0.6  # full throttle enters on red about as often as on green
@@ -376,8 +376,7 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
 
 
 def test_lanes_and_pedestrian_statements_read_the_intervals():
-    from training.results_sections import section
-    from training.results_statements import statements
+    from training.results.sections import section, statements
 
     lanes = [Group({"num_cars": "2"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.52, 0.60, 0.55]),
                                                   "success_rate": mean_ci([0.9] * 3)}),
@@ -413,8 +412,7 @@ def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
 
 
 def test_more_violations_with_more_cars_is_not_called_an_overlap():
-    from training.results_sections import section
-    from training.results_statements import statements
+    from training.results.sections import section, statements
 
     groups = [Group({"lidar_noise": "0", "num_cars": n}, [0, 1, 2],
                     {"red_light_violation_rate": mean_ci(v), "success_rate": mean_ci([0.9] * 3),
@@ -426,8 +424,7 @@ def test_more_violations_with_more_cars_is_not_called_an_overlap():
 
 
 def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_points_only():
-    from training.results_sections import section
-    from training.results_statements import statements
+    from training.results.sections import section, statements
 
     def point(noise, cars, violations, success=0.9):
         return Group({"lidar_noise": noise, "num_cars": cars}, [0, 1, 2],
@@ -449,8 +446,7 @@ def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_poin
 
 
 def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
-    from training.results_sections import section
-    from training.results_statements import statements
+    from training.results.sections import section, statements
 
     def point(noise, cars, violations, success=0.9):
         return Group({"lidar_noise": noise, "num_cars": cars}, [0, 1, 2],

@@ -21,7 +21,7 @@ import box2d_driving  # noqa: E402
 from box2d_driving.policies import make_policy  # noqa: E402
 from box2d_driving.render.video import record  # noqa: E402
 from tests.helpers import tiny_train_config  # noqa: E402
-from training.trainer import RunError, TrainConfig, train  # noqa: E402
+from training.trainers.trainer import RunError, TrainConfig, train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -46,7 +46,7 @@ def test_a_run_that_fails_its_checks_writes_nothing(tmp_path):
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_before_the_first_checkpoint_saves_one_that_resumes(tmp_path, signum):
     out = tmp_path / "run"
-    argv = [sys.executable, "-m", "training.traffic_lights", "--out", str(out), "--timesteps", "10000000",
+    argv = [sys.executable, "-m", "training.behaviours.traffic_lights", "--out", str(out), "--timesteps", "10000000",
             "--n-envs", "2", "--batch-decisions", "80", "--num-cars", "2", "--threads", "1", "--epochs", "1"]
     env = {**os.environ, "SDL_VIDEODRIVER": "dummy"}
     proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -69,7 +69,7 @@ def test_a_signal_before_the_first_checkpoint_saves_one_that_resumes(tmp_path, s
 
 
 def test_evaluate_overwrite_replaces_the_folder_and_an_interrupted_one_leaves_it(tmp_path, monkeypatch):
-    from training import evaluate
+    from training.evaluation import evaluate
 
     out = tmp_path / "eval"
     args = ["--checkpoint", "rule", "--episodes", "2", "--out", str(out)]

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from box2d_driving.config import ConfigError
-from training.seeds import MAX_RUN_SEED, REPORT, SELECTION, TRAINING, SeedError, which
+from training.common.seeds import MAX_RUN_SEED, REPORT, SELECTION, TRAINING, SeedError, which
 
 
 def test_the_three_ranges_are_disjoint_and_ordered():
@@ -24,7 +24,7 @@ def test_the_three_ranges_are_disjoint_and_ordered():
 
 @pytest.mark.parametrize("seed", [0, 10_000, SELECTION.start, SELECTION.stop - 5, REPORT.stop])
 def test_evaluate_refuses_episodes_that_are_not_report_seeds(tmp_path, capsys, seed):
-    from training import evaluate
+    from training.evaluation import evaluate
 
     out = tmp_path / "eval"
     assert evaluate.main(["--checkpoint", "rule", "--episodes", "2", "--seed", str(seed), "--out", str(out)]) == 2
@@ -33,7 +33,7 @@ def test_evaluate_refuses_episodes_that_are_not_report_seeds(tmp_path, capsys, s
 
 
 def test_evaluate_reports_on_report_seeds_by_default(tmp_path):
-    from training import evaluate
+    from training.evaluation import evaluate
 
     out = tmp_path / "eval"
     assert evaluate.main(["--checkpoint", "rule", "--episodes", "2", "--out", str(out)]) == 0
@@ -43,7 +43,7 @@ def test_evaluate_reports_on_report_seeds_by_default(tmp_path):
 
 def test_training_never_draws_selection_or_report_episodes():
     from tests.helpers import tiny_train_config
-    from training.trainer import make_vec_env
+    from training.trainers.trainer import make_vec_env
 
     with pytest.raises(ConfigError, match="seed"):
         tiny_train_config(seed=MAX_RUN_SEED + 1)

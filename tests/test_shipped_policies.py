@@ -10,8 +10,8 @@ import pytest
 
 from box2d_driving.metrics.rollouts import run_episodes
 from tests.helpers import assert_nested_close
-from training.checkpoint import read_checkpoint
-from training.inference import load_policy
+from training.runs.checkpoint import read_checkpoint
+from training.runs.inference import load_policy
 
 ROOT = Path(__file__).resolve().parent.parent
 # reports of a shipped policy (a run folder with its checkpoint; the communication study keeps the

@@ -76,7 +76,7 @@ def test_backgrounds_shipped_scripted_and_without_the_assets_folder(monkeypatch)
 
 
 def test_plain_sb3_ppo_trains_on_it(tmp_path, capsys):
-    from training import single_agent_ppo
+    from training.behaviours import single_agent_ppo
 
     out = tmp_path / "run"
     assert single_agent_ppo.main(["--quick", "--episodes", "2", "--out", str(out)]) == 0

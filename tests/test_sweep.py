@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from training.seeds import REPORT
-from training.sweep import prepare_out
-from training.sweep_spec import SweepError, SweepSpec, check_spec, parse_pairs
+from training.common.seeds import REPORT
+from training.sweeps.sweep import prepare_out
+from training.sweeps.spec import SweepError, SweepSpec, check_spec, parse_pairs
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "assets" / "policies" / "traffic_lights_4cars"
@@ -140,7 +140,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
 
 
 def test_a_continued_sweep_says_it_keeps_the_concurrency_it_started_with(tmp_path):
-    from training.sweep import CONCURRENCY_FILE, kept_concurrency
+    from training.sweeps.sweep import CONCURRENCY_FILE, kept_concurrency
 
     assert kept_concurrency(tmp_path, 3) == ""  # begun before the limit was recorded
     (tmp_path / CONCURRENCY_FILE).write_text(json.dumps({"max_concurrent": 2}))
@@ -152,7 +152,7 @@ def test_a_continued_sweep_says_it_keeps_the_concurrency_it_started_with(tmp_pat
 
 
 def test_reuse_refuses_another_sweeps_summary(tmp_path):
-    from training.sweep_summary import reusable_rows, write_summary
+    from training.sweeps.summary import reusable_rows, write_summary
 
     spec = SweepSpec("lights", grid={"lidar_noise": ["0"]})
     write_summary(tmp_path, spec, [{"trial": "t", "behaviour": "lights", "seed": 0, "status": "done"}])
@@ -165,7 +165,7 @@ def test_reuse_refuses_another_sweeps_summary(tmp_path):
 
 
 def test_without_ray_the_sweep_says_which_extra_to_install(monkeypatch, capsys, tmp_path):
-    from training.sweep import main
+    from training.sweeps.sweep import main
 
     monkeypatch.setitem(sys.modules, "ray", None)  # as if the [sweep] extra were not installed
     assert main(["lights", "--out", str(tmp_path / "s")]) == 2
@@ -178,10 +178,10 @@ def test_a_continued_sweep_runs_the_summary_callback_of_the_code_installed_now(t
     summary callback is a module-level class: plain pickle stores it by name."""
     import pickle
 
-    from training.sweep import SummaryCallback
+    from training.sweeps.sweep import SummaryCallback
 
     cb = SummaryCallback(tmp_path, SweepSpec("lights"), {})
     data = pickle.dumps(cb)
-    assert b"training.sweep" in data and b"SummaryCallback" in data and b"on_trial_complete" not in data
+    assert b"training.sweeps.sweep" in data and b"SummaryCallback" in data and b"on_trial_complete" not in data
     again = pickle.loads(data)
     assert type(again) is SummaryCallback and again.out == tmp_path

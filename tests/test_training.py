@@ -10,11 +10,11 @@ th = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
 import box2d_driving  # noqa: E402
-from training.buffer import MaskedRolloutBuffer  # noqa: E402
-from training.inference import load_policy  # noqa: E402
-from training.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
-from training.trainer import RunError, TrainConfig, build_model, train  # noqa: E402
-from training.vec_env import SlotVecEnv  # noqa: E402
+from training.ppo.buffer import MaskedRolloutBuffer  # noqa: E402
+from training.runs.inference import load_policy  # noqa: E402
+from training.ppo.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
+from training.trainers.trainer import RunError, TrainConfig, build_model, train  # noqa: E402
+from training.ppo.vec_env import SlotVecEnv  # noqa: E402
 from tests.helpers import hand_env, level_index, straight_car, tiny_train_config  # noqa: E402
 
 
@@ -96,7 +96,7 @@ def _slot_rows(lay, instances, t, alive):
 def _filled_buffer(steps, instances, cars, group_size, seed=0):
     from gymnasium import spaces
 
-    from training.vec_env import TeamLayout, slot_observation_space
+    from training.ppo.vec_env import TeamLayout, slot_observation_space
 
     lay = TeamLayout(2, cars)
     space = slot_observation_space(spaces.Box(-1e6, 1e6, (2,), np.float32), cars)
@@ -205,7 +205,7 @@ def test_a_rollout_step_takes_the_grouped_path_with_the_same_values(critic):
 
 @pytest.mark.parametrize("n_rays", [100, 36, 7])
 def test_fast_lidar_encoder_equals_the_convolution(n_rays):
-    from training.encoder import LidarEncoder, encode
+    from training.ppo.encoder import LidarEncoder, encode
 
     th.manual_seed(n_rays)
     encoders = [LidarEncoder(5, n_rays, 4), LidarEncoder(5, n_rays, 4)]
@@ -299,7 +299,7 @@ def test_actor_is_blind_to_the_team_block():
 
 def test_model_save_load_round_trip(tmp_path):
     """Weights, Adam moments and step, and the counters survive the safetensors checkpoint."""
-    from training.checkpoint import read_checkpoint, restore_model, save_model
+    from training.runs.checkpoint import read_checkpoint, restore_model, save_model
 
     cfg = TrainConfig(env_overrides={"num_cars": 2, "horizon": 8}, n_envs=1, batch_decisions=32,
                       minibatch=16, epochs=1)
@@ -348,7 +348,7 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     # config.json keeps the first leg's settings; each resume records the ones it was given
     assert json.loads((out / "config.json").read_text())["timesteps"] == 320
     assert json.loads((out / "config.resumed_000000000480.json").read_text())["timesteps"] == 640
-    from training.plots import read_progress
+    from training.evaluation.plots import read_progress
     assert len(read_progress(out)["time/agent_steps"]) == 8  # 4 + 2 + 2 updates, none lost
     with pytest.raises(RunError, match="env_overrides differs"):
         train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=800), out, resume=True)
@@ -373,7 +373,7 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
 
 
 def test_load_policy_rejects_bad_checkpoints(tmp_path):
-    from training.checkpoint import CheckpointError
+    from training.runs.checkpoint import CheckpointError
 
     with pytest.raises(CheckpointError, match="no checkpoint"):
         load_policy(tmp_path / "nothing.safetensors")
@@ -388,7 +388,8 @@ def test_load_policy_rejects_bad_checkpoints(tmp_path):
 
 
 def test_scripts_quick_train_and_evaluate(tmp_path):
-    from training import evaluate, traffic_lights
+    from training.evaluation import evaluate
+    from training.behaviours import traffic_lights
 
     out = tmp_path / "q"
     argv = ["--out", str(out), "--timesteps", "320", "--n-envs", "2", "--batch-decisions", "80",
@@ -409,7 +410,8 @@ def test_scripts_quick_train_and_evaluate(tmp_path):
 
 
 def test_crosswalk_script_and_evaluation_with_invisible_control(tmp_path):
-    from training import crosswalk, evaluate
+    from training.behaviours import crosswalk
+    from training.evaluation import evaluate
 
     out = tmp_path / "cw"
     assert crosswalk.main(["--out", str(out), "--timesteps", "320", "--n-envs", "2",
@@ -452,7 +454,7 @@ def test_main_job_demo_runs_end_to_end(tmp_path):
 
 
 def test_init_from_copies_weights_across_car_counts(tmp_path):
-    from training.checkpoint import read_checkpoint
+    from training.runs.checkpoint import read_checkpoint
 
     train(_tiny(), tmp_path / "four")
     out = tmp_path / "eight"
@@ -461,7 +463,7 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
     cfg.batch_decisions, cfg.n_envs = 3, 1  # one decision per update: weights barely move
     # check the copy itself, before any update
     venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=3, horizon=8)])
-    from training.trainer import load_weights
+    from training.trainers.trainer import load_weights
     model = build_model(cfg, venv)
     load_weights(model, tmp_path / "four")
     src = read_checkpoint(tmp_path / "four")
@@ -477,7 +479,7 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
 
 
 def test_init_from_widens_a_policy_to_the_communication_option(tmp_path):
-    from training.trainer import load_ppo, load_weights
+    from training.trainers.trainer import load_ppo, load_weights
 
     train(_tiny(), tmp_path / "plain")
     src = load_ppo(tmp_path / "plain").policy

@@ -17,7 +17,7 @@ pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
 import box2d_driving  # noqa: E402
-from training.vec_env import make_vec_env_from  # noqa: E402
+from training.ppo.vec_env import make_vec_env_from  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 KW = {"num_cars": 3, "horizon": 6}
@@ -132,7 +132,7 @@ def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpre
     venv.close()
     assert not any(p.is_alive() for p in procs)
     script = textwrap.dedent("""
-        from training.vec_env import make_vec_env_from
+        from training.ppo.vec_env import make_vec_env_from
         venv = make_vec_env_from("intersection-v0", {"num_cars": 2}, 2, 2)
         venv.seed(0); venv.reset()
         print("done")
@@ -143,7 +143,7 @@ def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpre
 
 def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
     from tests.helpers import tiny_train_config
-    from training.trainer import train
+    from training.trainers.trainer import train
 
     def cfg(num_cpus, timesteps=160):
         return tiny_train_config(timesteps=timesteps, checkpoint_every=1, num_cpus=num_cpus, device="cpu")
@@ -153,7 +153,7 @@ def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
     a = json.loads((tmp_path / "local" / "state.json").read_text())
     b = json.loads((tmp_path / "workers" / "state.json").read_text())
     assert a["agent_steps"] == b["agent_steps"]  # the same episodes, so the same live cars
-    from training.checkpoint import read_checkpoint
+    from training.runs.checkpoint import read_checkpoint
     wa, wb = read_checkpoint(tmp_path / "local").policy, read_checkpoint(tmp_path / "workers").policy
     assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)  # the same learning
     train(cfg(2, timesteps=320), tmp_path / "workers", resume=True)
@@ -195,7 +195,7 @@ def test_slot_rows_match_the_env_dicts_step_by_step():
     """Every slot row is [own | team | alive | own alive] of the env's own observation dicts,
     through finishes and resets (a reference written out plainly here)."""
     import box2d_driving
-    from training.vec_env import SlotVecEnv
+    from training.ppo.vec_env import SlotVecEnv
 
     def reference(obs, lay, agents):
         team = np.zeros((len(agents), lay.obs_dim), np.float32)

@@ -20,8 +20,9 @@ from typing import Optional
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from training import evaluate, traffic_lights  # noqa: E402
-from training.cli_args import error, parse  # noqa: E402
+from training.evaluation import evaluate  # noqa: E402
+from training.behaviours import traffic_lights
+from training.common.cli_args import error, parse  # noqa: E402
 
 SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars_noise05"
 

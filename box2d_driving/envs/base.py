@@ -7,7 +7,6 @@ A scenario subclasses :class:`DrivingEnv` and supplies only its config class, it
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, Optional
 
 import numpy as np
@@ -17,6 +16,7 @@ from gymnasium.utils import EzPickle, seeding
 from pettingzoo import ParallelEnv
 
 from box2d_driving.config import DrivingConfig
+from box2d_driving.envs.actions import ActionError, check_actions  # noqa: F401  (ActionError: part of this module's API)
 from box2d_driving.envs.observation import FrameHistory, ObservationLayout
 from box2d_driving.envs.reward import TERMS, reward_terms
 from box2d_driving.physics.world import ACTIVE, ARRIVED, COLLIDED, DrivingWorld
@@ -32,41 +32,6 @@ if TYPE_CHECKING:
 # remaining / initial path length, active, arrived, collided, rating.
 STATE_FIELDS = ("x", "y", "cos_heading", "sin_heading", "speed", "acceleration", "goal_x",
                 "goal_y", "remaining_fraction", "active", "arrived", "collided", "rating")
-
-
-class ActionError(ValueError):
-    """An action dict that does not fit the live agents or the action space."""
-
-
-def check_actions(actions: Any, agents: list[str], n_actions: int) -> np.ndarray:
-    """The actions of the live ``agents`` (in that order) as an int64 array, or
-    :class:`ActionError` naming the agent and value: every live agent needs exactly one integer
-    (Python or numpy, also a 0-d integer array) in ``[0, n_actions)``, and no other agent may
-    appear (one that is done, or was never in the episode)."""
-    if not agents:
-        raise ActionError("step() called after all agents are done; call reset()")
-    if not isinstance(actions, Mapping):
-        raise ActionError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
-    live = set(agents)
-    extra = [a for a in actions if a not in live]
-    if extra:
-        raise ActionError(f"actions given for agent(s) {extra!r} that are not alive now "
-                          f"(done earlier, or not in this episode); live agents: {agents}")
-    missing = [a for a in agents if a not in actions]
-    if missing:
-        raise ActionError(f"no action for live agent(s) {missing}")
-    raw = np.empty(len(agents), dtype=np.int64)
-    for k, agent in enumerate(agents):
-        value = actions[agent]
-        if isinstance(value, np.ndarray) and value.shape == ():
-            value = value[()]
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-            raise ActionError(f"action for {agent} must be an integer in [0, {n_actions}), got "
-                              f"{value!r} ({type(value).__name__})")
-        if not 0 <= value < n_actions:
-            raise ActionError(f"action for {agent} must be in [0, {n_actions}), got {value!r}")
-        raw[k] = int(value)
-    return raw
 
 
 class DrivingEnv(ParallelEnv, EzPickle):

@@ -7,7 +7,7 @@ remains:
 * ``collision``: ``collision_reward`` on the decision of its first collision;
 * ``smoothness``: ``-(1/H) * |a_t - a_{t-1}| / (a_hi - a_lo)``. The paper divides by ``a_max``;
   with a symmetric range a full swing is ``2 a_max``, so dividing by the range keeps the episode
-  sum within [-1, 1] as the spec requires;
+  sum within [-1, 1];
 * ``progress``: ``-(1/H) * d / d0``; on the collision decision the car also pays the progress
   penalty it would have paid until the horizon, ``(H - t) * (1/H) * d / d0`` more, so crashing is
   never cheaper than driving on.

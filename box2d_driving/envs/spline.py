@@ -8,7 +8,7 @@ from the chosen control points. The stage-0 action comes, in this order, from
 ``(N, D0)`` stage-0 observations to ``N`` actions; the bilevel trainer installs the spline
 sub-policy here) or from the scenario's default (the route along the road axis).
 
-For the one-step bandit (``training/bandit.py``) the reset can be split in two:
+For the one-step bandit (``training/ppo/bandit.py``) the reset can be split in two:
 ``obs0 = env.plan(seed)`` draws the episode and returns the stage-0 observations, then
 ``env.reset(options={"use_plan": True, "spline_actions": actions})`` finishes it. ``plan`` is the
 first half of ``reset``: it is where the seed goes, and nothing else draws from ``np_random``.
@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from box2d_driving.road.layout import Layout
-from box2d_driving.envs.base import ActionError
+from box2d_driving.envs.actions import ActionError
 
 SplinePolicy = Callable[[np.ndarray], np.ndarray]
 

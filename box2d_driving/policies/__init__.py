@@ -13,7 +13,7 @@ shipped policies.
 from box2d_driving.policies.checkpoint_file import CheckpointError
 from box2d_driving.policies.scripted import (SCRIPTED, FullThrottlePolicy, LightRulePolicy,
                                              PedestrianOraclePolicy, RandomPolicy, make_policy)
-from box2d_driving.policies.trained import TrainedPolicy, load_trained
+from box2d_driving.policies.trained import RunPolicy, TrainedPolicy, load_trained
 
 __all__ = ["CheckpointError", "FullThrottlePolicy", "LightRulePolicy", "PedestrianOraclePolicy",
-           "RandomPolicy", "SCRIPTED", "TrainedPolicy", "load_trained", "make_policy"]
+           "RandomPolicy", "RunPolicy", "SCRIPTED", "TrainedPolicy", "load_trained", "make_policy"]

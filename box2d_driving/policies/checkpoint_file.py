@@ -106,6 +106,13 @@ def read_arrays(path: Union[str, Path]) -> tuple[Path, dict[str, np.ndarray], di
     return path, policy, meta
 
 
+def is_bilevel_run(path: Union[str, Path]) -> bool:
+    """Whether ``path`` is a bilevel run folder: ``accel/`` (the acceleration policy) and
+    ``spline/`` (the path-choosing policy) beside one ``config.json``."""
+    path = Path(path)
+    return path.is_dir() and (path / "spline").is_dir() and (path / "accel").is_dir()
+
+
 def find_config(model_path: Path) -> Path:
     """The run's ``config.json``: beside the model file, or one folder up (bilevel runs)."""
     for folder in (model_path.parent, model_path.parent.parent):

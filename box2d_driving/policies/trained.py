@@ -17,32 +17,30 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
-from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config, read_arrays,
-                                                    read_json)
+from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config, is_bilevel_run,
+                                                    read_arrays, read_json)
 from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor
 
 
-class TrainedPolicy:
-    """A trained actor. ``act(observations)`` maps ``{agent: obs}`` to ``{agent: action}``: the
-    most likely action, or (``deterministic=False``) one drawn from the policy's distribution with
-    ``seed``'s generator. The actor reads only each car's own observation.
+class RunPolicy:
+    """What a policy loaded from a run folder offers, whatever computes its actions: the env it
+    was trained on (:meth:`make_env`), its light convention (:attr:`stop_value`) and ``act``.
+    Subclasses supply :meth:`actions` (and, for a bilevel run, :meth:`choose_paths`).
 
     Attributes:
         config: the run's ``config.json`` (for a bilevel run: its acceleration stage's).
         run_dir: the folder the policy was loaded from (its evaluation report, if any).
-        spline_policy: for a bilevel run, the greedy path chooser (stage-0 observations
-            ``(N, D0)`` to actions); None otherwise.
+        deterministic: the most likely action (True) or one drawn from the policy.
+        obs_dim: the length of the observation the actor reads.
+        spline_policy: for a bilevel run, what picks each car's path; None otherwise.
     """
 
-    def __init__(self, actor: DrivingActor, config: dict, run_dir: Path, deterministic: bool = True,
-                 seed: Optional[int] = None) -> None:
-        self.actor = actor
+    def __init__(self, config: dict, run_dir: Optional[Path], obs_dim: int, deterministic: bool = True) -> None:
         self.config = config
         self.run_dir = run_dir
+        self.obs_dim = obs_dim
         self.deterministic = deterministic
-        self.obs_dim = actor.obs_dim
-        self.spline_policy: Optional[MlpActor] = None
-        self._rng = np.random.default_rng(seed)
+        self.spline_policy: Any = None
 
     @property
     def env_id(self) -> str:
@@ -57,6 +55,8 @@ class TrainedPolicy:
         """The light value this policy stops on (0.0 or 1.0), from its evaluation report
         (``eval/metrics.json`` beside the checkpoint); None where unknown. The two light groups
         are symmetric, so training may settle on either value as "stop"."""
+        if self.run_dir is None:
+            return None
         for folder in (self.run_dir, self.run_dir.parent):  # a bilevel run keeps eval/ above accel/
             report = folder / "eval" / "metrics.json"
             if report.is_file():
@@ -68,20 +68,21 @@ class TrainedPolicy:
         return None
 
     def actions(self, obs: np.ndarray) -> np.ndarray:
-        """Actions ``(M,)`` for own observations ``(M, D)``."""
-        logits = self.actor.logits(obs)
-        if self.deterministic:
-            return logits.argmax(axis=1).astype(np.int64)
-        p = np.exp(logits - logits.max(axis=1, keepdims=True))
-        cdf = np.cumsum(p / p.sum(axis=1, keepdims=True), axis=1)
-        u = self._rng.random((len(cdf), 1))
-        return np.minimum((cdf < u).sum(axis=1), cdf.shape[1] - 1).astype(np.int64)
+        """Actions ``(M,)`` int64 for own observations ``(M, obs_dim)``."""
+        raise NotImplementedError
+
+    def choose_paths(self, obs0: np.ndarray) -> np.ndarray:
+        """Stage-0 actions ``(N, ...)`` for stage-0 observations ``(N, D0)`` (bilevel runs)."""
+        raise NotImplementedError
 
     def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
         if not observations:
             return {}
         agents = list(observations)
         obs = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
+        if obs.shape[1] != self.obs_dim:
+            raise ValueError(f"observation size {obs.shape[1]} does not match the policy's "
+                             f"{self.obs_dim}: wrong env settings for this checkpoint?")
         return dict(zip(agents, self.actions(obs).tolist()))
 
     def make_env(self, **extra: Any):
@@ -95,8 +96,33 @@ class TrainedPolicy:
             extra["render_stop_value"] = self.stop_value
         env = box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
         if self.spline_policy is not None:
-            env.spline_policy = self.spline_policy
+            env.spline_policy = self.choose_paths
         return env
+
+
+class TrainedPolicy(RunPolicy):
+    """A trained actor run with numpy. ``act(observations)`` maps ``{agent: obs}`` to
+    ``{agent: action}``: the most likely action, or (``deterministic=False``) one drawn from the
+    policy's distribution with ``seed``'s generator. The actor reads only each car's own
+    observation; a bilevel run's ``spline_policy`` is an :class:`MlpActor`."""
+
+    def __init__(self, actor: DrivingActor, config: dict, run_dir: Path, deterministic: bool = True,
+                 seed: Optional[int] = None) -> None:
+        super().__init__(config, run_dir, actor.obs_dim, deterministic)
+        self.actor = actor
+        self._rng = np.random.default_rng(seed)
+
+    def actions(self, obs: np.ndarray) -> np.ndarray:
+        logits = self.actor.logits(obs)
+        if self.deterministic:
+            return logits.argmax(axis=1).astype(np.int64)
+        p = np.exp(logits - logits.max(axis=1, keepdims=True))
+        cdf = np.cumsum(p / p.sum(axis=1, keepdims=True), axis=1)
+        u = self._rng.random((len(cdf), 1))
+        return np.minimum((cdf < u).sum(axis=1), cdf.shape[1] - 1).astype(np.int64)
+
+    def choose_paths(self, obs0: np.ndarray) -> np.ndarray:
+        return self.spline_policy(obs0)
 
 
 def _env(config: dict, where: Path):
@@ -116,7 +142,7 @@ def load_trained(path: Union[str, Path], deterministic: bool = True,
     ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
     malformed."""
     path = Path(path)
-    if path.is_dir() and (path / "spline").is_dir() and (path / "accel").is_dir():
+    if is_bilevel_run(path):
         policy = load_trained(path / "accel", deterministic, seed)
         policy.spline_policy = _spline_actor(path)
         return policy

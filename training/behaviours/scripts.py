@@ -1,0 +1,182 @@
+"""Shared CLI of the training scripts: a dataclass of arguments, turned into a TrainConfig."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Optional
+
+from training.common.cli_args import parse, prog_name
+from training.trainers.trainer import RunError, TrainConfig, train
+
+if TYPE_CHECKING:
+    from training.trainers.bilevel import BilevelConfig
+
+
+@dataclass
+class CommonArgs:
+    """Arguments every training script takes.
+
+    num_cars: cars per episode
+    lidar_noise: share of LiDAR rays dropped each decision
+    seed: random seed
+    quick: a real but short run (about a minute of training here)
+    out: output folder (must not exist unless --resume)
+    resume: continue the run in --out from its last checkpoint
+    ent_coef: entropy bonus (default: 0.01)
+    critic: mean (the paper), own+mean, or own (decentralised baseline)
+    n_envs: env instances simulated side by side
+    batch_decisions: slot-decisions per PPO update
+    epochs: PPO epochs per update
+    minibatch_by_step: minibatches of whole env steps: the critic encodes each step's team once, about 1.7x faster training at equal sample efficiency (--no-minibatch-by-step: minibatches of single transitions, the default before)
+    threads: torch CPU threads (default: the cores the env workers leave free)
+    num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way)
+    device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
+    max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
+    init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
+    horizon: episode horizon in decisions (default: the scenario's)
+    collision_reward: reward on a car's first collision (default: the scenario's, -1 as in the paper)
+    remove_collided: take a collided car out of the world instead of leaving it as a wreck
+    """
+
+    num_cars: int = 4
+    lidar_noise: float = 0.0
+    seed: int = 0
+    quick: bool = False
+    out: str = "runs/run"
+    resume: bool = False
+    ent_coef: Optional[float] = None
+    critic: str = "mean"
+    n_envs: int = 16
+    batch_decisions: int = 32_000
+    epochs: int = 4
+    minibatch_by_step: bool = True
+    threads: Optional[int] = None
+    num_cpus: int = 0
+    device: str = "auto"
+    max_minutes: Optional[float] = None
+    init_from: Optional[str] = None
+    horizon: Optional[int] = None
+    collision_reward: Optional[float] = None
+    remove_collided: bool = False
+
+    def env_overrides(self) -> dict:
+        """Scenario-specific config overrides a script adds (none by default)."""
+        return {}
+
+
+@dataclass
+class ScriptArgs(CommonArgs):
+    """timesteps: slot-decisions to train for in total"""
+
+    timesteps: int = 3_000_000
+
+
+def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
+    overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
+    overrides.update(args.env_overrides())
+    if args.horizon is not None:
+        overrides["horizon"] = args.horizon
+    if args.collision_reward is not None:
+        overrides["collision_reward"] = args.collision_reward
+    if args.remove_collided:  # runs without it keep their recorded overrides
+        overrides["remove_collided"] = True
+    cfg = TrainConfig(
+        env_id=env_id, env_overrides=overrides,
+        timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
+        n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
+        minibatch_by_step=args.minibatch_by_step,
+        critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,
+        max_minutes=args.max_minutes,
+        init_from=args.init_from,
+        ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
+    )
+    if args.quick:  # same algorithm, smaller numbers
+        cfg.n_envs, cfg.batch_decisions, cfg.minibatch = 8, 8_000, 2_000
+        cfg.timesteps = min(cfg.timesteps, 48_000)
+        cfg.checkpoint_every = 2
+    return cfg
+
+
+def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
+    """Parse ``argv`` into ``args_class``, train, print a summary; exit status."""
+    name = prog_name()
+    args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
+    try:
+        stats = train(config_from(env_id, args), Path(args.out), resume=args.resume)
+    except (RunError, ValueError) as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return 2
+    signum = stats.pop("interrupted_by_signal", None)
+    print("last update:", {k.split("/")[-1]: round(v, 4) if isinstance(v, float) else v
+                           for k, v in stats.items()})
+    print(f"checkpoint: {Path(args.out) / 'model.safetensors'}")
+    if signum is not None:
+        print(f"{name}: interrupted by signal {signum}: checkpoint saved; continue with "
+              f"--resume --out {args.out}", file=sys.stderr)
+        return 128 + signum
+    return 0
+
+
+@dataclass
+class BilevelArgs(CommonArgs):
+    """Arguments of the bilevel (spline + acceleration) scripts.
+
+    rounds: alternation rounds (spline update, then acceleration updates)
+    spline_samples: car samples per spline update
+    spline_updates_per_round: spline PPO updates per round (K1 = this x spline_samples)
+    accel_updates_per_round: acceleration PPO updates per round (K2 = this x batch_decisions)
+    spline_learning_rate: learning rate of the spline policy
+    spline_ent_coef: entropy bonus of the spline policy
+    spline_init_from: start the spline policy from this bilevel run folder
+    checkpoint_every: rounds between kept checkpoints
+    """
+
+    rounds: int = 40
+    spline_samples: int = 2048
+    spline_updates_per_round: int = 1
+    accel_updates_per_round: int = 1
+    spline_learning_rate: float = 1e-3
+    spline_ent_coef: float = 0.0
+    spline_init_from: Optional[str] = None
+    checkpoint_every: int = 10
+
+
+def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
+    from training.trainers.bilevel import BilevelConfig
+
+    accel = config_from(env_id, args, timesteps=0)
+    cfg = BilevelConfig(
+        accel=accel, rounds=args.rounds, spline_samples=args.spline_samples,
+        accel_updates_per_round=args.accel_updates_per_round,
+        spline_updates_per_round=args.spline_updates_per_round,
+        spline_learning_rate=args.spline_learning_rate, spline_ent_coef=args.spline_ent_coef,
+        checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
+        spline_init_from=args.spline_init_from, spline_n_envs=accel.n_envs,
+    )
+    if args.quick:  # same algorithm, smaller numbers
+        cfg.rounds, cfg.spline_samples, cfg.spline_minibatch = min(args.rounds, 3), 256, 128
+        cfg.checkpoint_every = 1
+    return cfg
+
+
+def run_bilevel_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
+    """Parse ``argv`` into ``args_class``, run the bilevel alternation, print a summary."""
+    from training.trainers.bilevel import train_bilevel
+
+    name = prog_name()
+    args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
+    try:
+        row = train_bilevel(bilevel_config_from(env_id, args), Path(args.out), resume=args.resume)
+    except (RunError, ValueError) as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return 2
+    signum = row.pop("interrupted_by_signal", None)
+    print("last round:", {k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()})
+    print(f"checkpoints: {Path(args.out) / 'accel'} and {Path(args.out) / 'spline'}")
+    if signum is not None:
+        print(f"{name}: interrupted by signal {signum}: round saved; continue with "
+              f"--resume --out {args.out}", file=sys.stderr)
+        return 128 + signum
+    return 0

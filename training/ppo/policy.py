@@ -1,0 +1,148 @@
+"""The paper's actor and centralised critic as an SB3 policy (docs/training.md).
+
+* Actor: LiDAR history ``(H, n_rays)`` -> two circular 1-D convolutions -> average pool to 25
+  features; concatenated with the sat-nav history; MLP [256, 256] tanh -> action logits. It reads
+  only the slot's own observation: :meth:`CTDENetwork.forward_actor` never touches the team block.
+* Critic: the same encoder architecture (own weights) on every car of the env instance in the
+  team block -> linear 256 tanh -> mean over live cars (masked: dead slots contribute nothing, so
+  any number of cars and any order give the same value) -> MLP 256 tanh -> value. Variant
+  ``own+mean`` also concatenates the slot's own 256-d encoding before the MLP; ``own`` is the
+  decentralised baseline (plain PPO: the critic sees only the slot's own observation).
+
+Extension goes through SB3's documented hook (``_build_mlp_extractor``); features are the raw
+slot observation (``FlattenExtractor``), or during a PPO update by env step the packed rows of
+:class:`training.ppo.buffer.MaskedRolloutBuffer` (own observation and group number, see
+:meth:`CTDENetwork.forward`). The LiDAR encoders are computed as in ``training/ppo/encoder.py``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Optional
+
+import torch as th
+from stable_baselines3.common.policies import ActorCriticPolicy
+from torch import nn
+
+from training.ppo.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
+
+CRITICS = ("mean", "own+mean", "own")
+
+
+class CTDENetwork(nn.Module):
+    """``forward_actor``: own observation only; ``forward_critic``: the team block."""
+
+    def __init__(self, obs_dim: int, n_cars: int, history: int, n_rays: int, n_satnav: int,
+                 critic: str = "mean", hidden: int = 256) -> None:
+        super().__init__()
+        if critic not in CRITICS:
+            raise ValueError(f"critic must be one of {CRITICS}, got {critic!r}")
+        self.obs_dim, self.n_cars, self.critic = obs_dim, n_cars, critic
+        self.latent_dim_pi = hidden
+        self.latent_dim_vf = hidden
+        self.actor_encoder = LidarEncoder(history, n_rays, n_satnav)
+        self.actor_mlp = nn.Sequential(nn.Linear(self.actor_encoder.out_dim, hidden), nn.Tanh(),
+                                       nn.Linear(hidden, hidden), nn.Tanh())
+        self.critic_encoder = LidarEncoder(history, n_rays, n_satnav)
+        self.critic_proj = nn.Sequential(nn.Linear(self.critic_encoder.out_dim, hidden), nn.Tanh())
+        width = hidden * (2 if critic == "own+mean" else 1)
+        self.critic_mlp = nn.Sequential(nn.Linear(width, hidden), nn.Tanh())
+
+    def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        d = self.obs_dim
+        if features.shape[1] == d + 1:  # packed rows of an update by env step
+            return self._forward_grouped(features[:, :d], features[:, d].long(), None)
+        slots = self._whole_instances(features)
+        if slots is not None:  # a rollout step: every slot of every instance, in slot order
+            return self._forward_grouped(features[:, :d], *slots)
+        return self.forward_actor(features), self.forward_critic(features)
+
+    def _whole_instances(self, features: th.Tensor) -> Optional[tuple[th.Tensor, th.Tensor]]:
+        """``(group, alive)`` of slot observations that are whole env instances in slot order
+        (row ``k * N + i`` is car ``i`` of instance ``k``, as a rollout step passes them), else
+        None. Then each instance's team block is its own rows again, so the critic can read the
+        team from the rows the actor encodes."""
+        d, n, b = self.obs_dim, self.n_cars, features.shape[0]
+        if b % n or b == 0:
+            return None
+        rows = features.reshape(b // n, n, -1)
+        block = rows[:, :1, d:]  # team observations, alive flags and own alive of each first slot
+        alive = features[:, d * (1 + n) + n]
+        if not (th.equal(rows[:, :, d:d * (1 + n) + n], block[..., : d * n + n].expand(-1, n, -1))
+                and th.equal(block[:, 0, : d * n].reshape(b, d), features[:, :d])
+                and th.equal(block[:, 0, d * n: d * n + n].reshape(b), alive)):
+            return None
+        return th.arange(b, device=features.device) // n, alive
+
+    def _forward_grouped(self, own: th.Tensor, group: th.Tensor,
+                         alive: Optional[th.Tensor]) -> tuple[th.Tensor, th.Tensor]:
+        """Latents of rows ``own`` (observations, D) whose teams are groups of rows: ``group``
+        numbers them 0, 1, ... in order, ``alive`` (None: all) says which rows count in their
+        team's mean. Packed update rows (:class:`training.ppo.buffer.MaskedRolloutBuffer` by env step)
+        and whole instances of a rollout step come this way: both encoders run once, together,
+        on the same rows, and the critic averages each group's encodings."""
+        actor_in, critic_in = encode([self.actor_encoder, self.critic_encoder], own)
+        latent_pi = self.actor_mlp(actor_in)
+        z = self.critic_proj(critic_in)
+        if self.critic == "own":
+            return latent_pi, self.critic_mlp(z)
+        n_groups = int(group[-1]) + 1
+        live = z if alive is None else z * alive[:, None]
+        sums = z.new_zeros(n_groups, z.shape[1]).index_add_(0, group, live)
+        counts = th.bincount(group, weights=alive, minlength=n_groups).to(z.dtype)
+        mean = sums / counts.clamp(min=1)[:, None]
+        if self.critic == "mean":  # one value per team: the MLP runs once per group
+            return latent_pi, self.critic_mlp(mean).index_select(0, group)
+        return latent_pi, self.critic_mlp(th.cat([z, mean.index_select(0, group)], dim=1))
+
+    def forward_actor(self, features: th.Tensor) -> th.Tensor:
+        return self.actor_mlp(self.actor_encoder(features[:, : self.obs_dim]))
+
+    def forward_critic(self, features: th.Tensor) -> th.Tensor:
+        d, n = self.obs_dim, self.n_cars
+        if features.shape[1] == d + 1:
+            return self.forward(features)[1]
+        b = features.shape[0]
+        if self.critic == "own":
+            return self.critic_mlp(self.critic_proj(self.critic_encoder(features[:, :d])))
+        block = features[:, d: d * (1 + n) + n]  # team observations and alive mask
+        # Rows of one env step carry the same block: encode each run of repeats once.
+        first = th.ones(b, dtype=th.bool)
+        first[1:] = (block[1:] != block[:-1]).any(dim=1)
+        unique = block[first]
+        u = unique.shape[0]
+        team = unique[:, : d * n].reshape(u * n, d)
+        alive = unique[:, d * n:] > 0.5
+        z = self.critic_proj(self.critic_encoder(team)).reshape(u, n, -1)
+        z = th.where(alive[..., None], z, th.zeros((), dtype=z.dtype))
+        mean = z.sum(dim=1) / alive.sum(dim=1, keepdim=True).clamp(min=1)
+        if u < b:
+            mean = mean[th.cumsum(first, 0) - 1]
+        if self.critic == "own+mean":
+            own = self.critic_proj(self.critic_encoder(features[:, :d]))
+            mean = th.cat([own, mean], dim=1)
+        return self.critic_mlp(mean)
+
+
+class CTDEPolicy(ActorCriticPolicy):
+    """Decentralised actor, centralised mean-latent critic (SB3 ``ActorCriticPolicy``)."""
+
+    def __init__(self, *args: Any, obs_dim: int, n_cars: int, history: int, n_rays: int,
+                 n_satnav: int, critic: str = "mean", **kwargs: Any) -> None:
+        self.ctde_kwargs = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
+                                n_satnav=n_satnav, critic=critic)
+        super().__init__(*args, **kwargs)
+
+    def _build_mlp_extractor(self) -> None:
+        self.mlp_extractor = CTDENetwork(**self.ctde_kwargs)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(self.ctde_kwargs)
+        return data
+
+
+def policy_kwargs_for(env: Any, critic: str = "mean") -> dict[str, Any]:
+    """``policy_kwargs`` for :class:`CTDEPolicy` from a driving env (its observation layout)."""
+    lay = env.observation_layout
+    return dict(obs_dim=lay.size, n_cars=len(env.possible_agents), history=lay.history,
+                n_rays=lay.n_rays, n_satnav=lay.n_satnav, critic=critic)

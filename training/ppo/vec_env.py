@@ -1,0 +1,349 @@
+"""One SB3 ``VecEnv`` slot per car: the parameter-shared multi-agent env as a batch of
+single-agent transitions, with done on the right step and the team block for the critic,
+vectorised by SuperSuit in the learner's process or across worker processes.
+
+* slot ``k * N + i`` is car ``i`` of env instance ``k``;
+* a car's slot reports ``done`` on exactly the decision its trajectory ends, with its real last
+  observation in ``infos[slot]["terminal_observation"]`` and ``"TimeLimit.truncated"`` set when the
+  horizon (not a goal or a crash) ended it;
+* after that the slot emits padding (zero observation, zero reward, alive flag 0) until every car
+  of the instance is done and the instance resets; :class:`training.ppo.buffer.MaskedRolloutBuffer`
+  keeps padding out of the loss and the advantage normalisation;
+* each observation carries a team block, the observations of every car of the same instance and
+  their alive mask, so the centralised critic sees the team while PPO shuffles single transitions
+  (the actor is built blind to it).
+
+:class:`InstanceSlots` does this for one instance; :class:`SlotVecEnv` concatenates instances with
+SuperSuit and adapts the result to SB3 (see its docstring for what the adapter fixes). SuperSuit's
+own PettingZoo path (``pettingzoo_env_to_vec_env_v1`` + ``black_death_v3``) is not used: it needs
+``black_death_v3`` for cars that finish at different times, which ends episodes on ``terminated
+AND truncated`` and never reports a car's own termination.
+
+Layout of a slot observation (``TeamLayout``): ``[own obs (D) | team obs (N x D) | alive (N) |
+own alive (1)]``.
+"""
+
+from __future__ import annotations
+
+import functools
+import weakref
+from dataclasses import dataclass
+from typing import Any, Callable, Optional, Sequence
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+
+
+@dataclass(frozen=True)
+class TeamLayout:
+    """Slices of a slot observation: ``own`` (D), ``team`` (N x D), ``alive`` (N), ``self_alive``."""
+
+    obs_dim: int
+    n_cars: int
+
+    @property
+    def own(self) -> slice:
+        return slice(0, self.obs_dim)
+
+    @property
+    def team(self) -> slice:
+        return slice(self.obs_dim, self.obs_dim * (1 + self.n_cars))
+
+    @property
+    def alive(self) -> slice:
+        start = self.obs_dim * (1 + self.n_cars)
+        return slice(start, start + self.n_cars)
+
+    @property
+    def self_alive(self) -> int:
+        return self.obs_dim * (1 + self.n_cars) + self.n_cars
+
+    @property
+    def size(self) -> int:
+        return self.self_alive + 1
+
+
+def slot_observation_space(base_space: spaces.Box, n_cars: int) -> spaces.Box:
+    """The space of a slot observation (``TeamLayout``) for cars whose own space is ``base_space``."""
+    low = np.concatenate([np.tile(base_space.low, 1 + n_cars), np.zeros(n_cars + 1)])
+    high = np.concatenate([np.tile(base_space.high, 1 + n_cars), np.ones(n_cars + 1)])
+    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+
+class CarSlots:
+    """The ``VecEnv`` plumbing shared by every one-slot-per-car vector env: slot ``k * N + i`` is
+    car ``i`` of instance ``self.envs[k]`` (needs ``envs`` and ``n_cars``)."""
+
+    envs: list
+    n_cars: int
+
+    def close(self) -> None:
+        for e in self.envs:
+            e.close()
+
+    def _instances(self, indices) -> list[int]:
+        return sorted({i // self.n_cars for i in self._get_indices(indices)})
+
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        return [getattr(self.envs[i // self.n_cars], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        for k in self._instances(indices):
+            setattr(self.envs[k], attr_name, value)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs) -> list[Any]:
+        return [getattr(self.envs[i // self.n_cars], method_name)(*args, **kwargs)
+                for i in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices=None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+class InstanceSlots(gym.vector.VectorEnv):
+    """The car slots of one env instance as a Gymnasium-style vector env (``num_envs`` = cars),
+    the unit SuperSuit concatenates, in the learner's process or in its worker processes.
+
+    As SuperSuit's concatenation expects, ``observation_space`` / ``action_space`` are one slot's.
+    ``step`` returns per slot: termination (a goal or a crash) and truncation (the horizon) apart,
+    each finishing car's real last observation in ``infos[i]["terminal_observation"]`` with
+    ``"TimeLimit.truncated"``, and padding (zero observation and reward, empty info) after a car is
+    done until every car is, when the instance resets itself. ``index`` is the instance's place in
+    the whole vector: its first episode's seed is ``seed_base + index`` whatever process it runs in.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+    render_mode = None
+
+    def __init__(self, env_fn: Callable[[], Any], index: int) -> None:
+        self.env = env_fn()
+        self.index = index
+        self.agents = list(self.env.possible_agents)
+        self.n_cars = len(self.agents)
+        base_space = self.env.observation_space(self.agents[0])
+        self.layout = TeamLayout(int(np.prod(base_space.shape)), self.n_cars)
+        self.num_envs = self.n_cars
+        self.observation_space = self.single_observation_space = slot_observation_space(base_space, self.n_cars)
+        self.action_space = self.single_action_space = self.env.action_space(self.agents[0])
+        self._slot = {a: i for i, a in enumerate(self.agents)}
+
+    def _rows(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """Slot observations from the agents' observation dict (padding for absent agents)."""
+        lay = self.layout
+        out = np.zeros((self.n_cars, lay.size), dtype=np.float32)
+        if obs:
+            slots = [self._slot[a] for a in obs]
+            own = np.zeros((self.n_cars, lay.obs_dim), dtype=np.float32)
+            own[slots] = np.stack(list(obs.values()))
+            out[:, lay.own] = own
+            out[:, lay.team] = own.reshape(-1)  # every slot carries the whole team
+            alive = np.zeros(self.n_cars, dtype=np.float32)
+            alive[slots] = 1.0
+            out[:, lay.alive] = alive
+            out[:, lay.self_alive] = alive
+        return out
+
+    def _without(self, rows: np.ndarray, gone: list[int]) -> np.ndarray:
+        """``rows`` with the slots ``gone`` turned to padding (as :meth:`_rows` would write them
+        without those agents)."""
+        lay = self.layout
+        rows = rows.copy()
+        for i in gone:
+            rows[:, lay.team.start + i * lay.obs_dim: lay.team.start + (i + 1) * lay.obs_dim] = 0.0
+            rows[:, lay.alive.start + i] = 0.0
+            rows[i, lay.own] = 0.0
+            rows[i, lay.self_alive] = 0.0
+        return rows
+
+    def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
+        # SuperSuit adds worker and position offsets to ``seed``; the one that counts comes in options
+        options = dict(options or {})
+        base = options.pop("slot_seed_base", None)
+        obs, _ = self.env.reset(seed=None if base is None else base + self.index,
+                                **({"options": options} if options else {}))
+        return self._rows(obs), [{} for _ in range(self.n_cars)]
+
+    def step(self, actions):
+        n = self.n_cars
+        actions = np.asarray(actions).reshape(n).tolist()
+        rewards = np.zeros(n, dtype=np.float32)
+        terms = np.zeros(n, dtype=bool)
+        truncs = np.zeros(n, dtype=bool)
+        infos: list[dict[str, Any]] = [{} for _ in range(n)]  # distinct dicts
+        env = self.env
+        acts = {a: int(actions[self._slot[a]]) for a in env.agents}
+        obs, rew, term, trunc, info = env.step(acts)
+        final = self._rows(obs)
+        gone = []
+        for agent in obs:
+            i = self._slot[agent]
+            rewards[i] = rew[agent]
+            slot_info = info[agent]  # the env's own fresh dict: no copy needed
+            if term[agent] or trunc[agent]:
+                terms[i] = bool(term[agent])
+                truncs[i] = bool(trunc[agent] and not term[agent])
+                slot_info["terminal_observation"] = final[i].copy()
+                slot_info["TimeLimit.truncated"] = bool(truncs[i])
+                gone.append(i)
+            infos[i] = slot_info
+        if env.agents:
+            rows = self._without(final, gone) if gone else final
+        else:
+            rows = self._rows(env.reset()[0])
+        return rows, rewards, terms, truncs, infos
+
+    def close(self, **kwargs: Any) -> None:
+        self.env.close()
+
+    def env_is_wrapped(self, wrapper_class: type, indices=None) -> list[bool]:
+        return [False] * self.n_cars
+
+
+class SlotVecEnv(CarSlots, VecEnv):
+    """``len(env_fns) * num_cars`` slots over parameter-shared driving envs, as an SB3 ``VecEnv``.
+
+    Built on SuperSuit: each instance is an :class:`InstanceSlots`, concatenated by SuperSuit's
+    ``MakeCPUAsyncConstructor`` (what ``supersuit.concat_vec_envs_v1`` uses) in the learner's
+    process (``num_cpus=0``) or in ``num_cpus`` worker processes that step their instances and
+    write observations to shared memory. This adapter fixes what SuperSuit's SB3 wrapper gets
+    wrong for us (each fix has a test in ``tests/test_vec_env.py``):
+
+    * seeding: ``seed(s)`` gives instance ``k`` the seed ``s + k`` at the next reset, whatever the
+      number of workers (SuperSuit's ``reset(seed)`` adds worker and position offsets, so seeds
+      would collide and depend on the worker count; its SB3 wrapper has no ``seed`` at all);
+    * truncations stay truncations (``TimeLimit.truncated``, set per slot by ``InstanceSlots``);
+    * every slot gets its own info dict (SuperSuit's worker path shares one ``{}`` among slots);
+    * ``get_attr`` / ``set_attr`` / ``env_method`` reach the env instances in-process; with workers,
+      ``get_attr`` answers from a local probe instance (static attributes: config, layout) and the
+      others raise, since a live object cannot be set in another process;
+    * ``close()`` ends the workers, and is also called when the adapter is garbage-collected or
+      the interpreter exits, so a forgotten ``close()`` cannot hang the interpreter.
+
+    ``black_death_v3`` is not used: it ends an episode on ``terminated AND truncated`` and never
+    reports a car's own termination; :class:`InstanceSlots` pads finished cars itself.
+    """
+
+    def __init__(self, env_fns: Sequence[Callable[[], Any]], num_cpus: int = 0) -> None:
+        from supersuit.vector import MakeCPUAsyncConstructor
+
+        if isinstance(num_cpus, bool) or not isinstance(num_cpus, int) or num_cpus < 0:
+            raise ValueError(f"num_cpus must be an integer >= 0, got {num_cpus!r}")
+        self.num_cpus = min(num_cpus, len(env_fns))
+        self.probe = InstanceSlots(env_fns[0], 0)  # spaces, layout and static attributes
+        self.agents, self.n_cars, self.layout = self.probe.agents, self.probe.n_cars, self.probe.layout
+        fns = [functools.partial(InstanceSlots, fn, k) for k, fn in enumerate(env_fns)]
+        spaces_ = (self.probe.observation_space, self.probe.action_space)
+        if self.num_cpus == 0:
+            from supersuit.vector import ConcatVecEnv
+
+            fns[0] = functools.partial(_same, self.probe)  # in-process, the probe is instance 0
+            self._inner = ConcatVecEnv(fns, *spaces_)
+            if any(list(inst.agents) != self.agents for inst in self._inner.vec_envs):
+                raise ValueError("all env instances must have the same agents")
+        elif self.num_cpus == 1:  # SuperSuit keeps 1 CPU in-process; the user asked for one worker
+            self._inner = _one_worker(fns, self.probe)
+        else:
+            self._inner = MakeCPUAsyncConstructor(self.num_cpus)(fns, *spaces_)
+        super().__init__(len(env_fns) * self.n_cars, *spaces_)
+        self._seed_base: Optional[int] = None
+        self.seed_range: Any = None  # a training.common.seeds.SeedRange every seed must lie in, if set
+        self._finalizer = weakref.finalize(self, _close_inner, self._inner)
+
+    # -- instances ----------------------------------------------------------------------------
+    def _local_instances(self) -> list[InstanceSlots]:
+        if self.num_cpus:
+            raise RuntimeError("the env instances live in worker processes (--num-cpus > 0); "
+                               "this needs them in the learner's process (--num-cpus 0)")
+        return list(self._inner.vec_envs)
+
+    @property
+    def envs(self) -> list:
+        """The env instances (in the learner's process only)."""
+        return [inst.env for inst in self._local_instances()]
+
+    # -- VecEnv API ---------------------------------------------------------------------------
+    def seed(self, seed: Optional[int] = None) -> list[Optional[int]]:
+        n_instances = self.num_envs // self.n_cars
+        if seed is not None and self.seed_range is not None:
+            self.seed_range.episodes(n_instances, seed)
+        self._seed_base = seed
+        return [None if seed is None else seed + k for k in range(n_instances)]
+
+    def reset(self):
+        options = None if self._seed_base is None else {"slot_seed_base": self._seed_base}
+        obs, _ = self._inner.reset(seed=None, options=options)
+        self._seed_base = None
+        return np.asarray(obs, dtype=np.float32)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._inner.step_async(np.asarray(actions).reshape(self.num_envs))
+
+    def step_wait(self):
+        obs, rewards, terms, truncs, infos = self._inner.step_wait()
+        dones = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
+        infos = _unshared(infos)
+        return np.asarray(obs, dtype=np.float32), np.asarray(rewards, dtype=np.float32), dones, infos
+
+    def close(self) -> None:
+        self._finalizer()
+        self.probe.close()
+
+    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+        if self.num_cpus:  # static attributes: every instance has the probe's
+            return [getattr(self.probe.env, attr_name) for _ in self._get_indices(indices)]
+        return super().get_attr(attr_name, indices)
+
+
+def _unshared(infos: Sequence[dict]) -> list[dict]:
+    """One dict per slot: a dict that appears a second time (SuperSuit's worker path hands every
+    empty slot the same ``{}``) is copied."""
+    seen: set[int] = set()
+    out = []
+    for info in infos:
+        if id(info) in seen:
+            info = dict(info)
+        seen.add(id(info))
+        out.append(info)
+    return out
+
+
+def _same(obj: Any) -> Any:
+    return obj
+
+
+def _close_inner(inner: Any) -> None:
+    inner.close()
+
+
+def _one_worker(fns: list, probe: InstanceSlots) -> Any:
+    """All instances in one worker process (SuperSuit's constructor runs 1 CPU in-process)."""
+    from supersuit.vector import ConcatVecEnv, ProcConcatVec
+
+    from supersuit.vector.constructors import call_wrap
+
+    return ProcConcatVec([call_wrap(ConcatVecEnv, fns)], probe.observation_space, probe.action_space,
+                         len(fns) * probe.n_cars, probe.metadata)
+
+
+def make_vec_env_from(env_id: str, overrides: dict, n_envs: int, num_cpus: int = 0,
+                      spline_policy: Optional[Callable[[np.ndarray], np.ndarray]] = None) -> SlotVecEnv:
+    """``n_envs`` instances of a registered env as one :class:`SlotVecEnv` (module-level factory:
+    worker processes receive it pickled). ``spline_policy`` becomes every spline scenario
+    instance's path picker; with workers it must be callable there (see ``training.ppo.shared_policy``)."""
+    factory = functools.partial(_make_env, env_id, overrides, spline_policy)
+    return SlotVecEnv([factory] * n_envs, num_cpus)
+
+
+def _make_env(env_id: str, overrides: dict, spline_policy: Any = None) -> Any:
+    import box2d_driving
+
+    env = box2d_driving.make(env_id, **overrides)
+    if spline_policy is not None:
+        env.spline_policy = spline_policy
+    return env
+
+
+def make_slot_vec_env(env_id: str, n_envs: int, num_cpus: int = 0, **overrides: Any) -> SlotVecEnv:
+    """``n_envs`` instances of a registered env as one :class:`SlotVecEnv`."""
+    return make_vec_env_from(env_id, overrides, n_envs, num_cpus)

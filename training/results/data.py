@@ -1,0 +1,179 @@
+"""Reading sweep summaries for the results page: trials grouped by grid point, each metric
+estimated over training seeds, each distribution's counts summed over seeds."""
+
+from __future__ import annotations
+
+import functools
+import json
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional, Union
+
+import numpy as np
+
+from training.common.seeds import REPORT
+from training.results.stats import Estimate, mean_ci
+
+
+# below this mean success rate a grid point's policy has not learnt the task at the sweep's budget
+LEARNT_SUCCESS = 0.5
+
+
+# per grid value (a LiDAR noise level), a scripted reference driver's rate on a trial's report
+# episodes and the number of events it was measured on (its binomial margin follows from both)
+Baseline = dict[str, tuple[float, int]]
+
+
+@dataclass(frozen=True)
+class Size:
+    """The size of a summary column: a measure whose sign is arbitrary per run (a correlation with
+    a bit whose meaning each run picks) is averaged over seeds by size."""
+
+    column: str
+
+    def __str__(self) -> str:
+        return f"|{self.column}|"
+
+
+@dataclass(frozen=True)
+class Difference:
+    """``first`` minus ``second`` of the same trial: an ablation measured on the same episodes.
+    The difference is taken per trial, then estimated over seeds, so seed-to-seed spread common
+    to both cancels."""
+
+    first: "Metric"
+    second: "Metric"
+
+    def __str__(self) -> str:
+        return f"{self.first} - {self.second}"
+
+
+# a summary column by name, its size, or the difference of two metrics
+Metric = Union[str, Size, Difference]
+
+
+@dataclass(frozen=True)
+class PaperValue:
+    """A number the paper reports for a metric: value and, where given, its +- spread."""
+
+    metric: Metric
+    value: float
+    spread: Optional[float] = None
+    text: str = ""
+
+
+class ResultsError(ValueError):
+    """A summary that cannot go on the results page."""
+
+
+@dataclass
+class Group:
+    """The trials of one grid point: its settings, per metric the estimate over seeds, and each
+    distribution's counts summed over seeds (``figures``)."""
+
+    point: dict[str, str]
+    seeds: list[int]
+    estimates: dict[Metric, Estimate]
+    figures: dict[str, Any] = field(default_factory=dict)
+
+
+# -- reading ----------------------------------------------------------------------------------
+def load_summary(path: Path) -> dict[str, Any]:
+    """A sweep's ``summary.json``; :class:`ResultsError` if unreadable or not on report seeds."""
+    try:
+        data = json.loads(Path(path).read_text())
+        sweep, trials = data["sweep"], data["trials"]
+        grid = dict(sweep["grid"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ResultsError(f"{path}: not a sweep summary ({exc})") from None
+    for row in trials:
+        if row.get("status") != "done":
+            continue
+        first, n = row.get("report_first_seed"), row.get("report_episodes")
+        if not isinstance(first, int) or not isinstance(n, int) or first not in REPORT or first + n - 1 not in REPORT:
+            raise ResultsError(f"{path}: trial {row.get('trial')} was evaluated on episodes {first}.. "
+                               f"({n} of them), not on report seeds ({REPORT.describe()})")
+    return {"path": str(path), "sweep": sweep, "grid": grid, "trials": trials}
+
+
+def groups_of(summary: dict[str, Any], metrics: list[Metric]) -> list[Group]:
+    """Finished trials grouped by grid point, in grid order, each metric estimated over seeds."""
+    by_point: dict[tuple, list[dict]] = defaultdict(list)
+    keys = list(summary["grid"])
+    for row in summary["trials"]:
+        if row.get("status") == "done":
+            by_point[tuple(str(row[k]) for k in keys)].append(row)
+    order = {tuple(v): i for i, v in enumerate(grid_product([summary["grid"][k] for k in keys]))}
+    groups = []
+    for values in sorted(by_point, key=lambda v: order.get(v, len(order))):
+        rows = sorted(by_point[values], key=lambda r: r["seed"])
+        figures: dict[str, Any] = {}
+        for r in rows:
+            for name, counts in (r.get("figures") or {}).items():
+                counts = np.asarray(counts, dtype=float)
+                figures[name] = figures[name] + counts if name in figures else counts
+        groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
+                            {m: mean_ci(metric_value(r, m) for r in rows) for m in metrics}, figures))
+    return groups
+
+
+def metric_value(row: dict[str, Any], metric: Metric) -> float:
+    """A trial's value of ``metric`` (NaN where a column is missing or not a number)."""
+    if isinstance(metric, Difference):
+        return metric_value(row, metric.first) - metric_value(row, metric.second)
+    if isinstance(metric, Size):
+        return abs(as_number(row.get(metric.column)))
+    return as_number(row.get(metric))
+
+
+def grid_product(lists: list[list[str]]) -> list[list[str]]:
+    out: list[list[str]] = [[]]
+    for values in lists:
+        out = [prefix + [v] for prefix in out for v in values]
+    return out
+
+
+def as_number(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def report_episodes(summary: dict[str, Any]) -> tuple[int, int]:
+    """(first seed, count) of the report episodes every finished trial of ``summary`` was
+    evaluated on; :class:`ResultsError` if they differ between trials."""
+    sets = {(r["report_first_seed"], r["report_episodes"]) for r in summary["trials"] if r.get("status") == "done"}
+    if len(sets) != 1:
+        raise ResultsError(f"{summary['path']}: trials were evaluated on different report episodes ({sorted(sets)})")
+    return next(iter(sets))
+
+
+@functools.lru_cache(maxsize=None)
+def light_blind_violation_rate(num_cars: int, lidar_noise: float, first_seed: int, episodes: int) -> float:
+    """The red-light violation rate of a light-blind driver (every car at full throttle) on the
+    given report episodes of ``intersection-v0``: what a policy that ignores the light scores on
+    the very episodes a trial was evaluated on. Scripted, so no checkpoint is needed."""
+    import box2d_driving
+    from box2d_driving.metrics.lights import traffic_light_metrics
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import make_policy
+
+    if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
+        raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
+    env = box2d_driving.make("intersection-v0", num_cars=num_cars, lidar_noise=lidar_noise)
+    try:
+        table = run_episodes(env, make_policy("full-throttle", env, seed=first_seed), episodes, seed=first_seed)
+    finally:
+        env.close()
+    return float(traffic_light_metrics(table)["red_light_violation_rate"])
+
+
+def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> Baseline:
+    """Per noise level with a 1-car grid point: the light-blind driver's violation rate on the
+    trials' report episodes, and its number of junction entries (1 car: one per episode)."""
+    first, episodes = report_episodes(summary)
+    return {g.point["lidar_noise"]: (light_blind_violation_rate(1, as_number(g.point["lidar_noise"]), first, episodes),
+                                     episodes)
+            for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}

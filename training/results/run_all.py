@@ -1,0 +1,80 @@
+"""``box2d-driving reproduce --run``: the paper's grid in one command.
+
+Runs every rule's sweep (the commands on the results page, ``training/results/sections.py``) one
+after the other on Ray Tune, each in ``RUNS/sweep-NAME``. A rule whose summary is already in the
+summaries folder (``assets/sweeps/NAME.json`` in a checkout) continues from it: its finished trials
+are taken as they are (``sweep --reuse``), so a fresh machine goes on where the committed results
+stop. After each sweep its summary is copied back into that folder; the caller then rewrites the
+page. A sweep that stops before all its trials finish (Ctrl-C, the machine going away) ends the
+run there: the same command continues it.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Optional, Sequence
+
+from training.results.sections import Section
+
+__all__ = ["ReproduceError", "run_sections"]
+
+
+class ReproduceError(ValueError):
+    """A rule's sweep cannot start (Ray missing, a summary that belongs to another sweep)."""
+
+
+def _copy_atomic(src: Path, dst: Path) -> None:
+    tmp = dst.with_name(dst.name + ".partial")
+    shutil.copyfile(src, tmp)
+    tmp.replace(dst)
+
+
+def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per_trial: float = 1,
+                 gpus_per_trial: float = 0, max_concurrent: Optional[int] = None,
+                 address: Optional[str] = None) -> int:
+    """Run (or continue) each section's sweep in turn; returns the exit status: 0 all trials done,
+    1 a trial failed or a sweep was stopped before its end (the same call continues it)."""
+    try:
+        import ray  # noqa: F401
+    except ImportError as exc:
+        raise ReproduceError('--run needs Ray Tune: pip install -c constraints-cpu.txt -e ".[train,sweep]" '
+                             f"({exc})") from None
+    from training.sweeps.sweep import build_parser, run_sweep, spec_from_args
+    from training.sweeps.spec import SweepError, check_spec
+    from training.sweeps.summary import reusable_rows
+
+    # check every rule before hours of training: its command, and that its summary is its own
+    plans = []
+    for section in sections:
+        summary = Path(folder) / f"{section.summary_name}.json"
+        try:
+            spec, threads = spec_from_args(build_parser().parse_args(section.argv))
+            check_spec(spec)
+            if summary.exists():
+                reusable_rows(summary, spec)
+        except SweepError as exc:
+            raise ReproduceError(f"{section.key}: {exc}") from None
+        plans.append((section, spec, threads, summary if summary.exists() else None))
+
+    status = 0
+    for section, spec, threads, reuse in plans:
+        out = Path(runs) / section.out.name
+        print(f"== {section.title}: {section.command}" + (f" (continuing {reuse})" if reuse else ""), flush=True)
+        try:
+            rows = run_sweep(spec, out, cpus_per_trial, gpus_per_trial, address, max_concurrent, reuse, threads)
+        except SweepError as exc:
+            raise ReproduceError(f"{section.key}: {exc}") from None
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        for ext in ("json", "csv"):
+            _copy_atomic(out / f"summary.{ext}", Path(folder) / f"{section.summary_name}.{ext}")
+        counts = {s: sum(r["status"] == s for r in rows) for s in ("done", "error", "stopped", "pending")}
+        print(f"== {section.title}: {counts['done']} of {len(rows)} trials done"
+              + "".join(f", {n} {s}" for s, n in counts.items() if s != "done" and n)
+              + f"; summary {Path(folder) / (section.summary_name + '.json')}", flush=True)
+        if counts["stopped"] or counts["pending"]:
+            print("stopped before the end: run the same command again to continue", flush=True)
+            return 1
+        if counts["error"]:
+            status = 1
+    return status

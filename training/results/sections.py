@@ -1,0 +1,263 @@
+"""The results page's rules: for each, the paper's claim, the sweep that measures it and how the
+page shows it (``box2d-driving reproduce`` reads this table; ``reproduce --run`` runs its sweeps).
+
+Every sweep's budget is a number of decisions (or rounds), never minutes, so a trial learns the
+same on any machine. Where a shipped policy was trained in stages (a base run, then fine-tunes),
+the sweep repeats its last stage from the same starting weights with three training seeds; the
+section's ``setting`` says so on the page.
+"""
+
+from __future__ import annotations
+
+import shlex
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+from training.evaluation import figure_data as fd
+from training.results.data import Baseline, Difference, Group, Metric, PaperValue, Size, light_blind_rates
+from training.results.figures import (Figure, against_noise_figure, bars_figure, distribution_figure, gap_figure,
+                                      lights_figure)
+from training.results.statements import (Statement, above_statement, apart_statement, lights_statement,
+                                         noise_trend_statement, paper_comparison, reference_statement,
+                                         unlearnt_statement)
+
+__all__ = ["Headline", "PaperValue", "SECTIONS", "Section", "section", "statements"]
+
+
+@dataclass(frozen=True)
+class Headline:
+    """A row of the README's results table: one grid point of a rule and the metrics shown.
+
+    Attributes:
+        rule: what the row shows, in words.
+        setting: the scenario and grid point, in words.
+        point: grid values (as typed in the sweep's ``--grid``) the row's trials have.
+        metrics: metric columns shown, labelled as in the section's table.
+    """
+
+    rule: str
+    setting: str
+    point: tuple[tuple[str, str], ...] = ()
+    metrics: tuple[Metric, ...] = ()
+
+
+@dataclass(frozen=True)
+class Section:
+    """One rule on the page.
+
+    Attributes:
+        key: anchor and figure file stem.
+        title: heading.
+        behaviour: the sweep behaviour that measures it.
+        match: fixed training options a sweep must have for this section (e.g. communication on).
+        metrics: (metric column, label) shown in the table.
+        paper: the paper's result in words.
+        command: the sweep that produces it (``box2d-driving sweep ... --out runs/sweep-NAME``).
+        setting: what each trial trains, in words (shown above the table).
+        paper_values: the paper's numbers to compare ours with.
+        figure: draws the section's figure from the grouped estimates (None: table only).
+        baseline: measures a scripted reference driver on a summary's report episodes, for the
+            section's statements and figure (the lights: a light-blind driver); None: none.
+        statements: the section's own plain statements of what the intervals say against the
+            paper's claim (beside the comparisons every section gets: with ``paper_values``, with
+            ``compare_with`` and the grid points not learnt).
+        shipped: the shipped policy animated in the section (a folder in assets/policies).
+        gif_size: the animation's frame size in pixels.
+        headlines: its rows in the README's results table.
+        compare_with: (another section's key, its grid point) whose trials this section's are set
+            against in a statement (same metrics, intervals apart or not).
+    """
+
+    key: str
+    title: str
+    behaviour: str
+    match: tuple[tuple[str, str], ...]
+    metrics: tuple[tuple[Metric, str], ...]
+    paper: str
+    command: str
+    setting: str = ""
+    paper_values: tuple[PaperValue, ...] = ()
+    figure: Optional[Figure] = None
+    baseline: Optional[Callable[[dict[str, Any], list[Group]], Baseline]] = None
+    statements: tuple[Statement, ...] = ()
+    shipped: Optional[str] = None
+    gif_size: tuple[int, int] = (320, 320)
+    headlines: tuple[Headline, ...] = ()
+    compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
+
+    @property
+    def argv(self) -> list[str]:
+        """The sweep's arguments (after ``box2d-driving sweep``)."""
+        return shlex.split(self.command)[2:]
+
+    @property
+    def out(self) -> Path:
+        """The sweep folder the command names."""
+        argv = self.argv
+        return Path(argv[argv.index("--out") + 1])
+
+    @property
+    def summary_name(self) -> str:
+        """File stem of the committed summary: the sweep folder's name without ``sweep-``."""
+        return self.out.name.removeprefix("sweep-")
+
+
+SWEEP = "box2d-driving sweep"
+# which bit value a run's cars use for what is each run's own choice: the correlation's sign is
+# arbitrary per seed, so its size is what is averaged
+PEARSON = Size("communication.pearson_heading_change_bit")
+# success lost when every message is replaced by silence, on the same report episodes: how much
+# the listeners rely on the message
+SUCCESS_LOST_UNHEARD = Difference("success_rate", "messages_unheard.success_rate")
+# which side the fast cars take is each run's choice (seeds give +0.999 and -0.997): the size
+FAST_LANES_R = Size("fast_lanes.pearson_r")
+# the communication measures drawn and stated against LiDAR noise
+AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+                 (PEARSON, "|Pearson(heading change, bit)|"),
+                 (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
+SECTIONS: tuple[Section, ...] = (
+    Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
+            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
+             ("collision_rate", "collisions")),
+            "With one car the light is ignored; with more cars and more LiDAR noise, fewer cars enter "
+            "on red (the paper shows this as histograms, without numbers).",
+            f"{SWEEP} lights --grid lidar_noise=0,0.25,0.5,0.75 num_cars=1,4,8 --seeds 3 --timesteps 991552 "
+            "--out runs/sweep-lights",
+            setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
+                    "policy did.",
+            figure=lights_figure, baseline=light_blind_rates, statements=(lights_statement,),
+            shipped="traffic_lights_4cars_noise05",
+            headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
+                                (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
+                       Headline("lone car ignores the light", "1 car, LiDAR noise 0.5",
+                                (("lidar_noise", "0.5"), ("num_cars", "1")), ("red_light_violation_rate",)),
+                       Headline("8 cars from scratch", "8 cars, LiDAR noise 0.5",
+                                (("lidar_noise", "0.5"), ("num_cars", "8")), ("red_light_violation_rate", "success_rate", "collision_rate")))),
+    Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
+            (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
+            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
+             ("collision_rate", "collisions")),
+            "With more cars, fewer cars enter on red.",
+            f"{SWEEP} lights --seeds 3 --timesteps 991552 --set num_cars=8 lidar_noise=0.5 "
+            "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lights-8cars",
+            setting="8 cars from scratch do not learn to arrive within the grid's budget (above), so, as "
+                    "the shipped 8-car policy was, each trial fine-tunes the shipped 4-car noise-0.5 policy "
+                    "with 8 cars for the same budget again; compare it with the grid's 4-car noise-0.5 row.",
+            figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
+            compare_with=("traffic-lights", (("lidar_noise", "0.5"), ("num_cars", "4"))),
+            headlines=(Headline("denser traffic", "8 cars, LiDAR noise 0.5, from the 4-car policy", (),
+                                ("red_light_violation_rate", "success_rate", "collision_rate")),)),
+    Section("lanes", "Lanes", "lanes", (),
+            (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
+             "time on the majority side"), ("success_rate", "success")),
+            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with 2 cars they do not.",
+            f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=48 "
+            "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
+            "--out runs/sweep-lanes",
+            setting="Each trial is the shipped lanes run, for as many bilevel rounds as the shipped run "
+                    "reached, the acceleration policy starting from the shipped 4-car noise-0.5 lights "
+                    "policy, the path policy from scratch.",
+            figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
+                                       "lane position inside the junction (+ = right of the axis)",
+                                       bars_figure("lanes.majority_share", "share on the majority side")),
+            statements=(apart_statement("num_cars", "2", "8", "lanes.majority_share", "crossings on the majority side",
+                                        "more one-sided with 8 cars"),),
+            shipped="lanes_8cars_noise05",
+            headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
+                                (("num_cars", "8"),), ("lanes.majority_share", "success_rate")),
+                       Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
+                                ("lanes.majority_share",)))),
+    Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
+            (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
+             ("success_rate", "success"), ("collision_rate", "collisions")),
+            "Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time; 98.45 % of "
+            "following samples keep the speed-matching distance (human drivers in nuScenes: 99.56 %).",
+            f"{SWEEP} real-junction --seeds 3 --timesteps 5984128 --set num_cars=8 collision_reward=-3 "
+            "ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --out runs/sweep-real-junction",
+            setting="Each trial repeats the last stage of the shipped `real_junction_8cars_collision3`: "
+                    "from the shipped 8-car base policy, collision reward -3, as many decisions as that "
+                    "stage took; the seeds vary this stage only.",
+            paper_values=(PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
+                          PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
+            figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
+            shipped="real_junction_8cars_collision3",
+            headlines=(Headline("right of way, safe distance",
+                                "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
+                                ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
+    Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
+            (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2]),
+            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
+            "more on the message when their perception is less reliable.",
+            f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
+            "--set communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
+            "--out runs/sweep-communication",
+            setting="Each trial widens the shipped 8-car base policy to the 1-bit message and trains as "
+                    "many decisions as the shipped noise-0.5 communication policy did (entropy 0.01 at "
+                    "every noise level). *Success lost with messages unheard*: the trial's success minus its "
+                    "success on the same report episodes with every message replaced by silence, so above "
+                    "zero where the listeners rely on the message.",
+            figure=against_noise_figure(AGAINST_NOISE),
+            statements=(noise_trend_statement(AGAINST_NOISE),
+                        above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
+                                        "the listeners rely on the message", "success rises without the message",
+                                        level=0.0, level_text="zero")),
+            shipped="real_junction_comm_8cars/noise05",
+            headlines=tuple(Headline("turn signals (communication)",
+                                     f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
+                                     (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
+                            for noise in ("0", "0.25", "0.5", "0.75"))),
+    Section("fast-lanes", "Fast lanes", "fast-lanes", (),
+            ((FAST_LANES_R, "Pearson(rating, lateral), size"), ("success_rate", "success")),
+            "Faster cars keep to one side of the highway.",
+            f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=34 spline_updates_per_round=2 "
+            "--out runs/sweep-fast-lanes",
+            setting="Each trial is the shipped fast-lanes run from scratch, for as many bilevel rounds as "
+                    "the shipped run reached.",
+            figure=bars_figure(FAST_LANES_R, "Pearson(rating, lateral position), size"),
+            shipped="fast_lanes_10cars", gif_size=(640, 200),
+            headlines=(Headline("fast lanes", "`highway-spline-v0`, 10 cars", (),
+                                (FAST_LANES_R, "success_rate")),)),
+    Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
+            (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
+             ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
+            "Most cars keep more than the speed-matching distance from pedestrians (more than 6 m).",
+            f"{SWEEP} crosswalk --seeds 3 --timesteps 8305216 --set crosswalk_in_satnav=true "
+            "collision_reward=-6 ent_coef=0.001 init_from=assets/policies/crosswalk_4cars_satnav "
+            "--out runs/sweep-crosswalk",
+            setting="Each trial fine-tunes the shipped `crosswalk_4cars_satnav` (trained at the paper's "
+                    "collision reward -1) at -6 in one stage, for as many decisions as the shipped "
+                    "`crosswalk_4cars_satnav_collision6` took in its two (-3, then -6).",
+            figure=distribution_figure("pedestrian_distance_counts", fd.PEDESTRIAN_BINS,
+                                       "distance to the nearest pedestrian ahead (m)",
+                                       bars_figure("safe_stopping_share", "safe-stopping share"),
+                                       mark=(6.0, "6 m")),
+            statements=(above_statement("share_more_than_6m", "samples > 6 m from the pedestrian ahead",
+                                        "most samples keep more than 6 m", "most samples keep less than 6 m"),),
+            shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200),
+            headlines=(Headline("slow down for pedestrians",
+                                "`crosswalk-v0`, 4 cars, crosswalk in the sat-nav, collision reward -6", (),
+                                ("pedestrian_collision_rate", "safe_stopping_share", "success_rate")),)),
+)
+
+
+def section(key: str) -> Section:
+    """The section with this key; ``KeyError`` naming the known keys."""
+    for s in SECTIONS:
+        if s.key == key:
+            return s
+    raise KeyError(f"no rule {key!r}; the rules are {', '.join(s.key for s in SECTIONS)}")
+
+
+def statements(section: Section, groups: list[Group], baseline: Baseline, reference: Optional[Group] = None,
+               reference_label: str = "") -> list[str]:
+    """Every statement of ``section``'s part of the page, for its grouped trials: against the paper's
+    numbers, against ``reference`` (the grid point named by ``section.compare_with``, if measured;
+    ``reference_label`` names it), the section's own (``section.statements``, given ``baseline``:
+    what ``section.baseline`` measured, empty if it has none) and the grid points not learnt."""
+    lines = paper_comparison(section.paper_values, groups)
+    if reference is not None:
+        lines += reference_statement(groups, reference, reference_label)
+    for own in section.statements:
+        lines += own(groups, baseline)
+    return lines + unlearnt_statement(groups)

@@ -1,0 +1,210 @@
+"""Plain statements on the results page: what our intervals say against the paper's claims.
+
+Each statement is computed from the estimates over training seeds (and, for the lone car at a
+light, a light-blind driver on the very same report episodes); none is written by hand.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Callable, Sequence
+
+from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
+from training.results.stats import Estimate
+
+# the sections name their statements and gather them (``sections.statements``): this module never
+# imports the sections
+__all__ = ["Statement", "above_statement", "apart_statement", "lights_statement", "noise_trend_statement",
+           "paper_comparison", "reference_statement", "unlearnt_statement"]
+
+# a section's own statements: from its grouped trials and its baseline's measurements, the lines
+# it adds to the page
+Statement = Callable[[list[Group], Baseline], list[str]]
+
+
+def _where(point: dict[str, str]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in point.items()) or "shipped settings"
+
+
+def _unlearnt(g: Group) -> bool:
+    """Whether the cars of this grid point mostly fail to arrive (mean success below LEARNT_SUCCESS)."""
+    e = g.estimates.get("success_rate")
+    return e is not None and bool(e.n) and e.mean < LEARNT_SUCCESS
+
+
+def apart(a: Estimate, b: Estimate) -> int:
+    """How ``b`` lies against ``a`` by their intervals: 1 above and apart, -1 below and apart, 0
+    overlapping."""
+    return 1 if b.low > a.high else -1 if b.high < a.low else 0
+
+
+def paper_comparison(paper_values: Sequence[PaperValue], groups: list[Group]) -> list[str]:
+    """Our estimate against each of the paper's numbers, per grid point."""
+    lines = []
+    for pv in paper_values:
+        for g in groups:
+            e = g.estimates.get(pv.metric)
+            if e is None or e.n == 0:
+                continue
+            where = _where(g.point)
+            if pv.spread is not None:
+                inside = abs(e.mean - pv.value) <= pv.spread
+                verdict = "inside" if inside else "outside"
+                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
+                             f"our mean is {verdict} the paper's interval.")
+            else:
+                held = e.contains(pv.value)
+                verdict = ("the paper's value lies inside our interval" if held else
+                           "the paper's value lies outside our interval" if held is False else
+                           "one seed only: no interval")
+                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
+                             f"{verdict}.")
+    return lines
+
+
+def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
+    """The paper's first lights trend (more cars, fewer violations) read from the two intervals."""
+    return {-1: "fewer violations with more cars, intervals apart, as in the paper.",
+            1: "more violations with more cars, intervals apart, unlike the paper.",
+            0: "the intervals overlap: no difference shown, unlike the paper."}[apart(fewer, more)]
+
+
+def by_verdict(subject: str, readings: list[tuple[str, str, str]]) -> list[str]:
+    """One line per verdict for readings ``(noise, numbers, verdict)`` of one comparison across noise
+    levels, so four levels that agree make one line, not four."""
+    grouped: dict[str, list[str]] = defaultdict(list)
+    for noise, numbers, verdict in readings:
+        grouped[verdict].append(f"noise {noise} {numbers}")
+    every = len(readings) > 1
+    return [f"- {subject}{', every noise level' if every and len(parts) == len(readings) else ''}: "
+            f"{'; '.join(parts)}: {verdict}" for verdict, parts in grouped.items()]
+
+
+def lights_statement(groups: list[Group], blind: Baseline) -> list[str]:
+    """Plain statements of the lights trends, from the intervals. ``blind``: per noise level, the
+    light-blind driver's violation rate on the same report episodes and its number of entries."""
+    by_noise: dict[str, dict[float, Estimate]] = defaultdict(dict)
+    by_cars: dict[float, list[Group]] = defaultdict(list)
+    # a grid point not learnt at this budget is said once by unlearnt_statement, compared with nothing
+    for g in (g for g in groups if not _unlearnt(g)):
+        n_cars = as_number(g.point.get("num_cars"))
+        by_noise[g.point.get("lidar_noise", "?")][n_cars] = g.estimates["red_light_violation_rate"]
+        by_cars[n_cars].append(g)
+    lone: list[tuple[str, str, str]] = []
+    against: dict[float, list[tuple[str, str, str]]] = defaultdict(list)
+    for noise in sorted(by_noise, key=as_number):
+        cars, one = by_noise[noise], by_noise[noise].get(1.0)
+        if one is not None and noise in blind and one.n:
+            rate, entries = blind[noise]
+            # the blind rate is itself measured on `entries` junction entries: its 95 % binomial margin
+            margin = 1.96 * math.sqrt(max(rate * (1 - rate), 1e-12) / max(entries, 1))
+            lone.append((noise, f"{one.format()} against {rate:.3f} ± {margin:.3f}",
+                         "no different: the light is ignored, as in the paper." if abs(one.mean - rate) <= margin else
+                         "different: the lone car reacts to the light, unlike the paper."))
+        for n in sorted(c for c in cars if c > 1.0):
+            if one is not None and one.high is not None and cars[n].high is not None:
+                against[n].append((noise, f"{one.format()} against {cars[n].format()}",
+                                   more_cars_verdict(one, cars[n])))
+    lines = by_verdict("1 car, red-light violations against a light-blind driver (full throttle) on the same "
+                       "episodes", lone)
+    for n, readings in sorted(against.items()):
+        lines += by_verdict(f"red-light violations, 1 car against {n:g} cars", readings)
+    # the paper's second trend: with more LiDAR noise, fewer violations (at each number of cars)
+    for n in sorted(c for c in by_cars if c > 1.0):
+        lines += noise_trend(by_cars[n], [("red_light_violation_rate", f"{n:g} cars, red-light violations")], paper=-1)
+    return lines
+
+
+def noise_trend_statement(metrics: tuple[tuple[Metric, str], ...], paper: int = 1) -> Statement:
+    """States :func:`noise_trend` for (metric, label) pairs."""
+    return lambda groups, baseline: noise_trend(groups, list(metrics), paper)
+
+
+def noise_trend(groups: list[Group], metrics: list[tuple[Metric, str]], paper: int = 1) -> list[str]:
+    """Whether each metric rises or falls from the lowest to the highest LiDAR noise, from the
+    intervals; ``paper``: the direction the paper reports (1 rises, -1 falls)."""
+    by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
+    if len(by_noise) < 2:
+        return []
+    low, high = by_noise[0], by_noise[-1]
+    expected, other = ("rise", "falls") if paper == 1 else ("fall", "rises")
+    lines = []
+    for metric, label in metrics:
+        a, b = low.estimates[metric], high.estimates[metric]
+        if a.high is None or b.high is None:
+            continue
+        seen = apart(a, b)
+        verdict = (f"{expected}s, intervals apart, as in the paper." if seen == paper else
+                   f"{other}, intervals apart, unlike the paper." if seen else
+                   f"the intervals overlap: no {expected} shown, unlike the paper.")
+        lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
+                     f"{high.point['lidar_noise']} {b.format()}: {verdict}")
+    return lines
+
+
+def unlearnt_statement(groups: list[Group]) -> list[str]:
+    """Grid points whose cars mostly fail to arrive: their rule measures say little. Points that
+    differ only in LiDAR noise share a line."""
+    rows: dict[str, list[Group]] = defaultdict(list)
+    for g in (g for g in groups if _unlearnt(g)):
+        rows[_where({k: v for k, v in g.point.items() if k != "lidar_noise"})].append(g)
+    lines = []
+    for where, same in rows.items():
+        if len(same) == 1:
+            success = f"{_where(same[0].point)}: success {same[0].estimates['success_rate'].format()}"
+        else:
+            success = f"{where}: success " + "; ".join(f"noise {g.point['lidar_noise']} "
+                                                       f"{g.estimates['success_rate'].format()}" for g in same)
+        lines.append(f"- {success}: at this budget the cars have not learnt to reach their goals, so the other "
+                     f"numbers of {'this row' if len(same) == 1 else 'these rows'} say little about the rule.")
+    return lines
+
+
+def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, claim: str) -> Statement:
+    """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals; ``claim``:
+    the paper's reading of that, in words."""
+    def say(groups: list[Group], baseline: Baseline) -> list[str]:
+        by = {g.point.get(key): g.estimates[metric] for g in groups}
+        if few not in by or many not in by or by[few].high is None or by[many].high is None:
+            return []
+        a, b = by[few], by[many]
+        verdict = {1: f"{claim}, intervals apart, as in the paper.",
+                   0: "the intervals overlap: no difference shown, unlike the paper.",
+                   -1: f"the opposite of {claim}, intervals apart, unlike the paper."}[apart(a, b)]
+        return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
+    return say
+
+
+def above_statement(metric: Metric, label: str, above: str, below: str, level: float = 0.5,
+                    level_text: str = "one half") -> Statement:
+    """Whether ``metric`` is above ``level`` at every grid point, from the intervals; ``above`` (the
+    paper's reading) and ``below``: what each side means, in words."""
+    def say(groups: list[Group], baseline: Baseline) -> list[str]:
+        lines = []
+        for g in groups:
+            e = g.estimates[metric]
+            if e.high is None:
+                continue
+            verdict = (f"{above}, as in the paper." if e.low > level else
+                       f"{below}, unlike the paper." if e.high < level else
+                       f"the interval straddles {level_text}: neither shown.")
+            lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
+        return lines
+    return say
+
+
+def reference_statement(groups: list[Group], reference: Group, label: str) -> list[str]:
+    """This section's violations against a reference grid point with fewer cars (the paper: more
+    cars, fewer violations), from the intervals."""
+    metric = "red_light_violation_rate"
+    ref = reference.estimates.get(metric)
+    lines = []
+    for g in groups:
+        e = g.estimates.get(metric)
+        if e is None or ref is None or e.high is None or ref.high is None:
+            continue
+        verdict = more_cars_verdict(ref, e)
+        these = "these trials" if not g.point else f"these trials at {_where(g.point)}"
+        lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: {verdict}")
+    return lines

@@ -1,0 +1,107 @@
+"""Load a trained policy and drive a ParallelEnv directly: ``load_policy(path).act(obs)``.
+
+Loading never unpickles: the network is rebuilt from the run's ``config.json`` and its weights are
+read from ``model.safetensors`` (see ``training/runs/checkpoint.py``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+import torch as th
+
+from box2d_driving.policies.checkpoint_file import find_config, is_bilevel_run, read_json
+from box2d_driving.policies.trained import RunPolicy
+from training.runs.checkpoint import CheckpointError, load_policy_weights, read_checkpoint
+
+
+class TrainedPolicy(RunPolicy):
+    """A trained actor run with torch (the trainer's network itself). ``act(observations)`` maps
+    ``{agent: obs}`` to ``{agent: action}``; deterministic (most likely action) unless
+    ``deterministic=False``. The actor needs only each car's own observation, so no training
+    wrapper is involved. :func:`box2d_driving.policies.load_trained` gives the same actions with
+    numpy alone."""
+
+    def __init__(self, policy: Any, config: dict, deterministic: bool = True) -> None:
+        super().__init__(config, None, policy.mlp_extractor.obs_dim, deterministic)
+        self.policy = policy  # a training.ppo.policy.CTDEPolicy
+
+    def attach_spline(self, spline_policy: Any) -> None:
+        """Use ``spline_policy`` (a bilevel run's stage-0 SB3 policy) to pick each car's path;
+        envs from :meth:`make_env` call it at every reset."""
+        self.spline_policy = spline_policy
+
+    def choose_paths(self, obs0: np.ndarray) -> np.ndarray:
+        return self.spline_policy.predict(np.asarray(obs0, dtype=np.float32),
+                                          deterministic=self.deterministic)[0]
+
+    def actions(self, obs: np.ndarray) -> np.ndarray:
+        return actor_actions(self.policy, obs, self.deterministic)
+
+
+@th.no_grad()
+def actor_actions(policy: Any, obs: np.ndarray, deterministic: bool = True) -> np.ndarray:
+    """Actions ``(M,)`` of a CTDE policy's actor for own observations ``(M, D)`` (no team block)."""
+    latent = policy.mlp_extractor.forward_actor(th.as_tensor(np.asarray(obs, dtype=np.float32), device=policy.device))
+    dist = policy.action_dist.proba_distribution(action_logits=policy.action_net(latent))
+    actions = dist.mode() if deterministic else dist.sample()
+    return actions.cpu().numpy().astype(np.int64)
+
+
+def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPolicy:
+    """Load a checkpoint: a run folder (``model.safetensors`` + ``config.json``), the
+    ``.safetensors`` file itself, or a bilevel run folder with ``accel/`` and ``spline/``, whose
+    envs then pick their paths with the spline policy. Raises :class:`CheckpointError` (a
+    ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
+    malformed."""
+    path = Path(path)
+    if is_bilevel_run(path):
+        policy = load_policy(path / "accel", deterministic)
+        policy.attach_spline(_load_spline_policy(path))
+        return policy
+    ckpt = read_checkpoint(path)
+    config_path = find_config(ckpt.path)
+    config = read_json(config_path)
+    net = build_ctde_policy(config, config_path)
+    load_policy_weights(net, ckpt)
+    policy = TrainedPolicy(net, config, deterministic)
+    policy.run_dir = config_path.parent
+    return policy
+
+
+def build_ctde_policy(config: dict, where: Path) -> Any:
+    """An untrained :class:`CTDEPolicy` shaped for the env and critic a run's config names."""
+    import box2d_driving
+    from training.ppo.policy import CTDEPolicy, policy_kwargs_for
+    from training.ppo.vec_env import slot_observation_space
+
+    try:
+        env = box2d_driving.make(config["env_id"], **config["env_overrides"])
+        critic = config.get("critic", "mean")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CheckpointError(f"{where}: cannot rebuild the policy's env ({exc!r})") from None
+    agent = env.possible_agents[0]
+    space = slot_observation_space(env.observation_space(agent), len(env.possible_agents))
+    policy = CTDEPolicy(space, env.action_space(agent), lambda _: 0.0, **policy_kwargs_for(env, critic))
+    env.close()
+    return policy.eval()
+
+
+def _load_spline_policy(run: Path) -> Any:
+    """The stage-0 (spline) policy of a bilevel run folder, rebuilt from its ``config.json``."""
+    import box2d_driving
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    ckpt = read_checkpoint(run / "spline")
+    config = read_json(run / "config.json")
+    try:
+        env = box2d_driving.make(config["accel"]["env_id"], **config["accel"]["env_overrides"])
+        hidden = [int(h) for h in config.get("spline_hidden", (64, 64))]
+        policy = ActorCriticPolicy(env.spline_observation_space, env.spline_action_space,
+                                   lambda _: 0.0, net_arch=hidden)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
+    env.close()
+    load_policy_weights(policy, ckpt)
+    return policy.eval()

@@ -1,0 +1,151 @@
+"""What a training run logs while it learns, and its checkpoints: the rollout statistics
+callback (success, collisions, red-light violations, agent-steps/s; progress bar) and
+``save_checkpoint``."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Optional
+
+import numpy as np
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.utils import explained_variance
+
+from box2d_driving.metrics.lights import violation_rate
+from box2d_driving.outputs import GracefulStop
+from box2d_driving.road.lights import NO_LIGHT
+from training.ppo.buffer import MaskedRolloutBuffer
+from training.runs.checkpoint import FILE, save_model
+from training.runs.run_dir import write_json_atomic
+
+
+class RolloutMetrics(BaseCallback):
+    """Per update: success, collision and red-light violation rates of the episodes that ended,
+    agent-steps (padding excluded), throughput (``time/agent_steps_per_s`` includes the PPO update
+    before the rollout, ``time/rollout_agent_steps_per_s`` is collection only); logged to
+    CSV/TensorBoard; progress bar."""
+
+    def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
+                 checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True,
+                 stop: Optional[GracefulStop] = None,
+                 on_checkpoint: Optional[Callable[[dict], None]] = None) -> None:
+        super().__init__()
+        self.on_checkpoint = on_checkpoint
+        self.stop = stop
+        self.show_bar = show_bar
+        self.max_seconds = max_seconds
+        self.out, self.total = out, total
+        self.wall_offset, self.agent_steps = wall_offset, agent_steps_offset
+        self.checkpoint_every = checkpoint_every
+        self.updates = 0
+        self.bar = None
+
+    def _on_training_start(self) -> None:
+        from tqdm import tqdm
+
+        n = self.training_env.num_envs
+        self.prev_light = np.full(n, NO_LIGHT)
+        self.prev_inside = np.zeros(n, dtype=bool)
+        self.t0 = self.prev_rollout_end = time.perf_counter()
+        self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
+                        dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0,
+                        disable=not self.show_bar)
+        self._reset_stats()
+
+    def _reset_stats(self) -> None:
+        self.done_cars = self.arrived = self.collided = self.ped_hits = 0
+        self.entry_lights: list[float] = []
+        self.rollout_t0 = time.perf_counter()
+        self.rollout_agent_steps = 0
+
+    def _on_step(self) -> bool:
+        infos, dones = self.locals["infos"], self.locals["dones"]
+        for slot, info in enumerate(infos):
+            if not info:
+                continue
+            self.rollout_agent_steps += 1
+            inside = info["in_junction"]
+            if inside and not self.prev_inside[slot]:
+                self.entry_lights.append(self.prev_light[slot])
+            self.prev_light[slot], self.prev_inside[slot] = info["light"], inside
+            if dones[slot]:
+                self.done_cars += 1
+                self.arrived += info["arrived"]
+                self.collided += info["collided"]
+                self.ped_hits += info["collided_with"] == "pedestrian"
+                self.prev_light[slot], self.prev_inside[slot] = NO_LIGHT, False
+        self.bar.update(self.training_env.num_envs)
+        return self.wall < self.max_seconds and not (self.stop is not None and self.stop.requested)
+
+    def _on_rollout_end(self) -> None:
+        now = time.perf_counter()
+        self.agent_steps += self.rollout_agent_steps
+        v = violation_rate(np.array(self.entry_lights))
+        cars = max(self.done_cars, 1)
+        stats = {
+            "rollout/success_rate": self.arrived / cars,
+            "rollout/collision_rate": self.collided / cars,
+            "rollout/pedestrian_collision_rate": self.ped_hits / cars,
+            "rollout/red_light_violation_rate": v.rate,
+            "rollout/stop_value": v.stop_value,
+            "rollout/junction_entries": v.entries,
+            "rollout/cars_done": self.done_cars,
+            "time/agent_steps": self.agent_steps,
+            "time/wall_s": self.wall,
+            # with the PPO update before this rollout: what training runs at
+            "time/agent_steps_per_s": self.rollout_agent_steps / max(now - self.prev_rollout_end, 1e-9),
+            # collecting the rollout only (env stepping and inference, no update)
+            "time/rollout_agent_steps_per_s": self.rollout_agent_steps / max(now - self.rollout_t0, 1e-9),
+        }
+        self.prev_rollout_end = now
+        buf = self.model.rollout_buffer
+        if isinstance(buf, MaskedRolloutBuffer):  # SB3's own figure includes the padding
+            live = buf.mask
+            stats["rollout/explained_variance_live"] = float(
+                explained_variance(buf.values[live], buf.returns[live]))
+        for k, val in stats.items():
+            self.logger.record(k, val)
+        self.bar.set_postfix(success=f"{stats['rollout/success_rate']:.2f}",
+                             crash=f"{stats['rollout/collision_rate']:.2f}",
+                             viol=f"{v.rate:.2f}", refresh=False)
+        self.updates += 1
+        self.last_stats = stats
+        self._reset_stats()
+
+    def _on_rollout_start(self) -> None:
+        if self.updates and self.updates % self.checkpoint_every == 0:
+            save_checkpoint(self.model, self.out, self.wall, self.agent_steps)
+            if self.on_checkpoint is not None:
+                self.on_checkpoint(self.progress())
+        self.rollout_t0 = time.perf_counter()
+
+    def _on_training_end(self) -> None:
+        self.bar.close()
+
+    def progress(self) -> dict:
+        """The last rollout's statistics and the run's counters (what a checkpoint hook gets)."""
+        return {**getattr(self, "last_stats", {}), "time/decisions": self.num_timesteps,
+                "time/agent_steps": self.agent_steps, "time/wall_s": self.wall}
+
+    @property
+    def wall(self) -> float:
+        return self.wall_offset + time.perf_counter() - self.t0
+
+
+def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> Path:
+    """Write ``checkpoints/model_<decisions>.safetensors``, refresh ``model.safetensors`` and
+    ``state.json`` (each replaced whole, so an interruption leaves the previous ones)."""
+    ckpt_dir = out / "checkpoints"
+    ckpt_dir.mkdir(exist_ok=True)
+    path = save_model(model, ckpt_dir / f"model_{model.num_timesteps}.safetensors")
+    tmp = out / (FILE + ".partial")
+    shutil.copyfile(path, tmp)
+    tmp.replace(out / FILE)
+    write_json_atomic(out / "state.json",
+                      {"decisions": model.num_timesteps, "agent_steps": agent_steps, "wall_s": wall_s})
+    return path

@@ -1,0 +1,68 @@
+"""Run folders, shared by the flat trainer (``training/trainers/trainer.py``) and the bilevel trainer
+(``training/trainers/bilevel.py``): checks before a run starts or resumes, configs and state written whole,
+and the logs a resumed leg appends.
+
+A new run writes nothing until every check has passed (the caller creates the folder once its
+model is built); ``config.json`` is the first leg's, each ``--resume`` records its own
+``config.resumed_<decisions>.json``; ``state.json`` and checkpoints are replaced whole.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any, Iterable
+
+from training.runs.checkpoint import FILE, LEGACY_FILE, legacy_message
+
+
+class RunError(RuntimeError):
+    """A run folder cannot be used as asked (exists, missing, incompatible)."""
+
+
+def check_new(out: Path) -> None:
+    """A new run needs ``out`` absent or empty; nothing is overwritten silently."""
+    if out.exists() and any(out.iterdir()):
+        raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
+
+
+def check_resumable(out: Path, needed: Iterable[str]) -> None:
+    """Every file in ``needed`` (relative to ``out``) exists; a pickled ``model.zip`` where a
+    ``model.safetensors`` is needed gets the converter's name."""
+    for need in needed:
+        if (out / need).exists():
+            continue
+        legacy = out / need.replace(FILE, LEGACY_FILE)
+        if legacy != out / need and legacy.exists():
+            raise RunError(f"--resume: {legacy_message(legacy)}")
+        raise RunError(f"--resume: {out / need} is missing (a run folder needs {', '.join(needed)})")
+
+
+def check_same_run(saved: dict, config: Any) -> None:
+    """Refuse to resume a run (its saved TrainConfig as a dict) under another env or critic."""
+    for key in ("env_id", "env_overrides", "critic"):
+        if saved.get(key) != json.loads(json.dumps(getattr(config, key))):
+            raise RunError(f"--resume: {key} differs from the checkpoint's "
+                           f"({saved.get(key)!r} vs {getattr(config, key)!r})")
+
+
+def write_json_atomic(path: Path, data: Any) -> None:
+    """``data`` as JSON, replacing ``path`` whole (written beside it, then renamed)."""
+    tmp = path.with_name(path.name + ".partial")
+    tmp.write_text(json.dumps(data, indent=2))
+    tmp.replace(path)
+
+
+def write_config(path: Path, config: Any) -> None:
+    """A config dataclass as JSON (``config.json``, ``config.resumed_*.json``)."""
+    write_json_atomic(path, dataclasses.asdict(config))
+
+
+def append_logger(out: Path, decisions: int):
+    """On resume, log to a new CSV named after the decision it resumes from (earlier logs are
+    kept) and to the same TensorBoard folder."""
+    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
+
+    csv = CSVOutputFormat(str(out / f"progress.resumed_{decisions:012d}.csv"))
+    return Logger(str(out), [csv, TensorBoardOutputFormat(str(out))])

@@ -1,0 +1,124 @@
+"""A sweep's results: what trials report to Ray Tune, and the summary table (CSV and JSON, one
+row per trial) written from them."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from training.runs.run_dir import write_json_atomic
+from training.sweeps.spec import SweepError, SweepSpec, spec_differences
+
+SUMMARY_FIXED = ("trial", "behaviour", "seed", "status", "error", "decisions", "agent_steps",
+                 "wall_s", "report_episodes", "report_first_seed", "run")
+def train_metrics(progress: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint's training statistics under ``train/`` (flat and bilevel runs alike)."""
+    if "accel_success" in progress:  # a bilevel round
+        return {"success_rate": progress["accel_success"], "train/success_rate": progress["accel_success"],
+                "train/collision_rate": progress["accel_collision"],
+                "train/round": progress["round"], "train/agent_steps": progress["agent_steps"],
+                "train/wall_s": progress["wall_s"], "done": 0}
+    keep = {"rollout/success_rate": "success_rate", "rollout/collision_rate": "collision_rate",
+            "rollout/red_light_violation_rate": "red_light_violation_rate", "time/decisions": "decisions",
+            "time/agent_steps": "agent_steps", "time/wall_s": "wall_s"}
+    out = {f"train/{short}": progress[k] for k, short in keep.items() if k in progress}
+    return {**out, "success_rate": out.get("train/success_rate", math.nan), "done": 0}
+
+
+def final_metrics(run: Path, metrics: dict[str, Any]) -> dict[str, Any]:
+    """The report-seed evaluation, flattened to ``report/<name>`` scalars, with the run's counters
+    and the distributions a results page draws (``figures``, from the evaluation's rollouts)."""
+    state = json.loads((run / "state.json").read_text())
+    out = {f"report/{k}": v for k, v in flatten(metrics).items()
+           if k not in ("seed", "episodes", "checkpoint") and not k.startswith(("training.", "trained_on."))}
+    out.update({"report_episodes": metrics["episodes"], "report_first_seed": metrics["seed"],
+                "train/decisions": state.get("decisions", state.get("accel_decisions")),
+                "train/agent_steps": state["agent_steps"], "train/wall_s": state["wall_s"],
+                "success_rate": metrics.get("success_rate", math.nan), "done": 1})
+    rollouts = run / "eval" / "rollouts.npz"
+    if rollouts.exists():
+        from box2d_driving.metrics.rollouts import load_table
+        from training.evaluation.figure_data import figure_data
+        from training.runs.inference import load_policy
+
+        env = load_policy(run).make_env()
+        out["figures"] = figure_data(metrics["env_id"], load_table(rollouts), env.config)
+        env.close()
+    return out
+
+
+def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested metrics as ``a.b`` keys; numbers, booleans and strings only (lists are left out)."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(flatten(v, key + "."))
+        elif isinstance(v, (bool, int, float, str)) or v is None:
+            out[key] = v
+    return out
+
+def metrics_from_row(row: dict[str, Any]) -> dict[str, Any]:
+    """A finished trial's summary row as the metrics its trial reported (for ``--reuse``)."""
+    fixed = set(SUMMARY_FIXED) | set(row.get("grid_keys", ())) | {"grid_keys", "figures"}
+    out = {f"report/{k}": v for k, v in row.items() if k not in fixed}
+    if row.get("figures"):
+        out["figures"] = row["figures"]
+    out.update({"train/decisions": row["decisions"], "train/agent_steps": row["agent_steps"],
+                "train/wall_s": row["wall_s"], "report_episodes": row["report_episodes"],
+                "report_first_seed": row["report_first_seed"], "run": row["run"],
+                "success_rate": row.get("success_rate", math.nan), "done": 1})
+    return out
+
+
+def reusable_rows(path: Path, spec: SweepSpec) -> dict[str, dict[str, Any]]:
+    """The finished trials of a summary written by this same sweep (e.g. committed from an
+    earlier machine), by trial name; :class:`SweepError` if it is another sweep's."""
+    try:
+        saved = json.loads(Path(path).read_text())
+        old, rows = saved["sweep"], saved["trials"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SweepError(f"--reuse {path}: not a sweep summary ({exc})") from None
+    diff = spec_differences(old, spec)
+    if diff:
+        raise SweepError(f"--reuse {path}: another sweep's summary ({', '.join(diff)} differ)")
+    return {r["trial"]: {**r, "grid_keys": list(spec.grid)} for r in rows if r.get("status") == "done"}
+
+
+def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], error: str = "",
+                run: str = "") -> dict[str, Any]:
+    row = {"trial": trial["name"], "behaviour": trial["behaviour"], "seed": trial["seed"],
+           "status": status, "error": error, "run": run or metrics.get("run", ""),
+           "decisions": metrics.get("train/decisions"), "agent_steps": metrics.get("train/agent_steps"),
+           "wall_s": metrics.get("train/wall_s"), "report_episodes": metrics.get("report_episodes"),
+           "report_first_seed": metrics.get("report_first_seed")}
+    row.update(trial["point"])
+    row.update({k[len("report/"):]: v for k, v in metrics.items() if k.startswith("report/")})
+    figures = dict(metrics.get("figures") or {})  # nested as reported, or flattened by Ray
+    figures.update({k[len("figures/"):]: v for k, v in metrics.items() if k.startswith("figures/")})
+    if figures:
+        row["figures"] = figures
+    return row
+
+
+def write_summary(out: Path, spec: SweepSpec, rows: list[dict[str, Any]]) -> None:
+    """``summary.json`` (settings and rows) and ``summary.csv`` (rows), each replaced whole."""
+    rows = sorted(rows, key=lambda r: r["trial"])
+    write_json_atomic(out / "summary.json", {"sweep": dataclasses.asdict(spec), "trials": rows})
+    columns = list(SUMMARY_FIXED[:3]) + list(spec.grid) + list(SUMMARY_FIXED[3:])
+    for row in rows:  # the figures' counts stay in the JSON
+        columns += [k for k in row if k not in columns and k != "figures"]
+    tmp = out / "summary.csv.partial"
+    with tmp.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    tmp.replace(out / "summary.csv")
+
+def first_line(text: str) -> str:
+    lines = [ln for ln in str(text).strip().splitlines() if ln.strip()]
+    return lines[-1][:300] if lines else ""

@@ -1,0 +1,251 @@
+"""Training throughput benchmark: ``box2d-driving bench --train``.
+
+Measures agent-steps per second of real PPO training, updates included (one agent-step is one
+decision of one live car; padding slots are not counted), on ``intersection-v0`` with the paper's
+settings (4 cars by default, LiDAR noise 0.5, 16 env instances, 32,000 slot-decisions per update,
+minibatch 4,000, 4 epochs), for each number of env worker processes (0 = in the learner's process,
+then 1, 2, 4, ... up to the machine's cores) on the CPU and, where torch sees one, the GPU. Each
+row runs ``--warmup`` updates (not timed: Numba kernels compile, workers start), then ``--updates``
+timed ones, and splits the timed wall clock into:
+
+* ``env``: waiting for the vector env's step (stepping the envs in-process, or waiting for the
+  workers and copying their observations);
+* ``inference``: the rest of the rollout (the policy's forward pass, the rollout buffer, callbacks);
+* ``update``: PPO's epochs over the batch.
+
+After the timed updates each row runs PPO's epochs once more on the last batch, timed alone, and
+once under ``torch.utils.flop_counter.FlopCounterMode`` to count the floating-point operations of
+the update's matrix products and convolutions (forward and backward; element-wise operations are
+not counted; the LiDAR convolutions counted as convolutions, not as the zero-padded products
+``training/ppo/encoder.py`` computes them with). Their ratio is the update's achieved GFLOP/s, printed beside a plain matrix product
+of the update's widest layer (minibatch x 256 times 256 x 256) timed in the same run on the same
+device and threads: how close the learner comes to what the machine can do.
+
+Prints a table and writes it as JSON (``--json FILE``, never replacing an existing file).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Optional, Sequence
+
+import torch as th
+
+from box2d_driving.bench import machine
+from stable_baselines3.common.callbacks import BaseCallback
+
+from training.trainers.trainer import TrainConfig, build_model, make_vec_env, resolve_device, set_minibatching, torch_threads
+
+
+@dataclass
+class TrainBenchRow:
+    num_cpus: int
+    device: str
+    threads: int
+    agent_steps_per_s: float
+    agent_steps: int
+    seconds: float
+    env_share: float
+    inference_share: float
+    update_share: float
+    update_gflop: float
+    update_gflops: float
+    matmul_gflops: float
+
+
+class _Clock(BaseCallback):
+    """Splits wall time into rollouts and updates; counts live agent-steps after the warm-up."""
+
+    def __init__(self, warmup: int) -> None:
+        super().__init__()
+        self.warmup = warmup
+        self.rollouts = 0
+        self.t_start: Optional[float] = None
+        self.rollout_s = 0.0
+        self.agent_steps = 0
+        self._t = 0.0
+
+    @property
+    def timing(self) -> bool:
+        return self.rollouts >= self.warmup
+
+    def _on_rollout_start(self) -> None:
+        if self.timing and self.t_start is None:
+            self.t_start = time.perf_counter()
+            self.training_env.env_wait_s = 0.0
+        self._t = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        if self.timing:
+            self.agent_steps += sum(1 for info in self.locals["infos"] if info)
+        return True
+
+    def _on_rollout_end(self) -> None:
+        if self.timing:
+            self.rollout_s += time.perf_counter() - self._t
+        self.rollouts += 1
+
+
+class _TimedStep:
+    """Accumulates the time a vector env spends in ``step_wait`` (on the env object)."""
+
+    def __init__(self, venv) -> None:
+        inner = venv.step_wait
+        venv.env_wait_s = 0.0
+
+        def timed():
+            t0 = time.perf_counter()
+            try:
+                return inner()
+            finally:
+                venv.env_wait_s += time.perf_counter() - t0
+
+        venv.step_wait = timed
+
+
+def update_flops(model) -> tuple[float, float]:
+    """FLOPs of one PPO update on the model's last batch (matrix products and convolutions,
+    forward and backward) and the seconds the same update takes without counting, scaled to the
+    epochs the counted update ran (PPO may stop early on its KL target)."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    from training.ppo.encoder import reference_convolutions
+
+    before = model._n_updates
+    t0 = time.perf_counter()
+    model.train()
+    seconds, timed_epochs = time.perf_counter() - t0, model._n_updates - before
+    counter = FlopCounterMode(display=False)
+    with counter, reference_convolutions():  # the model's own operations, not the fast way's zeros
+        model.train()
+    counted_epochs = model._n_updates - before - timed_epochs
+    return float(counter.get_total_flops()), seconds * counted_epochs / max(1, timed_epochs)
+
+
+def matmul_gflops(rows: int, width: int, device: str, repeats: int = 50) -> float:
+    """GFLOP/s of a ``(rows, width) @ (width, width)`` product on ``device`` (best of 3)."""
+    a = th.randn(rows, width, device=device)
+    b = th.randn(width, width, device=device)
+    best = 0.0
+    for _ in range(3):
+        a @ b
+        if device == "cuda":
+            th.cuda.synchronize()
+        t0 = time.perf_counter()
+        for _ in range(repeats):
+            a @ b
+        if device == "cuda":
+            th.cuda.synchronize()
+        best = max(best, 2.0 * rows * width * width * repeats / (time.perf_counter() - t0) / 1e9)
+    return best
+
+
+def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
+    """Train ``warmup + updates`` PPO updates of ``config`` and time the last ``updates``."""
+    th.set_num_threads(torch_threads(config))
+    venv = make_vec_env(config)
+    try:
+        _TimedStep(venv)
+        model = build_model(config, venv)
+        set_minibatching(model, config, venv.n_cars)
+        venv.seed(config.seed)
+        with tempfile.TemporaryDirectory() as tmp:
+            from stable_baselines3.common.logger import configure
+
+            model.set_logger(configure(tmp, []))
+            clock = _Clock(warmup)
+            per_update = model.n_steps * venv.num_envs
+            model.learn(per_update * (warmup + updates), callback=clock)
+            wall = time.perf_counter() - clock.t_start
+            flops, update_s = update_flops(model)
+    finally:
+        venv.close()
+    env_s = venv.env_wait_s
+    return TrainBenchRow(
+        num_cpus=config.num_cpus, device=resolve_device(config.device), threads=torch_threads(config),
+        agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
+        env_share=env_s / wall, inference_share=max(0.0, clock.rollout_s - env_s) / wall,
+        update_share=max(0.0, wall - clock.rollout_s) / wall, update_gflop=flops / 1e9,
+        update_gflops=flops / update_s / 1e9,
+        matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)))
+
+
+def worker_counts(cores: int) -> list[int]:
+    """0, 1, 2, 4, ... up to ``cores``."""
+    out, n = [0, 1], 2
+    while n <= cores:
+        out.append(n)
+        n *= 2
+    if cores > 1 and out[-1] != cores:
+        out.append(cores)
+    return out
+
+
+def format_table(rows: list[TrainBenchRow]) -> str:
+    lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update "
+             "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul |",
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        lines.append(f"| {r.num_cpus} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
+                     f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
+                     f"{r.update_gflop:.1f} | {r.update_gflops:.1f} | {r.matmul_gflops:.0f} | "
+                     f"{r.update_gflops / r.matmul_gflops:.0%} |")
+    return "\n".join(lines)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    p = argparse.ArgumentParser(prog="box2d-driving bench --train", description=__doc__.split("\n\n")[0])
+    p.add_argument("--cars", type=int, default=4, help="cars per instance (default 4)")
+    p.add_argument("--lidar-noise", type=float, default=0.5, help="LiDAR noise (default 0.5)")
+    p.add_argument("--n-envs", type=int, default=16, help="env instances (default 16)")
+    p.add_argument("--batch-decisions", type=int, default=32_000, help="slot-decisions per update (default 32,000)")
+    p.add_argument("--warmup", type=int, default=1, help="untimed updates first (default 1)")
+    p.add_argument("--updates", type=int, default=2, help="timed updates (default 2)")
+    p.add_argument("--num-cpus", type=int, nargs="+", help="worker counts (default 0, 1, 2, 4, ... cores)")
+    p.add_argument("--devices", nargs="+", choices=("cpu", "cuda"),
+                   help="devices (default: cpu, and cuda when torch sees a GPU)")
+    p.add_argument("--minibatch-by-step", action=argparse.BooleanOptionalAction, default=True,
+                   help="minibatches of whole env steps (default; --no-minibatch-by-step: by transition)")
+    p.add_argument("--json", help="also write the table to this JSON file (must not exist)")
+    args = p.parse_args(argv)
+    if min(args.cars, args.n_envs, args.batch_decisions, args.updates) < 1 or args.warmup < 0:
+        p.error("--cars, --n-envs, --batch-decisions and --updates must be >= 1, --warmup >= 0")
+    if args.json and Path(args.json).exists():
+        p.error(f"{args.json} exists; choose another --json")
+    cores = os.cpu_count() or 1
+    counts = args.num_cpus or worker_counts(cores)
+    devices = args.devices or (["cpu", "cuda"] if th.cuda.is_available() else ["cpu"])
+    print(f"training benchmark: intersection-v0, {args.cars} cars, noise {args.lidar_noise}, {args.n_envs} "
+          f"instances, {args.batch_decisions:,} decisions per update, {args.warmup} warm-up + {args.updates} "
+          f"timed updates; {cores} cores, python {platform.python_version()}, torch {th.__version__}", flush=True)
+    rows = []
+    for device in devices:
+        for n in counts:
+            cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
+                              "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
+                              batch_decisions=args.batch_decisions, num_cpus=n, device=device,
+                              minibatch_by_step=args.minibatch_by_step)
+            row = bench_row(cfg, args.warmup, args.updates)
+            rows.append(row)
+            print(f"  workers {n:>2}, {device}: {row.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
+    print()
+    print(format_table(rows))
+    gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"
+    print(f"machine: {machine()}, {gpu}")
+    if args.json:
+        with open(args.json, "x") as fh:
+            json.dump({"settings": vars(args), "cores": cores, "machine": f"{machine()}, {gpu}",
+                       "rows": [asdict(r) for r in rows]}, fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,299 @@
+"""PPO with the centralised critic on a :class:`SlotVecEnv`: building, logging, checkpoints,
+resuming. Scripts (``training/behaviours/traffic_lights.py`` ...) only fill in a :class:`TrainConfig`.
+
+Output folder::
+
+    OUT/config.json          full config (trainer + env), written once
+    OUT/config.resumed_<decisions>.json  the config each --resume was given (seed, budget, entropy)
+    OUT/model.safetensors    latest checkpoint: weights, optimiser state, counters (what
+                             load_policy / evaluate / --resume read; see training/runs/checkpoint.py)
+    OUT/checkpoints/         model_<decisions>.safetensors every ``checkpoint_every`` updates
+    OUT/progress.csv         one row per update: rollout metrics and PPO diagnostics
+                             (each --resume adds progress.resumed_<decisions>.csv)
+    OUT/tb/                  TensorBoard logs
+    OUT/state.json           wall-clock seconds and agent-steps so far (kept across --resume)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import torch as th
+from stable_baselines3 import PPO
+from stable_baselines3.common.logger import configure
+
+from training.ppo.buffer import MaskedRolloutBuffer
+from training.runs.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model
+from training.runs.inference import find_config
+from box2d_driving.config import ConfigError
+from box2d_driving.fields import check_bounds, coerce_fields
+from box2d_driving.outputs import GracefulStop
+from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
+from training.common.seeds import MAX_RUN_SEED, TRAINING
+from training.runs.run_dir import RunError, append_logger, check_new, check_resumable, check_same_run, write_config
+from training.runs.progress import RolloutMetrics, save_checkpoint  # noqa: F401  (re-exported)
+from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
+from training.runs.weights import WeightsError, source_fields, widen_state_dict
+
+
+@dataclass
+class TrainConfig:
+    """Everything one training run needs (saved to ``config.json``).
+
+    Attributes:
+        env_id: registered env id.
+        env_overrides: env config overrides (``num_cars``, ``lidar_noise`` ...).
+        timesteps: total slot-decisions to train for (one per car slot per env step, padding
+            included; agent-steps, which exclude padding, are logged too).
+        seed: seeds PPO and the envs.
+        n_envs: env instances stepped in one process.
+        batch_decisions: slot-decisions collected per PPO update (the paper: 32,000).
+        minibatch: minibatch size (real transitions).
+        epochs: PPO epochs per update.
+        minibatch_by_step: draw minibatches by env step (all live cars of an instance at one step
+            together) instead of by single transition, so the centralised critic encodes each
+            step's team once instead of once per car (see ``training/ppo/buffer.py``). The default
+            since it trained the 4-car lights policy as well per sample, 1.7x faster (docs/benchmarks.md).
+        learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
+        ent_coef: entropy bonus (a resumed run takes the value given now).
+        critic: ``mean`` (one team value, the paper) or ``own+mean``.
+        checkpoint_every: updates between checkpoints.
+        threads: torch CPU threads (None: the cores the env worker processes leave free).
+        num_cpus: worker processes stepping the env instances (0: all in the learner's process).
+            Rollouts are identical whatever the number, for the same seed and ``n_envs``.
+        device: where the networks run: ``auto`` (CUDA when torch sees a GPU), ``cpu`` or ``cuda``.
+        max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
+            ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
+        init_from: start from the weights of this checkpoint (e.g. a 4-car policy fine-tuned
+            with 8 cars, as the paper does); observation layout and critic must match.
+    """
+
+    env_id: str = "intersection-v0"
+    env_overrides: dict = field(default_factory=dict)
+    timesteps: int = 2_000_000
+    seed: int = 0
+    n_envs: int = 16
+    batch_decisions: int = 32_000
+    minibatch: int = 4_000
+    epochs: int = 4
+    minibatch_by_step: bool = True
+    learning_rate: float = 1e-3
+    gamma: float = 0.99
+    gae_lambda: float = 0.97
+    clip_range: float = 0.2
+    target_kl: Optional[float] = 0.2
+    ent_coef: float = 0.01
+    critic: str = "mean"
+    checkpoint_every: int = 10
+    threads: Optional[int] = None
+    num_cpus: int = 0
+    device: str = "auto"
+    max_minutes: Optional[float] = None
+    init_from: Optional[str] = None
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check every field (kinds, then ranges); :class:`ConfigError` names the first bad one.
+        Called on construction and again by :func:`train` (fields may be set in between)."""
+        coerce_fields(self, ConfigError, skip=("env_overrides",))
+        if not isinstance(self.env_overrides, dict):
+            raise ConfigError(f"TrainConfig: env_overrides must be a dict, got {self.env_overrides!r}")
+        check_bounds(self, {  # timesteps 0: a bilevel run's acceleration stage (rounds decide)
+            "timesteps": (0, 100_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
+            "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
+            "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
+            "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None),
+        }, ConfigError, above=("learning_rate", "clip_range", "target_kl"))
+        if self.device not in DEVICES:
+            raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
+        if self.critic not in CRITICS:
+            raise ConfigError(f"TrainConfig: critic must be one of {CRITICS}, got {self.critic!r}")
+
+    def n_steps(self, n_cars: int) -> int:
+        return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
+
+
+DEVICES = ("auto", "cpu", "cuda")
+
+
+def resolve_device(device: str) -> str:
+    """``auto``: CUDA when torch sees a GPU, else the CPU. Asking for ``cuda`` without one is an
+    error (not a silent fall-back)."""
+    if device == "auto":
+        return "cuda" if th.cuda.is_available() else "cpu"
+    if device == "cuda" and not th.cuda.is_available():
+        raise ConfigError("TrainConfig: device='cuda' but torch sees no GPU (a CPU-only torch build, "
+                          "or no driver); use --device auto or cpu")
+    return device
+
+
+def torch_threads(config: "TrainConfig") -> int:
+    """Torch threads for the learner: as configured, else the cores the env workers leave free."""
+    if config.threads is not None:
+        return config.threads
+    return max(1, (os.cpu_count() or 1) - config.num_cpus)
+
+
+def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
+    """Check ``out`` for a new run (absent or empty) or for ``--resume``; writes nothing (a new
+    run's folder is created by :func:`start_run_dir` once its model is built)."""
+    if resume:
+        if not (out / "config.json").exists():
+            raise RunError(f"--resume: no checkpoint in {out} ({FILE}, config.json and state.json needed)")
+        check_resumable(out, ("config.json", FILE, "state.json"))
+        check_same_run(json.loads((out / "config.json").read_text()), config)
+        return
+    check_new(out)
+
+
+def start_run_dir(out: Path, config: TrainConfig) -> None:
+    """Create a new run's folder and its ``config.json`` (after every check has passed)."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_config(out / "config.json", config)
+
+
+def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
+    """The run's slot vector env: ``n_envs`` instances over ``num_cpus`` worker processes
+    (``spline_policy``: the path picker of spline scenarios, as in ``make_vec_env_from``)."""
+    venv = make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy)
+    venv.seed_range = TRAINING  # episodes held out for selection and reports are never trained on
+    return venv
+
+
+def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
+    probe = venv.probe.env
+    n_cars = len(probe.possible_agents)
+    n_steps = config.n_steps(n_cars)
+    return PPO(
+        CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
+        n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
+        gae_lambda=config.gae_lambda, clip_range=config.clip_range, ent_coef=config.ent_coef,
+        target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
+        rollout_buffer_class=MaskedRolloutBuffer,
+        rollout_buffer_kwargs={"layout": venv.layout},
+        seed=config.seed, device=resolve_device(config.device), verbose=0,
+    )
+
+
+def read_train_config(path: Path) -> TrainConfig:
+    """A saved ``config.json`` as a :class:`TrainConfig` (fields a later release added take their
+    defaults; fields it dropped are ignored)."""
+    saved = json.loads(Path(path).read_text())
+    known = {f.name for f in dataclasses.fields(TrainConfig)}
+    return TrainConfig(**{k: v for k, v in saved.items() if k in known})
+
+
+def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
+    """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
+    bonus and the number of env instances given now."""
+    first = read_train_config(out / "config.json")
+    return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
+                               threads=config.threads, num_cpus=config.num_cpus, device=config.device)
+
+
+def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
+    """A plain SB3 ``PPO`` from a run folder or a shipped policy (``model.safetensors`` and
+    ``config.json``): the model is built from the config and the weights, and where saved the
+    optimiser state and counters, are copied in; nothing is unpickled. ``env`` defaults to the
+    run's own :class:`SlotVecEnv`. The result can ``predict``, ``learn`` or ``save`` as any PPO."""
+    ckpt = read_checkpoint(Path(run))
+    config = read_train_config(find_config(ckpt.path))
+    model = build_model(config, env if env is not None else make_vec_env(config))
+    restore_model(model, ckpt, optimizer=ckpt.optimizer is not None)
+    return model
+
+
+def train(config: TrainConfig, out: Path, resume: bool = False,
+          on_checkpoint: Optional[Callable[[dict], None]] = None) -> dict[str, Any]:
+    """Train (or continue) a run in ``out``; returns the last rollout statistics.
+    ``on_checkpoint(progress)`` is called after every checkpoint is written, the last one included
+    (the sweep reports each to Ray Tune with the run folder)."""
+    out = Path(out)
+    config.validate()
+    if config.timesteps < 1:
+        raise ConfigError(f"TrainConfig: timesteps must be >= 1, got {config.timesteps}")
+    prepare_run_dir(out, resume, config)
+    resolve_device(config.device)  # a missing GPU is found before anything is written
+    th.set_num_threads(torch_threads(config))
+    venv = make_vec_env(config)  # bad env overrides raise here, still before anything is written
+    wall, agent_steps = 0.0, 0
+    if resume:
+        model = build_model(resumed_config(out, config), venv)
+        try:
+            restore_model(model, read_checkpoint(out))
+        except CheckpointError as exc:
+            raise RunError(f"--resume: {exc}") from None
+        state = json.loads((out / "state.json").read_text())
+        wall, agent_steps = state["wall_s"], state["agent_steps"]
+        model.set_random_seed(config.seed + model.num_timesteps)  # reproducible continuation
+    else:
+        model = build_model(config, venv)
+        if config.init_from:
+            load_weights(model, Path(config.init_from))
+        venv.seed(config.seed)
+    set_minibatching(model, config, venv.n_cars)
+    remaining = config.timesteps - model.num_timesteps
+    max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
+    if remaining <= 0 or wall >= max_seconds:  # a resumed run with nothing left: no new logs
+        venv.close()
+        print(f"{out}: nothing to train: {model.num_timesteps} of {config.timesteps} decisions and "
+              f"{wall / 60:.1f} of {max_seconds / 60:.1f} min done", file=sys.stderr)
+        return {}
+    if resume:  # config.json stays the run's first config; record what this leg was given
+        write_config(out / f"config.resumed_{model.num_timesteps:012d}.json", config)
+    else:
+        start_run_dir(out, config)
+    model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
+                     append_logger(out, model.num_timesteps))
+    stop = GracefulStop()
+    callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
+                              max_seconds, stop=stop, on_checkpoint=on_checkpoint)
+    with stop.installed():  # Ctrl-C / SIGTERM: end the decision in progress, then save below
+        model.learn(remaining, callback=callback, reset_num_timesteps=False)
+    save_checkpoint(model, out, callback.wall, callback.agent_steps)
+    if on_checkpoint is not None:
+        on_checkpoint(callback.progress())
+    venv.close()
+    stats = dict(getattr(callback, "last_stats", {}))
+    if stop.requested:
+        stats["interrupted_by_signal"] = stop.signum
+    return stats
+
+
+def set_minibatching(model: PPO, config: TrainConfig, n_cars: int) -> None:
+    """Apply ``config.minibatch_by_step`` to a built or loaded model (it is not saved with it)."""
+    model.rollout_buffer.group_size = n_cars if config.minibatch_by_step else 1
+
+
+def load_weights(model: PPO, checkpoint: Path) -> None:
+    """Copy the policy weights (actor, critic) of ``checkpoint`` into ``model``; widened (see
+    ``training/runs/weights.py``) when ``model``'s env adds sat-nav fields or the communication bit."""
+    try:
+        source = read_checkpoint(checkpoint)
+    except CheckpointError as exc:
+        raise RunError(f"--init-from: {exc}") from None
+    path = source.path
+    mine, theirs = model.policy.state_dict(), source.policy
+    if mine.keys() != theirs.keys():
+        raise RunError(f"--init-from: {path} has a different network (critic variant?)")
+    bad = [k for k in mine if mine[k].shape != theirs[k].shape]
+    if bad:
+        env = model.get_env().probe.env
+        try:
+            theirs = widen_state_dict(mine, theirs, src_fields=source_fields(path.parent),
+                                      dst_fields=env.observation_layout.satnav_fields,
+                                      history=env.observation_layout.history)
+        except WeightsError as exc:
+            raise RunError(f"--init-from: {path} does not fit this env's observation layout "
+                           f"(e.g. {bad[0]}: {tuple(theirs[bad[0]].shape)} vs {tuple(mine[bad[0]].shape)}; "
+                           f"{exc})") from None
+    model.policy.load_state_dict(theirs)
