@@ -10,7 +10,7 @@ import pytest
 
 from training.results.reproduce import Group, ResultsError, main, trial_budget
 from training.common.seeds import REPORT, SELECTION
-from training.results.stats import mean_ci, t95
+from training.results.stats import mean_ci, t95, t_test_p
 
 
 def _ragged_tables(text: str) -> list[str]:
@@ -110,8 +110,54 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
     groups = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.90, 0.91, 0.92]),
                                     "safety_distance.safe_share": mean_ci([0.95, 0.96, 0.94])})]
     lines = "\n".join(paper_comparison(section.paper_values, groups))
-    assert "our mean is inside the paper's interval" in lines  # 0.91 within 0.8525 +- 0.089
+    # the paper's +- 8.9 is a spread over its runs: our mean is compared with it, not called an interval
+    assert "not a confidence interval): our mean is inside that spread" in lines  # 0.91 within 0.8525 +- 0.089
     assert "the paper's value lies outside our interval" in lines  # 0.9845 vs 0.95 +- 0.025
+    p = t_test_p([0.95, 0.96, 0.94], 0.9845)
+    assert f"all 3 seeds below it; one-sample t-test p = {p:.3f}" in lines
+    mixed = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.9] * 3),
+                                   "safety_distance.safe_share": mean_ci([0.97, 0.99, 0.995])})]
+    assert "1 of 3 seeds below it, 2 above" in "\n".join(paper_comparison(section.paper_values, mixed))
+
+
+def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():
+    from training.results.stats import _T95, incomplete_beta
+
+    for dof, t in _T95.items():  # the tabulated 95 % quantiles give p = 0.05
+        assert abs(incomplete_beta(dof / 2, 0.5, dof / (dof + t * t)) - 0.05) < 2e-4
+    assert t_test_p([1.0, 2.0, 3.0], 2.0) == pytest.approx(1.0)
+    # t = (2 - 0) / (1 / sqrt 3) = 3.464 with 2 dof: p = 0.0742 (tables)
+    assert t_test_p([1.0, 2.0, 3.0], 0.0) == pytest.approx(0.0742, abs=5e-4)
+    assert t_test_p([0.5], 0.0) is None
+    assert t_test_p([0.5, 0.5], 0.0) == 0.0
+
+
+def test_lanes_measures_from_hand_built_trials():
+    import numpy as np
+
+    from training.evaluation import figure_data as fd
+    from training.results.data import HistogramMean, Size, groups_of, metric_value
+    from training.results.reproduce import ran_budget
+    from training.results.sections import ONE_SIDED
+
+    bins = fd.LANE_BINS
+    left = np.zeros(len(bins) - 1)
+    left[3] = 10  # every sample in one bin left of the axis: centre (bins[3] + bins[4]) / 2
+    centre = (bins[3] + bins[4]) / 2
+    row = {"seed": 0, "status": "done", "num_cars": "8", "decisions": 1_536_000,
+           "figures": {"lane_position_counts": left.tolist()}}
+    assert metric_value(row, HistogramMean("lane_position_counts", tuple(bins))) == pytest.approx(centre)
+    assert metric_value(row, ONE_SIDED) == pytest.approx(-centre)  # the size: |mean| > 0 on one side
+    split = dict(row, figures={"lane_position_counts": (left + left[::-1]).tolist()})
+    assert metric_value(split, ONE_SIDED) == pytest.approx(0.0, abs=1e-12)  # both sides in turn: 0
+    assert np.isnan(metric_value({"figures": {}}, Size(HistogramMean("lane_position_counts", tuple(bins)))))
+    # summed over seeds, each seed's histogram is first mirrored to its own majority side
+    right = dict(row, seed=1, figures={"lane_position_counts": left[::-1].tolist()})
+    summary = {"grid": {"num_cars": ["8"]}, "trials": [row, right]}
+    (group,) = groups_of(summary, [ONE_SIDED])
+    assert group.figures["lane_position_counts"][len(bins) - 2 - 3] == 20 and group.figures["lane_position_counts"][3] == 0
+    assert ran_budget([row, right]) == " (each ran 1,536,000 decisions: whole rollouts)"
+    assert ran_budget([row, dict(right, decisions=1_568_000)]) == " (each ran 1,536,000 to 1,568,000 decisions: whole rollouts)"
 
 
 def test_figure_data_counts_in_fixed_bins():
@@ -367,8 +413,9 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     # the ablation is differenced per trial (the seeds' own success spread cancels), then estimated over seeds
     lost_0, lost_05 = mean_ci([0.07, 0.06, 0.08]), mean_ci([-0.01, 0.01, 0.0])
     assert f"{lost_0.format()} (0.070, 0.060, 0.080) |" in section and f"{lost_05.format()} (-0.010, 0.010, " in section
+    # the paper ties reliance to noise, not to one level: the per-level lines claim no agreement
     assert (f"- success lost with messages unheard (lidar_noise=0): {lost_0.format()}: the listeners rely on the "
-            "message, as in the paper.") in section
+            "message.\n") in section and "The paper ties the listeners' reliance to noise" in section
     assert "(lidar_noise=0.5): " in section and "straddles zero: neither shown." in section
     assert "- success lost with messages unheard: noise 0" in section and "falls, intervals apart, unlike the paper" in section
     assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
@@ -378,12 +425,17 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
 def test_lanes_and_pedestrian_statements_read_the_intervals():
     from training.results.sections import section, statements
 
+    from training.results.sections import ONE_SIDED
+
     lanes = [Group({"num_cars": "2"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.52, 0.60, 0.55]),
+                                                  ONE_SIDED: mean_ci([0.02, 0.04, 0.03]),
                                                   "success_rate": mean_ci([0.9] * 3)}),
              Group({"num_cars": "8"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.97, 1.0, 0.99]),
+                                                  ONE_SIDED: mean_ci([0.33, 0.38, 0.32]),
                                                   "success_rate": mean_ci([0.9] * 3)})]
     text = "\n".join(statements(section("lanes"), lanes, {}))
     assert "more one-sided with 8 cars, intervals apart, as in the paper" in text
+    assert "- one-sided offset: num_cars=2" in text and "further off the axis on one side with 8 cars, intervals apart" in text
     lanes[1].estimates["lanes.majority_share"] = mean_ci([0.50, 0.70, 0.60])
     assert "no difference shown, unlike the paper" in "\n".join(statements(section("lanes"), lanes, {}))
 

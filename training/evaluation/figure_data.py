@@ -18,6 +18,18 @@ GAP_BINS = np.linspace(0.0, 40.0, 21)           # m to the car ahead
 CLOSING_BINS = np.linspace(0.0, 12.0, 13)       # m/s closing speed
 
 
+def to_majority_side(name: str, counts: np.ndarray) -> np.ndarray:
+    """One trial's counts of distribution ``name``, mirrored where the side a run settles on is
+    its own choice: lane positions with more samples left of the axis than right are flipped, so
+    that trials summed over seeds show how one-sided each is, not which side each picked."""
+    counts = np.asarray(counts, dtype=float)
+    if name == "lane_position_counts":
+        half = len(counts) // 2  # LANE_BINS are symmetric about the axis
+        if counts[:half].sum() > counts[len(counts) - half:].sum():
+            return counts[::-1].copy()
+    return counts
+
+
 def _counts(values: np.ndarray, bins: np.ndarray) -> list[int]:
     values = np.asarray(values, dtype=float)
     values = values[np.isfinite(values)]

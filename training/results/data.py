@@ -13,6 +13,7 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from training.common.seeds import REPORT
+from training.evaluation.figure_data import to_majority_side
 from training.results.stats import Estimate, mean_ci
 
 
@@ -27,10 +28,11 @@ Baseline = dict[str, tuple[float, int]]
 
 @dataclass(frozen=True)
 class Size:
-    """The size of a summary column: a measure whose sign is arbitrary per run (a correlation with
-    a bit whose meaning each run picks) is averaged over seeds by size."""
+    """The size of a summary column (or of another metric): a measure whose sign is arbitrary per
+    run (a correlation with a bit whose meaning each run picks, the side lanes settle on) is
+    averaged over seeds by size."""
 
-    column: str
+    column: "Metric"
 
     def __str__(self) -> str:
         return f"|{self.column}|"
@@ -50,7 +52,19 @@ class Difference:
 
 
 # a summary column by name, its size, or the difference of two metrics
-Metric = Union[str, Size, Difference]
+@dataclass(frozen=True)
+class HistogramMean:
+    """The mean of one of a trial's stored distributions (``figures[name]``, counts in ``bins``),
+    read at the bin centres: e.g. the signed mean lane position in the junction."""
+
+    name: str
+    bins: tuple[float, ...]
+
+    def __str__(self) -> str:
+        return f"mean of {self.name}"
+
+
+Metric = Union[str, Size, Difference, HistogramMean]
 
 
 @dataclass(frozen=True)
@@ -70,7 +84,8 @@ class ResultsError(ValueError):
 @dataclass
 class Group:
     """The trials of one grid point: its settings, per metric the estimate over seeds, and each
-    distribution's counts summed over seeds (``figures``)."""
+    distribution's counts summed over seeds (``figures``; lane positions mirrored per seed to its
+    own majority side first, see :func:`training.evaluation.figure_data.to_majority_side`)."""
 
     point: dict[str, str]
     seeds: list[int]
@@ -111,7 +126,7 @@ def groups_of(summary: dict[str, Any], metrics: list[Metric]) -> list[Group]:
         figures: dict[str, Any] = {}
         for r in rows:
             for name, counts in (r.get("figures") or {}).items():
-                counts = np.asarray(counts, dtype=float)
+                counts = to_majority_side(name, counts)  # a side each seed picks is not pooled away
                 figures[name] = figures[name] + counts if name in figures else counts
         groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
                             {m: mean_ci(metric_value(r, m) for r in rows) for m in metrics}, figures))
@@ -123,7 +138,13 @@ def metric_value(row: dict[str, Any], metric: Metric) -> float:
     if isinstance(metric, Difference):
         return metric_value(row, metric.first) - metric_value(row, metric.second)
     if isinstance(metric, Size):
-        return abs(as_number(row.get(metric.column)))
+        return abs(metric_value(row, metric.column))
+    if isinstance(metric, HistogramMean):
+        counts = (row.get("figures") or {}).get(metric.name)
+        if counts is None or np.sum(counts) <= 0:
+            return float("nan")
+        bins = np.asarray(metric.bins, dtype=float)
+        return float(np.dot(np.asarray(counts, dtype=float), (bins[:-1] + bins[1:]) / 2) / np.sum(counts))
     return as_number(row.get(metric))
 
 

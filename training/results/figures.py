@@ -42,11 +42,12 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path, blind: Basel
         lows = [e.mean - e.low if e.low is not None else 0 for e in est]
         highs = [e.high - e.mean if e.high is not None else 0 for e in est]
         ax.errorbar(xs, [e.mean for e in est], yerr=[lows, highs], color=colour, marker="o", capsize=3,
-                    label=f"LiDAR noise {noise}")
+                    ls="none", label=f"LiDAR noise {noise}")
+        learnt = [(x, e.mean) for x, e, g in zip(xs, est, mine) if not _unlearnt(g)]
+        ax.plot([x for x, _ in learnt], [m for _, m in learnt], color=colour)  # a trend joins learnt points only
         for x, e, g in zip(xs, est, mine):
             ax.scatter([x] * len(e.values), e.values, color=colour, s=10, alpha=0.5)
-            success = g.estimates.get("success_rate")
-            if success is not None and success.n and success.mean < LEARNT_SUCCESS:
+            if _unlearnt(g):
                 unlearnt = True
                 ax.scatter([x], [e.mean], s=70, facecolors="white", edgecolors=colour, zorder=3)
     rates = sorted({round(rate, 3) for rate, _ in blind.values()})
@@ -57,7 +58,7 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path, blind: Basel
                 label="light-blind driver, 1 car, same episodes (" + " / ".join(f"{r:.3f}" for r in rates) + ")")
     if unlearnt:
         ax.scatter([], [], s=70, facecolors="white", edgecolors="black",
-                   label=f"hollow: mean success < {LEARNT_SUCCESS} (not learnt at this budget)")
+                   label=f"hollow: mean success < {LEARNT_SUCCESS} (not learnt at this budget; not joined)")
     ax.set_xticks(sorted({as_number(g.point.get("num_cars")) for g in groups}))
     ax.set_xlabel("cars per episode")
     ax.set_ylabel("red-light violation rate")
@@ -69,16 +70,28 @@ def lights_figure(groups: list[Group], keys: list[str], path: Path, blind: Basel
     plt.close(fig)
 
 
-def bars_figure(metric: Metric, label: str) -> Figure:
-    """One bar per grid point with its 95 % interval and per-seed dots."""
+def _unlearnt(g: Group) -> bool:
+    """Whether a grid point's policies have not learnt the task (mean success below the bar)."""
+    success = g.estimates.get("success_rate")
+    return success is not None and bool(success.n) and success.mean < LEARNT_SUCCESS
+
+
+def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] = None) -> Figure:
+    """One bar per grid point with its 95 % interval and per-seed dots; ``dots``: another metric
+    (and its legend label) whose per-seed values are drawn as the dots instead, e.g. the signed
+    values behind a bar of sizes, so that each seed's sign shows."""
     def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         plt = _plt()
-        fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(groups) + 2), 3.8))
+        fig, ax = plt.subplots(figsize=(max(4.0 if dots is None else 5.5, 1.2 * len(groups) + 2), 3.8))
         for i, g in enumerate(groups):
             e = g.estimates[metric]
             err = [[e.mean - e.low], [e.high - e.mean]] if e.low is not None else None
             ax.bar(i, e.mean, yerr=err, capsize=4, color="tab:blue", alpha=0.7)
-            ax.scatter([i] * len(e.values), e.values, color="black", s=10, zorder=3)
+            values = g.estimates[dots[0]].values if dots is not None else e.values
+            ax.scatter([i] * len(values), values, color="black", s=12, zorder=3)
+        if dots is not None:
+            ax.axhline(0.0, color="grey", lw=0.8, zorder=1)
+            ax.set_title(f"bar: mean, 95 % interval over seeds\ndots: {dots[1]}", fontsize=8)
         ax.set_xticks(range(len(groups)), [", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
                                            for g in groups], fontsize=8, rotation=20)
         ax.set_ylabel(label)
@@ -93,9 +106,10 @@ def _label(g: Group, keys: list[str]) -> str:
 
 
 def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Figure,
-                        mark: Optional[tuple[float, str]] = None) -> Figure:
+                        mark: Optional[tuple[float, str]] = None, clipped: str = "") -> Figure:
     """One normalised histogram per grid point (counts summed over its seeds); ``fallback`` draws
-    when no trial stored the distribution."""
+    when no trial stored the distribution. ``clipped`` (the unit, e.g. ``"m"``): the last bin also
+    holds every sample beyond the range (the trials store them clipped there); it is labelled so."""
     def draw(groups: list[Group], keys: list[str], path: Path, baseline: Baseline) -> None:
         if not any(name in g.figures for g in groups):
             return fallback(groups, keys, path, baseline)
@@ -108,6 +122,9 @@ def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Figu
                 ax.step(centres, share, where="mid", label=f"{_label(g, keys)} ({len(g.seeds)} seeds)")
         if mark is not None:
             ax.axvline(mark[0], color="grey", ls=":", lw=1, label=mark[1])
+        if clipped:
+            ax.axvspan(bins[-2], bins[-1], color="grey", alpha=0.15,
+                       label=f"last bin: every sample at {bins[-2]:g} {clipped} or more")
         ax.set_xlabel(xlabel)
         ax.set_ylabel("share of samples")
         ax.legend(fontsize=8)
@@ -129,7 +146,8 @@ def gap_figure(fallback: Figure, a_max: float = 1.5) -> Figure:
         v = np.linspace(0, fd.CLOSING_BINS[-1], 50)
         for ax, g in zip(axes[0], have):
             counts = np.asarray(g.figures["gap_closing_counts"], dtype=float)
-            ax.pcolormesh(fd.CLOSING_BINS, fd.GAP_BINS, np.log1p(counts), cmap="Blues")
+            mesh = ax.pcolormesh(fd.CLOSING_BINS, fd.GAP_BINS, np.log1p(counts), cmap="Blues")
+            fig.colorbar(mesh, ax=ax, label="ln(1 + samples), over seeds")
             ax.plot(v, v ** 2 / (2 * a_max), color="tab:red", label="speed-matching distance")
             ax.set_ylim(fd.GAP_BINS[0], fd.GAP_BINS[-1])
             ax.set_xlabel("closing speed (m/s)")

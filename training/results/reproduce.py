@@ -126,8 +126,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             done = sum(r.get("status") == "done" for r in trials)
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
-                      f"{trial_budget(summary['sweep'])} per trial, {summary['sweep']['episodes']} report episodes "
-                      f"each). {section.setting}", ""]
+                      f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
+                      f"{summary['sweep']['episodes']} report episodes each). {section.setting}", ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
             parts += [_row(header), _separator(len(header))]
             for g in groups:
@@ -190,6 +190,17 @@ def trial_budget(sweep: dict[str, Any]) -> str:
     else:
         budget = "the behaviour's default budget"
     return budget + (f" (at most {sweep['minutes']:g} min)" if sweep.get("minutes") else "")
+
+
+def ran_budget(trials: list[dict[str, Any]]) -> str:
+    """What the finished trials really trained, in decisions: a trial stops at the end of the
+    rollout that passes its budget, so it runs a little past what was asked."""
+    ran = sorted({int(r["decisions"]) for r in trials
+                  if r.get("status") == "done" and isinstance(r.get("decisions"), (int, float))})
+    if not ran:
+        return ""
+    ran_text = f"{ran[0]:,}" if len(ran) == 1 else f"{ran[0]:,} to {ran[-1]:,}"
+    return f" (each ran {ran_text} decisions: whole rollouts)"
 
 
 def anchor(title: str) -> str:

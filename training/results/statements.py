@@ -11,7 +11,7 @@ from collections import defaultdict
 from typing import Callable, Sequence
 
 from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
-from training.results.stats import Estimate
+from training.results.stats import Estimate, t_test_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
@@ -40,7 +40,9 @@ def apart(a: Estimate, b: Estimate) -> int:
 
 
 def paper_comparison(paper_values: Sequence[PaperValue], groups: list[Group]) -> list[str]:
-    """Our estimate against each of the paper's numbers, per grid point."""
+    """Our estimate against each of the paper's numbers, per grid point. A number the paper gives
+    with a +- spread (a spread over its runs, not a confidence interval) is compared with our mean;
+    a single number with our interval, the seeds on each side of it and a one-sample t-test."""
     lines = []
     for pv in paper_values:
         for g in groups:
@@ -50,17 +52,26 @@ def paper_comparison(paper_values: Sequence[PaperValue], groups: list[Group]) ->
             where = _where(g.point)
             if pv.spread is not None:
                 inside = abs(e.mean - pv.value) <= pv.spread
-                verdict = "inside" if inside else "outside"
-                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
-                             f"our mean is {verdict} the paper's interval.")
-            else:
-                held = e.contains(pv.value)
-                verdict = ("the paper's value lies inside our interval" if held else
-                           "the paper's value lies outside our interval" if held is False else
-                           "one seed only: no interval")
-                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
-                             f"{verdict}.")
+                lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text} (a "
+                             f"spread over the paper's runs, not a confidence interval): our mean is "
+                             f"{'inside' if inside else 'outside'} that spread.")
+                continue
+            lines.append(f"- {pv.metric} ({where}): ours {e.format()} against the paper's {pv.text}: "
+                         f"{_against_value(e, pv.value)}.")
     return lines
+
+
+def _against_value(e: Estimate, value: float) -> str:
+    """Our seeds against one number: the interval, how many seeds lie on each side, the test."""
+    if e.low is None:
+        return "one seed only: no interval"
+    below = sum(v < value for v in e.values)
+    above = sum(v > value for v in e.values)
+    sides = (f"all {e.n} seeds below it" if below == e.n else f"all {e.n} seeds above it" if above == e.n
+             else f"{below} of {e.n} seeds below it, {above} above")
+    p = t_test_p(e.values, value)
+    where = "inside" if e.contains(value) else "outside"
+    return f"the paper's value lies {where} our interval; {sides}; one-sample t-test p = {p:.3f}"
 
 
 def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
@@ -177,19 +188,27 @@ def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, c
 
 
 def above_statement(metric: Metric, label: str, above: str, below: str, level: float = 0.5,
-                    level_text: str = "one half") -> Statement:
+                    level_text: str = "one half", paper: str = "") -> Statement:
     """Whether ``metric`` is above ``level`` at every grid point, from the intervals; ``above`` (the
-    paper's reading) and ``below``: what each side means, in words."""
+    paper's reading) and ``below``: what each side means, in words. ``paper``: what the paper says
+    of it where that is not simply "above" at every grid point (then no verdict claims the paper's
+    agreement; the sentence is added instead)."""
     def say(groups: list[Group], baseline: Baseline) -> list[str]:
         lines = []
         for g in groups:
             e = g.estimates[metric]
             if e.high is None:
                 continue
-            verdict = (f"{above}, as in the paper." if e.low > level else
-                       f"{below}, unlike the paper." if e.high < level else
-                       f"the interval straddles {level_text}: neither shown.")
+            if paper:
+                verdict = (f"{above}." if e.low > level else f"{below}." if e.high < level else
+                           f"the interval straddles {level_text}: neither shown.")
+            else:
+                verdict = (f"{above}, as in the paper." if e.low > level else
+                           f"{below}, unlike the paper." if e.high < level else
+                           f"the interval straddles {level_text}: neither shown.")
             lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
+        if paper and lines:
+            lines.append(f"- {paper}")
         return lines
     return say
 
