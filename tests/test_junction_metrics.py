@@ -293,3 +293,26 @@ def test_wreck_collision_room_counts_pileups_that_braking_could_have_avoided():
     assert none["with_room"]["cars"] == 0 and math.isnan(none["with_room"]["gap_median"])
     with pytest.raises(ValueError, match="no row on decision 2"):
         wreck_collision_room(table_from_rows(rows[:2] + rows[3:], PILEUP_COLS), 1.5, 4.48)
+
+
+def test_unsafe_samples_are_broken_down_by_leader_closing_speed_and_outcome():
+    from box2d_driving.metrics.right_of_way import unsafe_breakdown
+
+    cols = SAFE_COLS + ("collided",)
+    rows = [  # episode 0: car 0 closes at 6 m/s with a 10 m gap (needs 12 m): unsafe; it crashes 2 decisions later
+        (0, 0, 1, 0.0, 0.0, 0.0, 8.0, 0), (0, 1, 1, 14.48, 0.0, 0.0, 2.0, 0), (0, 0, 3, 30.0, 0.0, 0.0, 0.0, 1),
+        # episode 1: closing at 3 m/s with 2 m (needs 3 m): unsafe, never crashes
+        (1, 0, 1, 0.0, 0.0, 0.0, 5.0, 0), (1, 1, 1, 6.48, 0.0, 0.0, 2.0, 0),
+        # episode 2: closing at 1 m/s with 5 m: safe; episode 3: an opening gap, safe by definition
+        (2, 0, 1, 0.0, 0.0, 0.0, 3.0, 0), (2, 1, 1, 9.48, 0.0, 0.0, 2.0, 0),
+        (3, 0, 1, 0.0, 0.0, 0.0, 2.0, 0), (3, 1, 1, 9.48, 0.0, 0.0, 3.0, 0)]
+    table = table_from_rows(rows, cols)
+    s = leader_samples(table, car_length=4.48, wrecks_stay=False)
+    b = unsafe_breakdown(table, s, a_max=1.5, car_length=4.48)
+    assert b["unsafe_samples"] == 2
+    assert b["by_leader"] == {"wreck": 0, "moving": 2}
+    assert b["by_closing_speed"] == {"0-2": 0, "2-4": 1, "4-6": 0, ">=6": 1}
+    assert b["by_outcome"] == {"collides_within_3": 1, "collides_later": 0, "no_collision": 1}
+    assert b["safe_share_every_leader_sample"] == pytest.approx(2 / 4)  # 4 samples with a leader, 2 unsafe
+    # centre distances 14.48 and 6.48 m against 12 and 3 m: both safe then; 9.48 against 0.33 safe
+    assert b["safe_share_centre_distance"] == pytest.approx(1.0)

@@ -170,3 +170,50 @@ def safety_distance_from_samples(s: dict[str, np.ndarray], a_max: float) -> dict
         "unsafe_samples_halted_leader": int((halted & ~safe).sum()),
         "safe_share_moving_leader": float(np.mean(safe[~halted])) if (~halted).any() else float("nan"),
     }
+
+
+# closing-speed classes (m/s) the unsafe samples are counted in
+CLOSING_CLASSES = ((0.0, 2.0), (2.0, 4.0), (4.0, 6.0), (6.0, math.inf))
+SOON = 3  # decisions: "collides soon" means within this many decisions of the sample
+
+
+def unsafe_breakdown(table: dict[str, np.ndarray], s: dict[str, np.ndarray], a_max: float,
+                     car_length: float) -> dict:
+    """Where the unsafe closing samples of :func:`leader_samples` ``s`` come from, and the share
+    under readings of the definition that the paper's text leaves open.
+
+    * ``by_leader``: the car ahead is a wreck (halted by its collision, still in the world) or
+      moving;
+    * ``by_closing_speed``: counts per class of :data:`CLOSING_CLASSES` (m/s);
+    * ``by_outcome``: what becomes of the follower: it collides within :data:`SOON` decisions of
+      the sample, collides later, or never (arrives or runs out of time);
+    * ``safe_share_every_leader_sample``: the share when every sample with a car ahead counts,
+      an opening or steady gap (``dv <= 0``) being safe by the definition (no speed to shed);
+    * ``safe_share_centre_distance``: the share when the distance is between centres, as a
+      LiDAR-free "distance between agents" reads, not bumper to bumper.
+    """
+    closing = s["closing_speed"] > 0
+    dv, gap, rows = s["closing_speed"][closing], s["gap"][closing], s["row"][closing]
+    need = stopping_distance(dv, a_max)
+    unsafe = gap < need
+    halted = s["leader_halted"][closing]
+    crash = {}  # (episode, car) -> decision of its collision
+    collided = table.get("collided", np.zeros(len(table["episode"]), dtype=bool)).astype(bool)
+    for r in np.flatnonzero(collided).tolist():
+        crash[(int(table["episode"][r]), int(table["car"][r]))] = int(table["decision"][r])
+    until = np.array([crash.get((int(table["episode"][r]), int(table["car"][r])), math.inf)
+                      - int(table["decision"][r]) for r in rows[unsafe].tolist()], dtype=float)
+    n_leader = len(s["gap"])
+    return {
+        "unsafe_samples": int(unsafe.sum()),
+        "by_leader": {"wreck": int((unsafe & halted).sum()), "moving": int((unsafe & ~halted).sum())},
+        "by_closing_speed": {(f"{lo:g}-{hi:g}" if math.isfinite(hi) else f">={lo:g}"):
+                             int((unsafe & (dv >= lo) & (dv < hi)).sum()) for lo, hi in CLOSING_CLASSES},
+        "by_outcome": {f"collides_within_{SOON}": int((until <= SOON).sum()),
+                       "collides_later": int(((until > SOON) & np.isfinite(until)).sum()),
+                       "no_collision": int(np.isinf(until).sum())},
+        "safe_share_every_leader_sample": (float((n_leader - unsafe.sum()) / n_leader) if n_leader
+                                           else float("nan")),
+        "safe_share_centre_distance": (float(np.mean(gap + car_length >= need)) if closing.any()
+                                       else float("nan")),
+    }
