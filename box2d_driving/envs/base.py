@@ -137,6 +137,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._received = np.zeros(n)
         self._seen = np.full(n, NO_LIGHT)
         self._lane_origin, self._lane_right, self._lane_half_width = _lane_axes(self.layout)
+        self._approach = [c.approach for c in self.layout.cars]
         cars = np.arange(n)
         lidar_frame, satnav_frame = self._frames(cars, senders=np.zeros(0, dtype=np.int64))
         self.history = FrameHistory(self.observation_layout, n)
@@ -331,7 +332,6 @@ class DrivingEnv(ParallelEnv, EzPickle):
         whole-array columns, with the scenario's own facts (:meth:`scenario_info`) added."""
         w = self.world
         pos = w.positions[cars]
-        status = w.status[cars]
         offset = np.full(len(cars), np.nan)
         has_axis = ~np.isnan(self._lane_half_width[cars])
         if has_axis.any():
@@ -346,30 +346,28 @@ class DrivingEnv(ParallelEnv, EzPickle):
             has = li >= 0
             stop[has] = np.einsum("ij,ij->i", lights.stop_points[li[has]] - pos[has],
                                   lights.directions[li[has]])
-        columns = {
-            "position": list(pos),
-            "heading": w.headings[cars].tolist(),
-            "speed": w.speed[cars].tolist(),
-            "acceleration": w.accel[cars].tolist(),
-            "light": self._seen[cars].tolist(),
-            "in_junction": self.layout.in_junction(pos).tolist(),
-            "lane_offset": [None if np.isnan(v) else v for v in offset.tolist()],  # None: no axis
-            "stop_line_distance": [None if np.isnan(v) else v for v in stop.tolist()],  # no light
-            "distance_to_goal": (w.s_end[cars] - w.s[cars]).tolist(),
-            "arrived": (status == ARRIVED).tolist(),
-            "collided": (status == COLLIDED).tolist(),
-            "collided_with": [w.collided_with[i] for i in cars.tolist()],
-            "collision_partner": w.collision_partner[cars].tolist(),
-            "partner_halted": w.partner_halted[cars].tolist(),
-            "rating": w.ratings[cars].tolist(),
-            "decision": [self.decision] * len(cars),
-            "approach": [self.layout.cars[i].approach for i in cars.tolist()],
-        }
+        # per-car dicts from whole-array columns: each column read once as plain values (the same
+        # numbers as indexing it per car), then one dict per car in the documented key order
+        idx = cars.tolist()
+        heading, speed, accel = w.headings.tolist(), w.speed.tolist(), w.accel.tolist()
+        seen, togo, status = self._seen.tolist(), (w.s_end - w.s).tolist(), w.status.tolist()
+        partner, halted, rating = w.collision_partner.tolist(), w.partner_halted.tolist(), w.ratings.tolist()
+        in_junction = self.layout.in_junction(pos).tolist()
+        offsets = [None if v != v else v for v in offset.tolist()]  # None: no lane axis (NaN)
+        stops = [None if v != v else v for v in stop.tolist()]  # None: no light on its approach
+        approach, decision = self._approach, self.decision
+        infos = [{"position": p, "heading": heading[i], "speed": speed[i], "acceleration": accel[i],
+                  "light": seen[i], "in_junction": in_junction[k], "lane_offset": offsets[k],
+                  "stop_line_distance": stops[k], "distance_to_goal": togo[i],
+                  "arrived": status[i] == ARRIVED, "collided": status[i] == COLLIDED,
+                  "collided_with": w.collided_with[i], "collision_partner": partner[i],
+                  "partner_halted": halted[i], "rating": rating[i], "decision": decision,
+                  "approach": approach[i]}
+                 for k, (i, p) in enumerate(zip(idx, pos))]
         if self.config.communication:
-            columns["bit_sent"] = self._bits[cars].astype(np.int64).tolist()
-            columns["bit_received"] = self._received[cars].astype(np.int64).tolist()
-        names = list(columns)
-        infos = [dict(zip(names, row)) for row in zip(*columns.values())]
+            bits, heard = self._bits.astype(np.int64).tolist(), self._received.astype(np.int64).tolist()
+            for info, i in zip(infos, idx):
+                info["bit_sent"], info["bit_received"] = bits[i], heard[i]
         for info, extra in zip(infos, self.scenario_info(cars)):
             info.update(extra)
         return infos

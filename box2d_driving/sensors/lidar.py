@@ -53,22 +53,36 @@ def scene_segments(car_positions: np.ndarray, car_headings: np.ndarray, car_pres
 
     Returns ``segs (M, 4)`` as ``[ax, ay, bx, by]``, ``owner (M,)`` (car index, or
     ``OWNER_EDGE`` / ``OWNER_PEDESTRIAN``) and ``one_sided (M,)`` (polygon sides, counter-clockwise,
-    hit only from outside).
+    hit only from outside): the present cars' boxes, then the pedestrians', then the edges.
     """
+    edges = np.asarray(edges, dtype=np.float64).reshape(-1, 4)
+    ped_positions = np.asarray(ped_positions, dtype=np.float64).reshape(-1, 2)
+    ped_size = np.asarray(ped_size, dtype=np.float64).reshape(-1)
+    return _scene_segments(np.asarray(car_positions, dtype=np.float64), np.asarray(car_headings, dtype=np.float64),
+                           np.asarray(car_present, dtype=np.bool_), car_length / 2, car_width / 2,
+                           ped_positions, ped_size / 2, edges)
+
+
+@njit(cache=True)
+def _scene_segments(car_positions, car_headings, car_present, half_length, half_width, ped_positions,
+                    ped_half, edges):
+    """:func:`scene_segments` in one compiled call (it runs once per decision per env)."""
     cars = np.flatnonzero(car_present)
-    edges = np.asarray(edges, dtype=float).reshape(-1, 4)
-    n_car, n_ped = len(cars), len(ped_positions)
-    segs = np.empty((4 * (n_car + n_ped) + len(edges), 4))
-    _fill_box_segments(car_positions[cars], car_headings[cars], np.full(n_car, car_length / 2),
-                       np.full(n_car, car_width / 2), segs, 0)
+    n_car, n_ped = cars.shape[0], ped_positions.shape[0]
+    boxes = 4 * (n_car + n_ped)
+    segs = np.empty((boxes + edges.shape[0], 4))
+    _fill_box_segments(car_positions[cars], car_headings[cars], np.full(n_car, half_length),
+                       np.full(n_car, half_width), segs, 0)
     if n_ped:
-        _fill_box_segments(ped_positions, np.zeros(n_ped), ped_size / 2, ped_size / 2, segs,
-                           4 * n_car)
-    segs[4 * (n_car + n_ped):] = edges
-    owner = np.concatenate([np.repeat(cars, 4), np.full(4 * n_ped, OWNER_PEDESTRIAN),
-                            np.full(len(edges), OWNER_EDGE)]).astype(np.int64)
-    one_sided = np.zeros(len(segs), dtype=bool)
-    one_sided[: 4 * (n_car + n_ped)] = True
+        _fill_box_segments(ped_positions, np.zeros(n_ped), ped_half, ped_half, segs, 4 * n_car)
+    segs[boxes:] = edges
+    owner = np.empty(segs.shape[0], dtype=np.int64)
+    for i in range(n_car):
+        owner[4 * i:4 * i + 4] = cars[i]
+    owner[4 * n_car:boxes] = OWNER_PEDESTRIAN
+    owner[boxes:] = OWNER_EDGE
+    one_sided = np.zeros(segs.shape[0], dtype=np.bool_)
+    one_sided[:boxes] = True
     return segs, owner, one_sided
 
 
