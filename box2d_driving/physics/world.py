@@ -112,6 +112,7 @@ class DrivingWorld:
             fx.userData = (CAR, i)
             self.car_bodies.append(body)
         self._angular = [0.0] * n
+        self._standing = [True] * n  # whether a car's body was last given zero linear velocity
 
         self.ped_bodies = []
         self.ped_bounds = np.array([p.y_bounds for p in layout.pedestrians], dtype=float).reshape(-1, 2)
@@ -182,7 +183,12 @@ class DrivingWorld:
         for k in range(k_steps):
             for i in live:
                 body = bodies[i]
-                body.linearVelocity = velocity[i][k]
+                v = velocity[i][k]
+                # a car standing still (waiting at a red light) keeps the zero velocity it has: no
+                # gravity or damping acts on these bodies, so Box2D leaves it exactly as set
+                if v[0] or v[1] or not self._standing[i]:
+                    body.linearVelocity = v
+                    self._standing[i] = not (v[0] or v[1])
                 w = angular[i][k]
                 if w != self._angular[i]:
                     body.angularVelocity = w
@@ -203,6 +209,7 @@ class DrivingWorld:
                     self.s[i] = self.s_end[i]
                     self.speed[i] = v_out[i, k + 1]
                     bodies[i].linearVelocity = (0.0, 0.0)
+                    self._standing[i] = True
                     bodies[i].angularVelocity = 0.0
                     bodies[i].active = False
         for i in live:
@@ -236,6 +243,7 @@ class DrivingWorld:
         for i in hit:
             body = self.car_bodies[i]
             body.linearVelocity = (0.0, 0.0)
+            self._standing[i] = True
             body.angularVelocity = 0.0
             self._angular[i] = 0.0
             self.speed[i] = 0.0
