@@ -16,8 +16,10 @@ from box2d_driving.policies import CheckpointError, load_trained
 from box2d_driving.policies.numpy_actor import adaptive_average, circular_conv
 
 ROOT = Path(__file__).resolve().parent.parent
-SHIPPED = sorted(p for p in (ROOT / "assets" / "policies").iterdir()
-                 if (p / "model.safetensors").exists() or (p / "accel").is_dir())
+# every shipped policy: a run folder with its checkpoint (nested ones too, such as the
+# communication policy), or a bilevel run folder (accel/ + spline/)
+SHIPPED = sorted({f.parent.parent if f.parent.name in ("accel", "spline") else f.parent
+                  for f in (ROOT / "assets" / "policies").rglob("model.safetensors")})
 RECORDED = 10_000
 
 
@@ -41,7 +43,7 @@ def _record(policy, n_obs: int, seed: int) -> np.ndarray:
     return np.concatenate(rows)[:n_obs]
 
 
-@pytest.mark.parametrize("run", SHIPPED, ids=lambda p: p.name)
+@pytest.mark.parametrize("run", SHIPPED, ids=lambda p: str(p.relative_to(ROOT / "assets" / "policies")))
 def test_numpy_actor_equals_the_torch_actor_on_recorded_observations(run):
     pytest.importorskip("torch")
     from training.runs.inference import actor_actions, load_policy
