@@ -138,13 +138,9 @@ def main(argv: list[str] | None = None) -> int:
         from box2d_driving import plugins
 
         try:
-            bench_train = plugins.command("bench-train")
-        except ImportError as exc:
-            bench_train, missing = None, f" ({exc})"
-        else:
-            missing = ""
-        if bench_train is None:
-            print(f"box2d-driving bench --train: error: needs the train extra{missing}", file=sys.stderr)
+            bench_train = plugins.require("bench-train")
+        except plugins.CommandMissing as exc:
+            print(f"box2d-driving bench --train: error: {exc}", file=sys.stderr)
             return 2
         return bench_train([a for a in argv if a != "--train"])
     parser = argparse.ArgumentParser(prog="box2d-driving bench", description=__doc__.split("\n\n")[0])

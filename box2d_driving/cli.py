@@ -235,14 +235,9 @@ def _delegate(argv: list[str]) -> int:
             return 2
         name, rest = f"train:{argv[1]}", argv[2:]
     try:
-        script = plugins.command(name)
-    except ImportError as exc:
-        script, missing = None, f": {exc}"
-    else:
-        missing = ""
-    if script is None:
-        print(f"box2d-driving: error: {argv[0]} needs the train extra "
-              f"(pip install -c constraints-cpu.txt -e \".[train]\"){missing}", file=sys.stderr)
+        script = plugins.require(name)
+    except plugins.CommandMissing as exc:
+        print(f"box2d-driving: error: {argv[0]} {exc}", file=sys.stderr)
         return 2
     # usage lines and error prefixes name the command the user typed, not the script's file
     saved, sys.argv[0] = sys.argv[0], "box2d-driving " + " ".join(argv[:1] if argv[0] != "train" else argv[:2])

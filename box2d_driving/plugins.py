@@ -22,6 +22,25 @@ def command(name: str) -> Optional[Callable[[list[str]], int]]:
     return found[0].load() if found else None
 
 
+class CommandMissing(LookupError):
+    """A command the user asked for is not installed, or its dependencies are not."""
+
+
+INSTALL = 'pip install -c constraints-cpu.txt -e ".[train]"'
+
+
+def require(name: str) -> Callable[[list[str]], int]:
+    """:func:`command` ``name``, or :class:`CommandMissing` saying what to install (and, where
+    the package is there, which import failed)."""
+    try:
+        found = command(name)
+    except ImportError as exc:
+        raise CommandMissing(f"needs the train extra ({INSTALL}): {exc}") from None
+    if found is None:
+        raise CommandMissing(f"needs the train extra ({INSTALL})")
+    return found
+
+
 def behaviours() -> list[str]:
     """The behaviours ``train`` offers (entry points ``train:NAME``), sorted by name."""
     return sorted(ep.name.split(":", 1)[1] for ep in entry_points(group=COMMANDS) if ep.name.startswith("train:"))

@@ -150,6 +150,17 @@ def safety_distance_metrics(table: dict[str, np.ndarray], a_max: float, car_leng
     return safety_distance_from_samples(samples, a_max)
 
 
+def closing_samples(s: dict[str, np.ndarray], a_max: float) -> dict[str, np.ndarray]:
+    """The closing samples (``dv > 0``) of :func:`leader_samples` ``s``: their ``closing_speed``,
+    ``gap``, ``row`` and ``leader_halted``, the distance ``need``-ed to shed ``dv`` at ``a_max``
+    and whether each is ``safe`` (``gap >= need``)."""
+    closing = s["closing_speed"] > 0
+    out = {k: s[k][closing] for k in ("closing_speed", "gap", "row", "leader_halted")}
+    out["need"] = stopping_distance(out["closing_speed"], a_max)
+    out["safe"] = out["gap"] >= out["need"]
+    return out
+
+
 def safety_distance_from_samples(s: dict[str, np.ndarray], a_max: float) -> dict:
     """:func:`safety_distance_metrics` of samples already drawn by :func:`leader_samples`.
 
@@ -157,14 +168,12 @@ def safety_distance_from_samples(s: dict[str, np.ndarray], a_max: float) -> dict
     wreck are counted and the share is also given without them (``safe_share_moving_leader``):
     a car closing on a crash that just happened ahead of it is the pile-up case, which human
     driving data (the paper's 99.56 %) hardly contains."""
-    closing = s["closing_speed"] > 0
-    need = stopping_distance(s["closing_speed"][closing], a_max)
-    safe = s["gap"][closing] >= need
-    halted = s["leader_halted"][closing]
+    c = closing_samples(s, a_max)
+    safe, halted = c["safe"], c["leader_halted"]
     return {
         "samples_with_leader": int(len(s["gap"])),
-        "closing_samples": int(closing.sum()),
-        "safe_share": float(np.mean(safe)) if closing.any() else float("nan"),
+        "closing_samples": int(len(safe)),
+        "safe_share": float(np.mean(safe)) if len(safe) else float("nan"),
         "gap_median": float(np.median(s["gap"])) if len(s["gap"]) else float("nan"),
         "closing_samples_halted_leader": int(halted.sum()),
         "unsafe_samples_halted_leader": int((halted & ~safe).sum()),
@@ -192,11 +201,9 @@ def unsafe_breakdown(table: dict[str, np.ndarray], s: dict[str, np.ndarray], a_m
     * ``safe_share_centre_distance``: the share when the distance is between centres, as a
       LiDAR-free "distance between agents" reads, not bumper to bumper.
     """
-    closing = s["closing_speed"] > 0
-    dv, gap, rows = s["closing_speed"][closing], s["gap"][closing], s["row"][closing]
-    need = stopping_distance(dv, a_max)
-    unsafe = gap < need
-    halted = s["leader_halted"][closing]
+    c = closing_samples(s, a_max)
+    dv, gap, rows, need, halted = c["closing_speed"], c["gap"], c["row"], c["need"], c["leader_halted"]
+    unsafe = ~c["safe"]
     crash = {}  # (episode, car) -> decision of its collision
     collided = table.get("collided", np.zeros(len(table["episode"]), dtype=bool)).astype(bool)
     for r in np.flatnonzero(collided).tolist():
@@ -214,6 +221,6 @@ def unsafe_breakdown(table: dict[str, np.ndarray], s: dict[str, np.ndarray], a_m
                        "no_collision": int(np.isinf(until).sum())},
         "safe_share_every_leader_sample": (float((n_leader - unsafe.sum()) / n_leader) if n_leader
                                            else float("nan")),
-        "safe_share_centre_distance": (float(np.mean(gap + car_length >= need)) if closing.any()
+        "safe_share_centre_distance": (float(np.mean(gap + car_length >= need)) if len(gap)
                                        else float("nan")),
     }

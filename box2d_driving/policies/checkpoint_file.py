@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import struct
 from pathlib import Path
-from typing import Union
+from typing import Any, Union
 
 import numpy as np
 
@@ -84,23 +84,29 @@ def check_metadata(path: Path, meta: dict[str, str]) -> None:
                               f"reads version {VERSION}")
 
 
-def read_arrays(path: Union[str, Path]) -> tuple[Path, dict[str, np.ndarray], dict[str, str]]:
-    """``(file, policy arrays by state_dict name, metadata)`` of a checkpoint (a run folder or its
-    ``model.safetensors``), read with the safetensors numpy API; never runs code from the file."""
+def read_tensors(path: Union[str, Path], framework: str) -> tuple[Path, dict[str, Any], dict[str, str]]:
+    """``(file, every tensor by key, metadata)`` of a checkpoint (a run folder or its
+    ``model.safetensors``), as ``framework`` arrays (``"numpy"`` here, ``"pt"`` in the trainer),
+    after the header and the format and version are checked; never runs code from the file."""
     from safetensors import safe_open
 
     path = find_checkpoint(path)
     check_header(path)
     try:
-        with safe_open(str(path), framework="numpy") as fh:
+        with safe_open(str(path), framework=framework) as fh:
             meta = fh.metadata() or {}
-            check_metadata(path, meta)
-            policy = {key[len("policy/"):]: fh.get_tensor(key) for key in fh.keys()
-                      if key.startswith("policy/")}
-    except CheckpointError:
-        raise
+            tensors = {key: fh.get_tensor(key) for key in fh.keys()}
     except Exception as exc:  # corrupt or truncated file
         raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from None
+    check_metadata(path, meta)
+    return path, tensors, meta
+
+
+def read_arrays(path: Union[str, Path]) -> tuple[Path, dict[str, np.ndarray], dict[str, str]]:
+    """``(file, policy arrays by state_dict name, metadata)`` of a checkpoint, read with the
+    safetensors numpy API (:func:`read_tensors`)."""
+    path, tensors, meta = read_tensors(path, "numpy")
+    policy = {key[len("policy/"):]: value for key, value in tensors.items() if key.startswith("policy/")}
     if not policy:
         raise CheckpointError(f"{path} holds no policy weights")
     return path, policy, meta

@@ -6,7 +6,7 @@ writes them):
 * :class:`DrivingActor`: the acceleration policy. The LiDAR history ``(H, n_rays)`` goes through
   two circular 1-D convolutions (``H -> 8`` channels, then ``8 -> 1``, kernel 5, ReLU after each),
   is average-pooled to 25 features and concatenated with the sat-nav history; then two tanh layers
-  of 256 and the action logits. Greedy action: the largest logit.
+  of 256 and the action logits (:meth:`DrivingActor.logits`; the greedy action is the largest).
 * :class:`MlpActor`: the spline (stage-0) policy of a bilevel run, an SB3 ``MlpPolicy`` actor:
   tanh hidden layers, then the action head. Greedy action: what SB3's
   ``predict(deterministic=True)`` returns (the most likely category of each discrete component,
@@ -26,12 +26,12 @@ import numpy as np
 from gymnasium import spaces
 from numpy.lib.stride_tricks import sliding_window_view
 
+from box2d_driving.policies.checkpoint_file import CheckpointError
+
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 
 
 def _weight(weights: Mapping[str, np.ndarray], name: str) -> np.ndarray:
-    from box2d_driving.policies.checkpoint_file import CheckpointError
-
     if name not in weights:
         raise CheckpointError(f"the checkpoint has no {name!r}: not an actor of this kind")
     return np.ascontiguousarray(weights[name], dtype=np.float32)
@@ -104,10 +104,6 @@ class DrivingActor:
             z = np.tanh(z @ w.T + b)
         w, b = self.head
         return z @ w.T + b
-
-    def greedy(self, obs: np.ndarray) -> np.ndarray:
-        """The most likely action of each row, ``(B,)`` int64."""
-        return self.logits(obs).argmax(axis=1).astype(np.int64)
 
 
 def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarray) -> np.ndarray:

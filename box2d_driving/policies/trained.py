@@ -125,7 +125,9 @@ class TrainedPolicy(RunPolicy):
         return self.spline_policy(obs0)
 
 
-def _env(config: dict, where: Path):
+def run_env(config: dict, where: Path):
+    """The env a run's ``config`` (env id and overrides) names, or :class:`CheckpointError`
+    naming ``where`` the config came from."""
     import box2d_driving
 
     try:
@@ -149,7 +151,7 @@ def load_trained(path: Union[str, Path], deterministic: bool = True,
     file, weights, _ = read_arrays(path)
     config_path = find_config(file)
     config = read_json(config_path)
-    env = _env(config, config_path)
+    env = run_env(config, config_path)
     layout = env.observation_layout
     env.close()
     try:
@@ -167,7 +169,7 @@ def _spline_actor(run: Path) -> MlpActor:
     _, weights, _ = read_arrays(run / "spline")
     config = read_json(run / "config.json")
     try:
-        env = _env(config["accel"], run / "config.json")
+        env = run_env(config["accel"], run / "config.json")
         space = env.spline_action_space
         hidden = len(config.get("spline_hidden", (64, 64)))
     except (KeyError, TypeError, AttributeError) as exc:

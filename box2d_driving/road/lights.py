@@ -8,6 +8,7 @@ is green the other is red, and both show yellow together for ``y`` seconds betwe
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +42,12 @@ class TrafficLights:
     def __len__(self) -> int:
         return len(self.groups)
 
+    @functools.cached_property
+    def _plain(self) -> tuple[list, list]:
+        """Stop points and directions as plain float lists (read every decision by :meth:`seen`;
+        the lights of an episode never change, so they are converted once)."""
+        return self.stop_points.tolist(), self.directions.tolist()
+
     def values(self, time: float) -> np.ndarray:
         """Light value of every light at ``time`` seconds after reset, shape ``(L,)``."""
         cycle = 2.0 * self.half_period
@@ -60,7 +67,7 @@ class TrafficLights:
             return out
         # A handful of cars each decision: plain floats, one pass, instead of a dozen numpy calls
         # on arrays of four (the same products and sums, so the same values to the bit).
-        stops, dirs = self.stop_points.tolist(), self.directions.tolist()
+        stops, dirs = self._plain
         cos_h, sin_h = np.cos(headings).tolist(), np.sin(headings).tolist()
         values = None
         for k, (li, (px, py)) in enumerate(zip(light_index.tolist(), positions.tolist())):

@@ -14,8 +14,9 @@ from box2d_driving.metrics.collisions import collision_breakdown, wreck_collisio
 from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics
 from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
-from box2d_driving.metrics.right_of_way import (fifo_metrics, leader_samples, safety_distance_from_samples,
-                                                 safety_distance_metrics, unsafe_breakdown)
+from box2d_driving.metrics.right_of_way import (closing_samples, fifo_metrics, leader_samples,
+                                                 safety_distance_from_samples, safety_distance_metrics,
+                                                 unsafe_breakdown)
 from box2d_driving.metrics.rollouts import last_rows, run_episodes
 from training.evaluation import plots
 
@@ -95,10 +96,10 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     s = leader_samples(table, cfg.car_length, wrecks_stay=cfg.wrecks_stay)
     metrics["safety_distance"] = safety_distance_from_samples(s, cfg.a_max)
     metrics["safety_distance"]["unsafe"] = unsafe_breakdown(table, s, cfg.a_max, cfg.car_length)
-    closing = s["closing_speed"] > 0
-    plots.speed_vs_distance(s["gap"][closing], s["closing_speed"][closing], cfg.a_max,
+    c = closing_samples(s, cfg.a_max)
+    plots.speed_vs_distance(c["gap"], c["closing_speed"], cfg.a_max,
                             out / "safety_distance.png", xlabel="gap to the car ahead (m)",
-                            ylabel="closing speed (m/s)", marked=s["leader_halted"][closing],
+                            ylabel="closing speed (m/s)", marked=c["leader_halted"],
                             marked_label="car ahead is a wreck")
     if cfg.wrecks_stay:  # pile-ups: could the cars that hit a wreck have braked in time?
         metrics["wreck_collisions"] = wreck_collision_room(table, cfg.a_max, cfg.car_length)

@@ -34,12 +34,11 @@ class SharedSplinePicker:
 
     def __init__(self, observation_space: spaces.Box, action_space: spaces.Space, hidden: tuple[int, ...]):
         if isinstance(action_space, spaces.Discrete):
-            self._splits, out = [int(action_space.n)], int(action_space.n)
+            out = int(action_space.n)
         elif isinstance(action_space, spaces.MultiDiscrete):
-            self._splits = [int(n) for n in action_space.nvec]
-            out = sum(self._splits)
+            out = int(sum(int(n) for n in action_space.nvec))
         elif isinstance(action_space, spaces.Box):
-            self._splits, out = [], int(np.prod(action_space.shape))
+            out = int(np.prod(action_space.shape))
         else:
             raise TypeError(f"unsupported spline action space {action_space}")
         self.action_space = action_space

@@ -18,8 +18,8 @@ from typing import Any, Optional, Union
 import torch as th
 
 from box2d_driving.policies.checkpoint_file import (FILE, FORMAT, LEGACY_FILE, VERSION,  # noqa: F401
-                                                    CheckpointError, check_header, check_metadata,
-                                                    find_checkpoint, legacy_message)
+                                                    CheckpointError, find_checkpoint, legacy_message,
+                                                    read_tensors)
 
 
 @dataclass
@@ -61,17 +61,7 @@ def save_model(model: Any, path: Union[str, Path], *, with_optimizer: bool = Tru
 
 def read_checkpoint(path: Union[str, Path]) -> Checkpoint:
     """Read a checkpoint (a run folder or its ``model.safetensors``); never runs code from it."""
-    from safetensors import safe_open
-
-    path = find_checkpoint(path)
-    check_header(path)
-    try:
-        with safe_open(str(path), framework="pt") as fh:
-            meta = fh.metadata() or {}
-            tensors = {key: fh.get_tensor(key) for key in fh.keys()}
-    except Exception as exc:  # corrupt or truncated file
-        raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from None
-    check_metadata(path, meta)
+    path, tensors, meta = read_tensors(path, "pt")
     try:
         counters = {k: int(v) for k, v in json.loads(meta.get("counters", "{}")).items()}
         groups = json.loads(meta["optimizer_param_groups"]) if "optimizer_param_groups" in meta else None

@@ -12,7 +12,7 @@ import numpy as np
 import torch as th
 
 from box2d_driving.policies.checkpoint_file import find_config, is_bilevel_run, read_json
-from box2d_driving.policies.trained import RunPolicy
+from box2d_driving.policies.trained import RunPolicy, run_env
 from training.runs.checkpoint import CheckpointError, load_policy_weights, read_checkpoint
 
 
@@ -72,15 +72,11 @@ def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPo
 
 def build_ctde_policy(config: dict, where: Path) -> Any:
     """An untrained :class:`CTDEPolicy` shaped for the env and critic a run's config names."""
-    import box2d_driving
     from training.ppo.policy import CTDEPolicy, policy_kwargs_for
     from training.ppo.vec_env import slot_observation_space
 
-    try:
-        env = box2d_driving.make(config["env_id"], **config["env_overrides"])
-        critic = config.get("critic", "mean")
-    except (KeyError, TypeError, ValueError) as exc:
-        raise CheckpointError(f"{where}: cannot rebuild the policy's env ({exc!r})") from None
+    env = run_env(config, where)
+    critic = config.get("critic", "mean")
     agent = env.possible_agents[0]
     space = slot_observation_space(env.observation_space(agent), len(env.possible_agents))
     policy = CTDEPolicy(space, env.action_space(agent), lambda _: 0.0, **policy_kwargs_for(env, critic))
