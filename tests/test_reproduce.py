@@ -524,3 +524,14 @@ def test_a_trials_budget_is_said_in_its_own_unit():
     assert trial_budget(base) == "the behaviour's default budget"
     over_rounds = {**base, "grid": {"rounds": ["24", "48"]}}  # a sweep over budgets: each row says its own
     assert trial_budget(over_rounds) == "the bilevel rounds in the table's `rounds` column"
+
+
+def test_every_section_states_the_papers_budget_beside_ours_and_the_plateau_question():
+    from training.results.reproduce import budget_note
+    from training.results.sections import section
+
+    assert "The paper's runs: 8 cars, all junctions, 1,000 epochs (32 M decisions)." in budget_note(section("right-of-way"))
+    assert "not known to us" in budget_note(section("fast-lanes"))
+    from training.results.sections import SECTIONS
+
+    assert all("stopped moving" in budget_note(s) for s in SECTIONS)

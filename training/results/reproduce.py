@@ -127,7 +127,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
                       f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
-                      f"{summary['sweep']['episodes']} report episodes each). {section.setting}", ""]
+                      f"{summary['sweep']['episodes']} report episodes each). {section.setting}"
+                      + budget_note(section), ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
             parts += [_row(header), _separator(len(header))]
             for g in groups:
@@ -190,6 +191,14 @@ def trial_budget(sweep: dict[str, Any]) -> str:
     else:
         budget = "the behaviour's default budget"
     return budget + (f" (at most {sweep['minutes']:g} min)" if sweep.get("minutes") else "")
+
+
+def budget_note(section: Section) -> str:
+    """The paper's budget beside ours, and what is known of whether the metric had stopped
+    moving at ours (no learning curve on selection seeds has been measured for any rule yet)."""
+    paper = f" **Budget.** The paper's runs: {section.paper_budget}." if section.paper_budget else \
+        " **Budget.** The paper's budget for this rule is not known to us."
+    return paper + " Whether the metric had stopped moving at our budget is not measured yet."
 
 
 def ran_budget(trials: list[dict[str, Any]]) -> str:

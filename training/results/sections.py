@@ -68,6 +68,8 @@ class Section:
         headlines: its rows in the README's results table.
         compare_with: (another section's key, its grid point) whose trials this section's are set
             against in a statement (same metrics, intervals apart or not).
+        paper_budget: what the paper's own runs of this rule trained (from the original code's
+            experiment list), shown beside ours; empty where we do not know it.
     """
 
     key: str
@@ -86,6 +88,7 @@ class Section:
     gif_size: tuple[int, int] = (320, 320)
     headlines: tuple[Headline, ...] = ()
     compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
+    paper_budget: str = ""
 
     @property
     def argv(self) -> list[str]:
@@ -133,6 +136,8 @@ SECTIONS: tuple[Section, ...] = (
             setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
                     "policy did.",
             figure=lights_figure, baseline=light_blind_rates, statements=(lights_statement,),
+            paper_budget="4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 "
+                         "decisions (2.4 M)",
             shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
@@ -153,6 +158,8 @@ SECTIONS: tuple[Section, ...] = (
                     "compare it with the grid's 4-car noise-0.5 row.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights", (("lidar_noise", "0.5"), ("num_cars", "4"))),
+            paper_budget="8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for "
+                         "1,000 epochs",
             headlines=(Headline("denser traffic", "8 cars, LiDAR noise 0.5, from the 4-car policy", (),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
     Section("lanes", "Lanes", "lanes", (),
@@ -177,6 +184,8 @@ SECTIONS: tuple[Section, ...] = (
                         apart_statement("num_cars", "2", "8", ONE_SIDED, "one-sided offset",
                                         "further off the axis on one side with 8 cars")),
             shipped="lanes_8cars_noise05",
+            paper_budget="4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
+                         "spline episodes per epoch",
             headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
                        Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
@@ -198,6 +207,7 @@ SECTIONS: tuple[Section, ...] = (
                           PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %")),
             figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
             shipped="real_junction_8cars_collision3",
+            paper_budget="8 cars, all junctions, 1,000 epochs (32 M decisions)",
             headlines=(Headline("right of way, safe distance",
                                 "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
@@ -222,6 +232,7 @@ SECTIONS: tuple[Section, ...] = (
                                               "LiDAR), not to any one level: the trend across levels is the "
                                               "statement above.")),
             shipped="real_junction_comm_8cars/noise05",
+            paper_budget="12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)",
             headlines=tuple(Headline("turn signals (communication)",
                                      f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
                                      (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
