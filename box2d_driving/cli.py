@@ -4,8 +4,8 @@ Subcommands: ``list`` (scenarios), ``render`` (episodes to mp4/GIF/PNG frames), 
 a car yourself), ``bench`` (the
 world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
 OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
-``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep``, ``reproduce`` and
-``convert-checkpoint`` (the training scripts).
+``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep``, ``reproduce``,
+``curve`` and ``convert-checkpoint`` (the training scripts).
 Bad arguments print one line and exit with status 2.
 """
 
@@ -211,6 +211,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a grid of settings x seeds on Ray Tune, evaluated on report seeds (`sweep --help`)")
     sub.add_parser("reproduce", add_help=False,
                    help="write docs/results.md and its figures from sweep summaries (`reproduce --help`)")
+    sub.add_parser("curve", add_help=False,
+                   help="learning curves of a run's or a sweep's checkpoints on selection seeds (`curve --help`)")
     sub.add_parser("convert-checkpoint", add_help=False,
                    help="convert an older pickled model.zip of your own to model.safetensors "
                         "(`convert-checkpoint --help`)")
@@ -252,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "bench":
         from box2d_driving import bench
         return bench.main(argv[1:])
-    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce"):
+    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve"):
         return _delegate(argv)
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)

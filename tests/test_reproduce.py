@@ -266,7 +266,10 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
 
     from training.results import reproduce
 
+    from training.sweeps import curves
+
     monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
+    monkeypatch.setattr(curves, "SWEEP_CURVE_EPISODES", 2)
     folder, runs, page = tmp_path / "sweeps", tmp_path / "runs", tmp_path / "results.md"
     argv = ["--run", "--summaries", str(folder), "--runs", str(runs), "--out", str(page), "--max-concurrent", "1"]
     try:
@@ -277,6 +280,10 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
         assert (folder / "tiny.csv").exists() and (runs / "sweep-tiny" / "summary.json").exists()
         text = page.read_text()
         assert "2 of 2 planned trials done" in text and "A tiny grid." in text and "summary `" in text
+        # the learning curves on selection seeds, beside the summary, and on the page
+        curves = (folder / "curves" / "tiny.csv").read_text()
+        assert {r["trial"] for r in first} == {line.split(",")[0] for line in curves.splitlines()[1:]}
+        assert "**Learning curves**" in text
 
         # another machine: no sweep folder, only the kept summary -> nothing is trained again
         shutil.rmtree(runs)
@@ -285,6 +292,7 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
         again = json.loads((folder / "tiny.json").read_text())["trials"]
         key = lambda rows: {r["trial"]: (r["success_rate"], r["red_light_violation_rate"], r["run"]) for r in rows}  # noqa: E731
         assert key(again) == key(first)
+        assert (folder / "curves" / "tiny.csv").read_text() == curves  # kept: no run folder here to redraw them
     finally:
         ray.shutdown()
 
@@ -408,8 +416,9 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert f"| 0 | 3 | {mean_ci([0.1, 0.11, 0.12]).format()}" in section
     assert f"{mean_ci([0.10, 0.12, 0.11]).format()} (0.100, 0.120, 0.110)" in section  # sizes, not signed values
     assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section
-    assert "- speaker consistency (bits): noise 0" in section and "no rise shown, unlike the paper" in section
-    assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, intervals apart, as in the paper" in section
+    # the same seeds at both levels: paired by seed
+    assert "- speaker consistency (bits): noise 0" in section and "no rise shown (paired by seed (3 seeds)" in section
+    assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, paired by seed (3 seeds)" in section
     # the ablation is differenced per trial (the seeds' own success spread cancels), then estimated over seeds
     lost_0, lost_05 = mean_ci([0.07, 0.06, 0.08]), mean_ci([-0.01, 0.01, 0.0])
     assert f"{lost_0.format()} (0.070, 0.060, 0.080) |" in section and f"{lost_05.format()} (-0.010, 0.010, " in section
@@ -417,7 +426,7 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert (f"- success lost with messages unheard (lidar_noise=0): {lost_0.format()}: the listeners rely on the "
             "message.\n") in section and "The paper ties the listeners' reliance to noise" in section
     assert "(lidar_noise=0.5): " in section and "straddles zero: neither shown." in section
-    assert "- success lost with messages unheard: noise 0" in section and "falls, intervals apart, unlike the paper" in section
+    assert "- success lost with messages unheard: noise 0" in section and "falls, paired by seed (3 seeds)" in section
     assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
     assert "## Right of way" in page.read_text() and "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]
 
@@ -488,13 +497,38 @@ def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_poin
               point("0", "8", [0.10, 0.11, 0.12]), point("0.75", "8", [0.45, 0.46, 0.47], success=0.2)]
     lines = [line for line in statements(section("traffic-lights"), groups, {}) if "against noise" in line
              or line.startswith("- 4 cars") or line.startswith("- 8 cars")]
+    # the same seeds at both levels: a paired test (each seed 0.15 lower)
     assert lines == [f"- 4 cars, red-light violations: noise 0 {mean_ci([0.20, 0.21, 0.22]).format()}, noise 0.75 "
-                     f"{mean_ci([0.05, 0.06, 0.07]).format()}: falls, intervals apart, as in the paper."]
+                     f"{mean_ci([0.05, 0.06, 0.07]).format()}: falls, paired by seed (3 seeds), high minus low noise "
+                     "-0.150 ± 0.000, p = 0.000, as in the paper."]
     groups[2] = point("0.75", "4", [0.30, 0.31, 0.32])
     text = "\n".join(statements(section("traffic-lights"), groups, {}))
-    assert "- 4 cars, red-light violations: noise 0" in text and "rises, intervals apart, unlike the paper." in text
+    assert "- 4 cars, red-light violations: noise 0" in text and "rises, paired by seed (3 seeds)" in text
+    assert "unlike the paper." in text
     groups[2] = point("0.75", "4", [0.10, 0.20, 0.30])
-    assert "no fall shown, unlike the paper." in "\n".join(statements(section("traffic-lights"), groups, {}))
+    assert "no fall shown (paired by seed" in "\n".join(statements(section("traffic-lights"), groups, {}))
+
+
+def test_a_noise_trend_is_paired_by_seed_where_the_seeds_match():
+    from training.results.statements import noise_trend, seeds_needed
+
+    def point(noise, violations, seeds=(0, 1, 2)):
+        return Group({"lidar_noise": noise}, list(seeds), {"v": mean_ci(violations)})
+
+    # intervals overlap (the seeds differ a lot from each other), but every seed falls by about 0.02
+    low, high = point("0.25", [0.10, 0.20, 0.30]), point("1.0", [0.08, 0.18, 0.29])
+    diffs = [-0.02, -0.02, -0.01]
+    line = noise_trend([low, high], [("v", "violations")], paper=-1)[0]
+    d = mean_ci(diffs)
+    assert f"falls, paired by seed (3 seeds), high minus low noise {d.mean:+.3f} ± {(d.high - d.low) / 2:.3f}" in line
+    assert f"p = {t_test_p(diffs, 0.0):.3f}, as in the paper." in line
+    # seeds that do not match (0-2 against 3-5): intervals only
+    other = point("1.0", [0.08, 0.18, 0.29], seeds=(3, 4, 5))
+    assert "the intervals overlap: no fall shown" in noise_trend([low, other], [("v", "violations")], paper=-1)[0]
+    # how many seeds a spread would need: a mean of 0.01 with sd 0.01 needs 7 (t95(6) * 0.01 / sqrt(7) < 0.01)
+    assert seeds_needed([0.0, 0.01, 0.02]) == "; at this mean and spread about 7 seeds would tell"
+    assert seeds_needed([0.0, 0.0, 0.0]) == ""
+    assert "no fall shown" in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
 
 
 def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
@@ -535,3 +569,60 @@ def test_every_section_states_the_papers_budget_beside_ours_and_the_plateau_ques
     from training.results.sections import SECTIONS
 
     assert all("stopped moving" in budget_note(s) for s in SECTIONS)
+
+
+def _paper_lights(folder, violations):
+    """The paper-settings lights sweep: 4 cars fixed, noise in the grid, 3 seeds."""
+    trials = [{"trial": f"lights_lidar_noise={noise}_seed={seed}", "behaviour": "lights", "seed": seed,
+               "lidar_noise": noise, "status": "done", "error": "", "report_episodes": 200,
+               "report_first_seed": REPORT.start, "red_light_violation_rate": v, "success_rate": 0.95,
+               "collision_rate": 0.05, "decisions": 2400000}
+              for noise, values in violations.items() for seed, v in enumerate(values)]
+    sweep = {"behaviour": "lights", "grid": {"lidar_noise": list(violations)}, "seeds": 3,
+             "fixed": {"num_cars": "4"}, "timesteps": 2400000, "minutes": None, "episodes": 200, "quick": False}
+    path = folder / "lights-paper.json"
+    path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    return path
+
+
+def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tmp_path):
+    import csv
+
+    grid = _summary(tmp_path / "lights.json", VIOLATIONS)
+    paper = _paper_lights(tmp_path, {"0.25": [0.111, 0.112, 0.113], "1.0": [0.061, 0.062, 0.063]})
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(grid), str(paper), "--out", str(page)]) == 0
+    text = page.read_text()
+    mine = text.split("## Stopping at red lights, at the paper's settings")[1].split("\n## ")[0]
+    grid_part = text.split("## Stopping at red lights\n")[1].split("\n## ")[0]
+    assert "| 1.0 | 3 | 0.062" in mine and "0.062" not in grid_part  # the more specific section only
+    assert "falls, paired by seed (3 seeds)" in mine
+    assert "is not measured (the sweep's checkpoints were not kept" in mine and "Learning curves" not in mine
+
+    # curves committed beside the summary: noise 0.25 flat, noise 1.0 still falling
+    (tmp_path / "curves").mkdir()
+    with open(tmp_path / "curves" / "lights-paper.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["trial", "seed", "lidar_noise", "decisions", "agent_steps", "episodes",
+                                          "first_seed", "success_rate", "collision_rate", "red_light_violation_rate"])
+        w.writeheader()
+        for noise in ("0.25", "1.0"):
+            for seed in range(3):
+                for k in range(1, 9):
+                    d = 320_000 * k
+                    v = 0.11 if noise == "0.25" else 0.3 - (0.02 + 0.001 * seed) * k
+                    w.writerow({"trial": f"t{noise}{seed}", "seed": seed, "lidar_noise": noise, "decisions": d,
+                                "agent_steps": d * 0.7, "episodes": 100, "first_seed": SELECTION.start,
+                                "success_rate": 0.9, "collision_rate": 0.1, "red_light_violation_rate": v})
+    assert main([str(grid), str(paper), "--out", str(page)]) == 0
+    mine = page.read_text().split("## Stopping at red lights, at the paper's settings")[1].split("\n## ")[0]
+    assert "the learning curves below" in mine and f"selection seeds from {SELECTION.start:,}" in mine
+    line = next(x for x in mine.splitlines() if x.startswith("- red-light violations, change over the last 50 %"))
+    assert "the last 1.28 M decisions" in line
+    assert "lidar_noise 0.25 0.000 ± 0.000 (stopped moving)" in line
+    # noise 1.0 falls 0.020-0.022 per 320,000 decisions: over the last 1.28 M, 4 of those steps
+    falls = mean_ci([-(0.02 + 0.001 * s) * 4 for s in range(3)])
+    assert f"lidar_noise 1.0 {falls.format()} (still falling)" in line
+    assert (tmp_path / "docs" / "images" / "results" / "traffic-lights-paper_curves.png").stat().st_size > 10_000
+    # a file that is not a sweep's curves is refused with the page's own error
+    (tmp_path / "curves" / "lights-paper.csv").write_text("a,b\n1,2\n")
+    assert main([str(grid), str(paper), "--out", str(page)]) == 2

@@ -7,7 +7,7 @@ train cars on ``real-junction-v0`` (the shipped Helsinki junctions, one sampled 
 
 Then ``box2d-driving evaluate --checkpoint runs/real_junction --episodes 200 --out
 runs/real_junction/eval`` (FIFO share, safe-distance share and scatter, communication metrics) and
-``python training/evaluation/checkpoint_curve.py runs/real_junction`` (FIFO over training).
+``box2d-driving curve runs/real_junction`` (FIFO over training).
 """
 
 from __future__ import annotations

@@ -1,32 +1,79 @@
-"""Evaluate every kept checkpoint of a run: success, collisions, right of way (FIFO share) and the
-safe-distance share against agent-steps, as a CSV and a plot (the learning curve of the rules).
-Choosing a checkpoint from this curve is a selection, so it runs on selection seeds; report the
-chosen checkpoint with ``evaluate``, on report seeds.
+"""Learning curves of a rule's metrics on selection seeds: every kept checkpoint of a run (or of
+every trial of a sweep) driven on the same selection episodes, as a CSV and a plot, and whether
+each metric had stopped moving by the end of training (:func:`late_change`).
 
-    python training/evaluation/checkpoint_curve.py runs/real_junction --episodes 20
+Choosing a checkpoint or a budget from these curves is a selection, so they run on selection
+seeds; report the chosen policy with ``evaluate``, on report seeds.
+
+    box2d-driving curve runs/real_junction --episodes 20          # one run: RUN/checkpoint_curve/
+    box2d-driving curve runs/sweep-lights-paper --episodes 100    # every trial: OUT/curves.csv
+                                                                  # (training/sweeps/curves.py)
+
+Which metrics a curve follows depends on the scenario the run trained on (:data:`CURVE_METRICS`):
+success and collisions always, plus the scenario's rule (red-light violations, pedestrian
+collisions, right of way and safe distance). Bilevel runs (lanes, fast lanes) keep their
+per-round numbers in ``rounds.csv`` instead (training rollouts, not selection seeds).
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import re
 import sys
 from pathlib import Path
+from typing import Any, Callable, Optional
 
 import numpy as np
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
+from box2d_driving.metrics.lights import outcome_rates, traffic_light_metrics  # noqa: E402
+from box2d_driving.metrics.pedestrians import crosswalk_metrics  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
-from training.evaluation import plots  # noqa: E402
-from training.runs.inference import load_policy  # noqa: E402
-from training.evaluation.reports import junction_summary  # noqa: E402
-from training.common.cli_args import error  # noqa: E402
+from training.common.cli_args import OneLineParser, error, prog_name  # noqa: E402
 from training.common.seeds import SELECTION  # noqa: E402
+from training.evaluation import plots  # noqa: E402
+from training.evaluation.reports import junction_summary  # noqa: E402
 
-FIELDS = ("decisions", "agent_steps", "success_rate", "collision_rate", "fifo_share", "safe_share")
+OUTCOMES = ("success_rate", "collision_rate")
+# scenario -> the metrics its curve follows (success and collisions first)
+CURVE_METRICS: dict[str, tuple[str, ...]] = {
+    "intersection-v0": OUTCOMES + ("red_light_violation_rate",),
+    "crosswalk-v0": OUTCOMES + ("pedestrian_collision_rate",),
+    "real-junction-v0": OUTCOMES + ("red_light_violation_rate", "fifo_share", "safe_share"),
+}
+# the share of a run's training whose trend says whether a metric had stopped moving
+LATE_SHARE = 0.5
+
+
+class CurveError(ValueError):
+    """A run or sweep folder a curve cannot be drawn for (no checkpoints, a bilevel run, ...)."""
+
+
+def rule_metrics(env_id: str, table: dict, config: Any) -> dict[str, float]:
+    """The curve's metrics (:data:`CURVE_METRICS`) of one checkpoint's episodes."""
+    if env_id == "real-junction-v0":
+        return {**junction_summary(table, config),
+                "red_light_violation_rate": traffic_light_metrics(table)["red_light_violation_rate"]}
+    rates = outcome_rates(table)
+    out = {k: rates[k] for k in OUTCOMES}
+    if env_id == "intersection-v0":
+        out["red_light_violation_rate"] = traffic_light_metrics(table)["red_light_violation_rate"]
+    elif env_id == "crosswalk-v0":
+        out["pedestrian_collision_rate"] = crosswalk_metrics(table, config.a_max)["pedestrian_collision_rate"]
+    return out
+
+
+def kept_checkpoints(run: Path) -> list[tuple[int, Path]]:
+    """(decisions, file) of every kept checkpoint of a flat run, in training order."""
+    if (run / "accel").is_dir() and (run / "spline").is_dir():
+        raise CurveError(f"{run} is a bilevel run (lanes, fast lanes): its per-round numbers are in "
+                         f"{run / 'rounds.csv'}; a selection-seed curve covers flat runs only")
+    found = [(int(re.findall(r"\d+", p.stem)[-1]), p) for p in run.glob("checkpoints/model_*.safetensors")]
+    if not found:
+        raise CurveError(f"no checkpoints in {run / 'checkpoints'} (model_<decisions>.safetensors)")
+    return sorted(found)
 
 
 def agent_steps_at(run: Path, decisions: np.ndarray) -> np.ndarray:
@@ -37,50 +84,114 @@ def agent_steps_at(run: Path, decisions: np.ndarray) -> np.ndarray:
     return np.interp(decisions, progress["time/total_timesteps"], progress["time/agent_steps"])
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("run", type=Path, help="run folder with checkpoints/model_<decisions>.safetensors")
-    parser.add_argument("--episodes", type=int, default=20, help="episodes per checkpoint")
+def run_curve(run: Path, episodes: int, seed: int,
+              log: Callable[[str], None] = lambda line: None) -> list[dict[str, Any]]:
+    """One row per kept checkpoint of ``run``: decisions, agent-steps and the scenario's curve
+    metrics on ``episodes`` episodes from selection seed ``seed`` (the same episodes for every
+    checkpoint, so the curve's steps are the policy's, not the episodes')."""
+    from training.runs.inference import load_policy
+
+    ckpts = kept_checkpoints(run)
+    steps = agent_steps_at(run, np.array([d for d, _ in ckpts], dtype=float))
+    rows = []
+    for (decisions, path), agent_steps in zip(ckpts, steps):
+        policy = load_policy(path)
+        env = policy.make_env()
+        if policy.env_id not in CURVE_METRICS:
+            raise CurveError(f"{run}: no curve metrics for {policy.env_id} (known: {', '.join(CURVE_METRICS)})")
+        table = run_episodes(env, policy, episodes, seed=seed)
+        row = {"decisions": decisions, "agent_steps": float(agent_steps), "episodes": episodes, "first_seed": seed,
+               **rule_metrics(policy.env_id, table, env.config)}
+        rows.append(row)
+        log(" ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()))
+    return rows
+
+
+def late_change(decisions: np.ndarray, values: np.ndarray, share: float = LATE_SHARE) -> float:
+    """How much a metric moved over the last ``share`` of training: the least-squares slope
+    through the checkpoints at or after ``(1 - share)`` of the last one's decisions, times that
+    span (metric units). NaN with fewer than two such checkpoints. Defined before the
+    paper-settings runs were looked at; averaged over seeds it says whether a curve had stopped
+    moving (an interval around 0) or was still moving (an interval away from 0)."""
+    d, v = np.asarray(decisions, dtype=float), np.asarray(values, dtype=float)
+    ok = np.isfinite(v)
+    d, v = d[ok], v[ok]
+    if len(d) < 2:
+        return float("nan")
+    start = (1.0 - share) * d.max()
+    late = d >= start - 1e-9
+    if late.sum() < 2:
+        return float("nan")
+    change = float(np.polyfit(d[late], v[late], 1)[0] * (d.max() - start))
+    return 0.0 if abs(change) < 1e-12 else change  # a flat curve's rounding error is no trend
+
+
+def write_rows(path: Path, rows: list[dict[str, Any]]) -> None:
+    fields: list[str] = []
+    for r in rows:
+        fields += [k for k in r if k not in fields]
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def curve_of_run(run: Path, out: Path, episodes: int, seed: int) -> None:
+    rows = run_curve(run, episodes, seed, log=lambda line: print(line, flush=True))
+    write_rows(out / "curve.csv", rows)
+    x = np.array([r["agent_steps"] for r in rows])
+    if np.isnan(x).any():
+        x = np.array([r["decisions"] for r in rows], dtype=float)
+    names = [k for k in rows[0] if k not in ("decisions", "agent_steps", "episodes", "first_seed")]
+    reference = (0.8525, "paper FIFO 85.25 %") if "fifo_share" in names else None
+    plots.metric_over_training(x, {k: np.array([r[k] for r in rows]) for k in names},
+                               out / "curve.png", "share", reference=reference)
+    print(f"wrote {out / 'curve.csv'} and {out / 'curve.png'}")
+
+
+def build_parser(what: str) -> Any:
+    """The command line of ``box2d-driving curve`` (``what``: the folders it takes, in words)."""
+    parser = OneLineParser(prog=prog_name(), description=__doc__.split("\n\n")[0])
+    parser.add_argument("run", type=Path, help=what)
+    parser.add_argument("--episodes", type=int, default=20, help="episodes per checkpoint (default 20)")
     parser.add_argument("--seed", type=int, default=SELECTION.start,
                         help="first episode seed: selection seeds (choosing a checkpoint is a selection; "
                              "report the chosen one with evaluate, on report seeds)")
-    parser.add_argument("--out", type=Path, help="output folder (default RUN/checkpoint_curve)")
+    parser.add_argument("--out", type=Path, help="output folder (default RUN/checkpoint_curve, or the sweep folder)")
     parser.add_argument("--overwrite", action="store_true")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def checked_out(args: Any, name: str, default: Path) -> Optional[Path]:
+    """The output folder for ``name`` (``curve.csv``, ``curves.csv``), or None after printing the
+    error: episodes off the selection range, or a curve already there without ``--overwrite``."""
     try:
         SELECTION.episodes(args.episodes, args.seed)
     except ValueError as exc:
-        return error(str(exc))
+        error(str(exc))
+        return None
+    out = args.out or default
+    if (out / name).exists() and not args.overwrite:
+        error(f"{out / name} exists; pass --overwrite")
+        return None
+    return out
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    """One run's curve (``box2d-driving curve`` also takes a sweep folder:
+    :mod:`training.sweeps.curves`)."""
+    args = build_parser("run folder with checkpoints/model_<decisions>.safetensors").parse_args(argv)
+    out = checked_out(args, "curve.csv", args.run / "checkpoint_curve")
+    if out is None:
+        return 2
     import torch
 
     torch.set_num_threads(1)
-    out = args.out or args.run / "checkpoint_curve"
-    if out.exists() and any(out.iterdir()) and not args.overwrite:
-        return error(f"{out} is not empty; pass --overwrite")
-    ckpts = sorted(args.run.glob("checkpoints/model_*.safetensors"), key=lambda p: int(re.findall(r"\d+", p.stem)[-1]))
-    if not ckpts:
-        return error(f"no checkpoints in {args.run / 'checkpoints'}")
     out.mkdir(parents=True, exist_ok=True)
-    decisions = np.array([int(re.findall(r"\d+", p.stem)[-1]) for p in ckpts], dtype=float)
-    steps = agent_steps_at(args.run, decisions)
-    rows = []
-    for path, d, s in zip(ckpts, decisions, steps):
-        policy = load_policy(path)
-        env = policy.make_env()
-        table = run_episodes(env, policy, args.episodes, seed=args.seed)
-        row = {"decisions": int(d), "agent_steps": float(s), **junction_summary(table, env.config)}
-        rows.append(row)
-        print(" ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()), flush=True)
-    with open(out / "curve.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
-    x = np.array([r["agent_steps"] for r in rows])
-    if np.isnan(x).any():
-        x = decisions
-    plots.metric_over_training(x, {k: np.array([r[k] for r in rows]) for k in FIELDS[2:]},
-                               out / "curve.png", "share", reference=(0.8525, "paper FIFO 85.25 %"))
-    print(f"wrote {out / 'curve.csv'} and {out / 'curve.png'}")
+    try:
+        curve_of_run(args.run, out, args.episodes, args.seed)
+    except CurveError as exc:
+        return error(str(exc))
     return 0
 
 

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any, Optional
 
+from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.data import Group, Metric, ResultsError, grid_product, groups_of, load_summary
 from training.results.sections import SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
@@ -46,17 +47,20 @@ def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
     return path
 
 
+def _matches(section: Section, summary: dict[str, Any]) -> bool:
+    """Whether ``summary`` has ``section``'s behaviour and fixed options."""
+    sweep = summary["sweep"]
+    settings = {**sweep.get("fixed", {}), **{k: None for k in summary["grid"]}}
+    return sweep["behaviour"] == section.behaviour and \
+        all(str(settings.get(k, "false")).lower() == v for k, v in section.match)
+
+
 def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The summaries that measure ``section``: its behaviour, its fixed options."""
-    out = []
-    for s in summaries:
-        sweep = s["sweep"]
-        if sweep["behaviour"] != section.behaviour:
-            continue
-        settings = {**sweep.get("fixed", {}), **{k: None for k in s["grid"]}}
-        if all(str(settings.get(k, "false")).lower() == v for k, v in section.match):
-            out.append(s)
-    return out
+    """The summaries that measure ``section``: its behaviour, its fixed options. A summary that
+    two sections match goes to the more specific one (more fixed options), so the paper-settings
+    lights sweep (4 cars fixed) is not also shown under the lights grid."""
+    return [s for s in summaries if _matches(section, s)
+            and not any(len(other.match) > len(section.match) and _matches(other, s) for other in SECTIONS)]
 
 
 def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[Metric],
@@ -125,10 +129,11 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             trials = summary["trials"]
             done = sum(r.get("status") == "done" for r in trials)
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
+            curves = load_curves(curves_path(summary["path"]), keys)
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
                       f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
                       f"{summary['sweep']['episodes']} report episodes each). {section.setting}"
-                      + budget_note(section), ""]
+                      + budget_note(section, curves is not None), ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
             parts += [_row(header), _separator(len(header))]
             for g in groups:
@@ -144,6 +149,14 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 name = f"{section.key}.png"
                 section.figure(groups, keys, figures / name, baseline)
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
+            if curves is not None:
+                shown = [(m, label) for m, label in section.metrics if isinstance(m, str)]
+                name = f"{section.key}_curves.png"
+                curve_figure(curves, keys, shown, figures / name)
+                parts += [f"**Learning curves** (`{curves_path(summary['path'])}`; selection seeds from "
+                          f"{int(curves[0]['first_seed']):,}):", ""]
+                parts += plateau_lines(curves, keys, shown) + [""]
+                parts += [f"![{section.title}: learning curves]({(rel / name).as_posix()})", ""]
             failed = [r for r in trials if r.get("status") in ("error", "stopped")]
             if failed:
                 parts += ["Trials not finished (`box2d-driving reproduce --run` runs them again, from their last "
@@ -193,12 +206,17 @@ def trial_budget(sweep: dict[str, Any]) -> str:
     return budget + (f" (at most {sweep['minutes']:g} min)" if sweep.get("minutes") else "")
 
 
-def budget_note(section: Section) -> str:
+def budget_note(section: Section, curves: bool = False) -> str:
     """The paper's budget beside ours, and what is known of whether the metric had stopped
-    moving at ours (no learning curve on selection seeds has been measured for any rule yet)."""
+    moving at ours: measured where the sweep's learning curves on selection seeds are committed
+    (``curves``), else not."""
     paper = f" **Budget.** The paper's runs: {section.paper_budget}." if section.paper_budget else \
         " **Budget.** The paper's budget for this rule is not known to us."
-    return paper + " Whether the metric had stopped moving at our budget is not measured yet."
+    if curves:
+        return paper + (" Whether each metric had stopped moving at our budget: the learning curves below, every "
+                        "checkpoint on selection episodes (`box2d-driving curve`).")
+    return paper + (" Whether the metric had stopped moving at our budget is not measured (the sweep's checkpoints "
+                    "were not kept for a learning curve).")
 
 
 def ran_budget(trials: list[dict[str, Any]]) -> str:

@@ -145,6 +145,25 @@ SECTIONS: tuple[Section, ...] = (
                                 (("lidar_noise", "0.5"), ("num_cars", "1")), ("red_light_violation_rate",)),
                        Headline("8 cars from scratch", "8 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "8")), ("red_light_violation_rate", "success_rate", "collision_rate")))),
+    Section("traffic-lights-paper", "Stopping at red lights, at the paper's settings", "lights",
+            (("init_from", "false"), ("num_cars", "4")),
+            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
+             ("collision_rate", "collisions")),
+            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
+            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 3 --timesteps 2400000 --set num_cars=4 "
+            "--out runs/sweep-lights-paper",
+            setting="Each trial trains 4 cars from scratch at the paper's settings: LiDAR noise 0.25, 0.5, 0.75 "
+                    "and 1.0 (the share of LiDAR rays dropped at every decision: at 1.0 the cars see no other car and have only "
+                    "the light, their own speed and their route), entropy 0.01, 75 updates of 32,000 decisions. The same training seeds run at every noise "
+                    "level, so the noise trend is tested paired by seed.",
+            figure=against_noise_figure((("red_light_violation_rate", "red-light violations"),
+                                         ("success_rate", "success"))),
+            statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
+                                              paper=-1),),
+            paper_budget="4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 "
+                         "decisions (2.4 M)",
+            headlines=(Headline("stop at red lights, the paper's settings", "4 cars, LiDAR noise 1.0, 2.4 M decisions",
+                                (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
             (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),

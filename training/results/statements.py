@@ -11,7 +11,7 @@ from collections import defaultdict
 from typing import Callable, Sequence
 
 from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
-from training.results.stats import Estimate, t_test_p
+from training.results.stats import Estimate, mean_ci, t95, t_test_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
@@ -145,13 +145,47 @@ def noise_trend(groups: list[Group], metrics: list[tuple[Metric, str]], paper: i
         a, b = low.estimates[metric], high.estimates[metric]
         if a.high is None or b.high is None:
             continue
-        seen = apart(a, b)
-        verdict = (f"{expected}s, intervals apart, as in the paper." if seen == paper else
-                   f"{other}, intervals apart, unlike the paper." if seen else
-                   f"the intervals overlap: no {expected} shown, unlike the paper.")
+        diffs = paired_differences(low, high, metric)
+        if len(diffs) >= 2:  # the same seeds at both levels: a paired test
+            d, p = mean_ci(diffs), t_test_p(diffs, 0.0)
+            seen = 0 if d.low <= 0.0 <= d.high else (1 if d.mean > 0 else -1)
+            how = (f"paired by seed ({len(diffs)} seeds), high minus low noise {d.mean:+.3f} ± "
+                   f"{(d.high - d.low) / 2:.3f}, p = {p:.3f}")
+            verdict = (f"{expected}s, {how}, as in the paper." if seen == paper else
+                       f"{other}, {how}, unlike the paper." if seen else
+                       f"no {expected} shown ({how}), unlike the paper{seeds_needed(diffs)}.")
+        else:
+            seen = apart(a, b)
+            verdict = (f"{expected}s, intervals apart, as in the paper." if seen == paper else
+                       f"{other}, intervals apart, unlike the paper." if seen else
+                       f"the intervals overlap: no {expected} shown, unlike the paper.")
         lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
                      f"{high.point['lidar_noise']} {b.format()}: {verdict}")
     return lines
+
+
+def paired_differences(a: Group, b: Group, metric: Metric) -> list[float]:
+    """``b``'s value minus ``a``'s for every training seed both grid points have (empty where a
+    seed's value is missing at either, so seeds cannot be matched)."""
+    ea, eb = a.estimates[metric], b.estimates[metric]
+    if len(ea.values) != len(a.seeds) or len(eb.values) != len(b.seeds):
+        return []
+    va, vb = dict(zip(a.seeds, ea.values)), dict(zip(b.seeds, eb.values))
+    return [vb[s] - va[s] for s in sorted(set(va) & set(vb))]
+
+
+def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
+    """How many seeds the observed paired differences (their mean and spread taken as true) would
+    need for a 95 % interval that excludes zero, in words ("" when they cannot tell)."""
+    n = len(diffs)
+    mean = sum(diffs) / n
+    sd = math.sqrt(sum((x - mean) ** 2 for x in diffs) / (n - 1))
+    if mean == 0.0 or sd == 0.0:
+        return ""
+    for k in range(2, most + 1):
+        if t95(k - 1) * sd / math.sqrt(k) < abs(mean):
+            return f"; at this mean and spread about {k} seeds would tell"
+    return f"; at this mean and spread more than {most} seeds would be needed"
 
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:

@@ -1,0 +1,97 @@
+"""``box2d-driving curve``: learning curves on selection seeds of a run, or of every trial of a
+sweep (:mod:`training.evaluation.checkpoint_curve` draws one run's).
+
+    box2d-driving curve runs/real_junction --episodes 20          # one run: RUN/checkpoint_curve/
+    box2d-driving curve runs/sweep-lights-paper --episodes 100    # every trial: OUT/curves.csv
+
+A sweep's ``curves.csv`` has one row per kept checkpoint of every trial whose run folder is on
+this machine: the trial, its seed and grid values, decisions, agent-steps and the scenario's
+curve metrics. ``box2d-driving reproduce --run`` draws them after each flat sweep and keeps them
+beside the summary (``assets/sweeps/curves/NAME.csv``), where the results page reads them.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+from training.common.cli_args import error
+from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, run_curve,
+                                                  write_rows)
+from training.sweeps.spec import SweepSpec
+
+__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "main", "merge_curves", "sweep_curve_rows", "sweep_trials"]
+
+# selection episodes per checkpoint when ``reproduce --run`` draws a sweep's curves
+SWEEP_CURVE_EPISODES = 100
+
+
+def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
+    """Every trial of a sweep folder: its name, seed, grid point and run folder."""
+    try:
+        spec = SweepSpec(**json.loads((sweep / "sweep.json").read_text()))
+    except (OSError, ValueError, TypeError) as exc:
+        raise CurveError(f"{sweep}: not a sweep folder ({exc})") from None
+    return [{"trial": t["name"], "seed": t["seed"], "point": t["point"], "run": sweep / "tune" / t["name"] / "run"}
+            for t in spec.trials()]
+
+
+def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    """The curve rows of every trial of ``sweep`` whose run folder is here (finished or not: a
+    running sweep's curves so far; a trial taken from a committed summary has no run folder)."""
+    rows = []
+    for t in sweep_trials(sweep):
+        if not t["run"].is_dir():
+            log(f"{t['trial']}: no run folder here (not started, or taken from a committed summary), skipped")
+            continue
+        log(f"{t['trial']}:")
+        for row in run_curve(t["run"], episodes, seed, log=lambda line: log("  " + line)):
+            rows.append({"trial": t["trial"], "seed": t["seed"], **t["point"], **row})
+    return rows
+
+
+def merge_curves(path: Path, rows: list[dict[str, Any]]) -> None:
+    """Write ``rows`` into the curves file ``path``, keeping the rows of trials ``rows`` has none
+    of (the trials of a continued sweep that ran on another machine)."""
+    mine = {r["trial"] for r in rows}
+    kept: list[dict[str, Any]] = []
+    if path.exists():
+        with open(path, newline="") as f:
+            kept = [r for r in csv.DictReader(f) if r.get("trial") not in mine]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".partial")
+    write_rows(tmp, kept + rows)
+    tmp.replace(path)
+
+
+def curve_of_sweep(sweep: Path, out: Path, episodes: int, seed: int) -> None:
+    rows = sweep_curve_rows(sweep, episodes, seed, log=lambda line: print(line, flush=True))
+    if not rows:
+        raise CurveError(f"{sweep}: no trial has checkpoints here")
+    write_rows(out / "curves.csv", rows)
+    print(f"wrote {out / 'curves.csv'}")
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    args = build_parser("a run folder (checkpoints/model_<decisions>.safetensors) or a sweep folder "
+                        "(sweep.json: every trial's run)").parse_args(argv)
+    is_sweep = (args.run / "sweep.json").exists()
+    out = checked_out(args, "curves.csv" if is_sweep else "curve.csv",
+                      args.run if is_sweep else args.run / "checkpoint_curve")
+    if out is None:
+        return 2
+    import torch
+
+    torch.set_num_threads(1)
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        (curve_of_sweep if is_sweep else curve_of_run)(args.run, out, args.episodes, args.seed)
+    except CurveError as exc:
+        return error(str(exc))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
