@@ -5,7 +5,7 @@ a car yourself), ``bench`` (the
 world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
 OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
 ``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep``, ``reproduce``,
-``curve`` and ``convert-checkpoint`` (the training scripts).
+``curve``, ``check-shipped`` and ``convert-checkpoint`` (the training scripts).
 Bad arguments print one line and exit with status 2.
 """
 
@@ -213,6 +213,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write docs/results.md and its figures from sweep summaries (`reproduce --help`)")
     sub.add_parser("curve", add_help=False,
                    help="learning curves of a run's or a sweep's checkpoints on selection seeds (`curve --help`)")
+    sub.add_parser("check-shipped", add_help=False,
+                   help="every shipped policy's reported rates against a fresh block of report episodes "
+                        "(`check-shipped --help`)")
     sub.add_parser("convert-checkpoint", add_help=False,
                    help="convert an older pickled model.zip of your own to model.safetensors "
                         "(`convert-checkpoint --help`)")
@@ -254,7 +257,8 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "bench":
         from box2d_driving import bench
         return bench.main(argv[1:])
-    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve"):
+    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve",
+                                 "check-shipped"):
         return _delegate(argv)
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)

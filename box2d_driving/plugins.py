@@ -2,7 +2,7 @@
 
 The world package never imports the trainers. The training package declares its commands in the
 entry-point group :data:`COMMANDS` (``setup.cfg``): ``train:lights``, ``train:crosswalk``, ...,
-``evaluate``, ``sweep``, ``reproduce``, ``curve``, ``convert-checkpoint`` and ``bench-train``, each naming a
+``evaluate``, ``sweep``, ``reproduce``, ``curve``, ``check-shipped``, ``convert-checkpoint`` and ``bench-train``, each naming a
 ``main(argv) -> int``. The CLI looks one up by name when the user asks for it.
 """
 

@@ -26,6 +26,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
 import box2d_driving  # noqa: E402
+from box2d_driving.metrics.intervals import RATES, rate_intervals  # noqa: E402
 from box2d_driving.metrics.lights import outcome_rates  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes, save_table  # noqa: E402
 from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
@@ -119,6 +120,9 @@ def _evaluate_into(out: Path, args: Args) -> dict:
     metrics = (report(table, env, policy, out, args.episodes, args.seed, make_env) if report
                else outcome_rates(table))
     add_collisions(metrics, table, out)
+    # how far each rate may move on another block of episodes: 95 % half-widths, episodes as clusters
+    metrics["intervals_95"] = {name: i["half_width"] for name, i in
+                               rate_intervals(table, tuple(r for r in RATES if r in metrics)).items()}
     metrics.update(source)
     metrics.update(episodes=args.episodes, seed=args.seed, seed_set=REPORT.name, deterministic=not args.stochastic,
                    env_id=env_id, env_config={
