@@ -626,3 +626,23 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
     # a file that is not a sweep's curves is refused with the page's own error
     (tmp_path / "curves" / "lights-paper.csv").write_text("a,b\n1,2\n")
     assert main([str(grid), str(paper), "--out", str(page)]) == 2
+
+
+def test_the_same_fine_tune_at_a_larger_budget_has_its_own_section(tmp_path):
+    fixed = {"num_cars": "8", "lidar_noise": "0.5", "init_from": "assets/policies/traffic_lights_4cars_noise05"}
+    paths = []
+    for name, budget, values in (("short", 991552, [0.010, 0.012, 0.011]), ("long", 2400000, [0.031, 0.032, 0.033])):
+        trials = [{"trial": f"lights_seed={s}", "behaviour": "lights", "seed": s, "status": "done", "error": "",
+                   "report_episodes": 200, "report_first_seed": REPORT.start, "red_light_violation_rate": v,
+                   "success_rate": 0.9, "collision_rate": 0.1} for s, v in enumerate(values)]
+        sweep = {"behaviour": "lights", "grid": {}, "seeds": 3, "timesteps": budget, "minutes": None,
+                 "episodes": 200, "quick": False, "fixed": fixed}
+        paths.append(tmp_path / f"{name}.json")
+        paths[-1].write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    page = tmp_path / "results.md"
+    assert main([str(p) for p in paths] + ["--out", str(page)]) == 0
+    text = page.read_text()
+    short = text.split("## Denser traffic (8 cars")[1].split("\n## ")[0]
+    long = text.split("## Denser traffic, trained longer")[1].split("\n## ")[0]
+    assert "0.011" in short and "0.032" not in short
+    assert "0.032" in long and "0.011" not in long

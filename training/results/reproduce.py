@@ -50,7 +50,8 @@ def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
 def _matches(section: Section, summary: dict[str, Any]) -> bool:
     """Whether ``summary`` has ``section``'s behaviour and fixed options."""
     sweep = summary["sweep"]
-    settings = {**sweep.get("fixed", {}), **{k: None for k in summary["grid"]}}
+    # the trial budget counts too: the same settings at a larger budget may be a rule of its own
+    settings = {"timesteps": sweep.get("timesteps"), **sweep.get("fixed", {}), **{k: None for k in summary["grid"]}}
     return sweep["behaviour"] == section.behaviour and \
         all(str(settings.get(k, "false")).lower() == v for k, v in section.match)
 
