@@ -117,7 +117,11 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
     assert f"all 3 seeds below it; one-sample t-test p = {p:.3f}" in lines
     mixed = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.9] * 3),
                                    "safety_distance.safe_share": mean_ci([0.97, 0.99, 0.995])})]
-    assert "1 of 3 seeds below it, 2 above" in "\n".join(paper_comparison(section.paper_values, mixed))
+    text = "\n".join(paper_comparison(section.paper_values, mixed))
+    assert "1 of 3 seeds below it, 2 above" in text
+    # inside the interval: how many seeds this spread would need (differences -0.0145, 0.0055, 0.0105
+    # from 0.9845: a mean of 0.0002 against an sd of 0.013, beyond any sweep)
+    assert "at this mean and spread more than 200 seeds would be needed" in text
 
 
 def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():

@@ -71,7 +71,8 @@ def _against_value(e: Estimate, value: float) -> str:
              else f"{below} of {e.n} seeds below it, {above} above")
     p = t_test_p(e.values, value)
     where = "inside" if e.contains(value) else "outside"
-    return f"the paper's value lies {where} our interval; {sides}; one-sample t-test p = {p:.3f}"
+    more = seeds_needed([v - value for v in e.values]) if e.contains(value) else ""
+    return f"the paper's value lies {where} our interval; {sides}; one-sample t-test p = {p:.3f}{more}"
 
 
 def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
@@ -175,8 +176,9 @@ def paired_differences(a: Group, b: Group, metric: Metric) -> list[float]:
 
 
 def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
-    """How many seeds the observed paired differences (their mean and spread taken as true) would
-    need for a 95 % interval that excludes zero, in words ("" when they cannot tell)."""
+    """How many seeds the observed differences (paired, or each seed's value minus a reference
+    number; their mean and spread taken as true) would need for a 95 % interval that excludes
+    zero, in words ("" when they cannot tell)."""
     n = len(diffs)
     mean = sum(diffs) / n
     sd = math.sqrt(sum((x - mean) ** 2 for x in diffs) / (n - 1))
