@@ -80,11 +80,12 @@ def test_bad_folders_get_one_clear_error(tmp_path, capsys):
     empty.mkdir()
     assert cc.main([str(empty)]) == 2
     assert "no checkpoints" in capsys.readouterr().err
-    bilevel = tmp_path / "bilevel"
+    bilevel = tmp_path / "bilevel"  # a bilevel run without kept rounds
     for sub in ("accel", "spline"):
         (bilevel / sub).mkdir(parents=True)
+    (bilevel / "config.json").write_text('{"accel_updates_per_round": 1, "accel": {"batch_decisions": 80}}')
     assert cc.main([str(bilevel)]) == 2
-    assert "bilevel" in capsys.readouterr().err
+    assert "round_<r>_accel.safetensors" in capsys.readouterr().err
     broken = tmp_path / "broken"
     broken.mkdir()
     (broken / "sweep.json").write_text("{not json")
@@ -115,3 +116,26 @@ def test_plateau_lines_call_a_flat_a_moving_and_a_noisy_curve():
     assert "g flat 0.000 ± " in line and "(stopped moving)" in line
     assert "g falling -0.055 ± 0.012 (still falling)" in line
     assert f"(too noisy to tell: the interval is wider than ±{PLATEAU_TOLERANCE:g})" in line
+
+
+def test_a_bilevel_runs_curve_drives_each_kept_round_with_its_own_spline_policy(tmp_path):
+    import torch
+
+    from training.runs.inference import load_bilevel_round
+    from training.trainers.bilevel import BilevelConfig, train_bilevel
+    from training.trainers.trainer import TrainConfig
+
+    accel = TrainConfig(env_id="intersection-spline-v0", env_overrides={"num_cars": 2, "horizon": 8}, n_envs=2,
+                        batch_decisions=80, minibatch=40, epochs=1, threads=1)
+    run = tmp_path / "lanes"
+    train_bilevel(BilevelConfig(accel=accel, rounds=2, spline_samples=32, spline_n_envs=2, spline_minibatch=16,
+                                checkpoint_every=1), run)
+    rows = cc.run_curve(run, 1, 1_000_000_000)
+    assert [(r["round"], r["decisions"]) for r in rows] == [(1, 80), (2, 160)]
+    assert set(cc.CURVE_METRICS["intersection-spline-v0"]) <= set(rows[0])
+    # each round's own weights: the spline policy of round 1 is not the final one
+    first, last = load_bilevel_round(run, 1), load_bilevel_round(run, 2)
+    w1 = torch.cat([p.flatten() for p in first.spline_policy.parameters()])
+    w2 = torch.cat([p.flatten() for p in last.spline_policy.parameters()])
+    assert not torch.equal(w1, w2)
+    assert cc.main([str(run), "--episodes", "1"]) == 0 and (run / "checkpoint_curve" / "curve.png").exists()

@@ -10,14 +10,15 @@ seeds; report the chosen policy with ``evaluate``, on report seeds.
                                                                   # (training/sweeps/curves.py)
 
 Which metrics a curve follows depends on the scenario the run trained on (:data:`CURVE_METRICS`):
-success and collisions always, plus the scenario's rule (red-light violations, pedestrian
-collisions, right of way and safe distance). Bilevel runs (lanes, fast lanes) keep their
-per-round numbers in ``rounds.csv`` instead (training rollouts, not selection seeds).
+success and collisions always, plus the scenario's rule (red-light violations, pedestrians,
+right of way and safe distance, the message, lanes, fast lanes). A bilevel run (lanes, fast
+lanes) is drawn from its kept rounds, each round's acceleration and spline policies together.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import re
 import sys
 from pathlib import Path
@@ -28,57 +29,89 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
+from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics  # noqa: E402
 from box2d_driving.metrics.lights import outcome_rates, traffic_light_metrics  # noqa: E402
 from box2d_driving.metrics.pedestrians import crosswalk_metrics  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
+from box2d_driving.policies.checkpoint_file import is_bilevel_run  # noqa: E402
 from training.common.cli_args import OneLineParser, error, prog_name  # noqa: E402
 from training.common.seeds import SELECTION  # noqa: E402
 from training.evaluation import plots  # noqa: E402
 from training.evaluation.reports import junction_summary  # noqa: E402
 
 OUTCOMES = ("success_rate", "collision_rate")
-# scenario -> the metrics its curve follows (success and collisions first)
+VIOLATIONS = ("red_light_violation_rate",)
+LANES = ("lanes.majority_share", "lanes.time_share_majority", "lanes.mean_abs_lane_position", "lanes.one_sided_offset")
+# scenario -> the metrics its curve follows (success and collisions first), named as in a sweep's
+# summary so that the results page finds them
 CURVE_METRICS: dict[str, tuple[str, ...]] = {
-    "intersection-v0": OUTCOMES + ("red_light_violation_rate",),
-    "crosswalk-v0": OUTCOMES + ("pedestrian_collision_rate",),
-    "real-junction-v0": OUTCOMES + ("red_light_violation_rate", "fifo_share", "safe_share"),
+    "intersection-v0": OUTCOMES + VIOLATIONS,
+    "crosswalk-v0": OUTCOMES + ("pedestrian_collision_rate", "safe_stopping_share", "share_more_than_6m"),
+    "real-junction-v0": OUTCOMES + VIOLATIONS + ("right_of_way.fifo_share", "safety_distance.safe_share"),
+    "intersection-spline-v0": OUTCOMES + VIOLATIONS + LANES,
+    "highway-spline-v0": OUTCOMES + ("fast_lanes.pearson_r",),
 }
+# with the message on, a real junction's curve also follows the communication measures
+COMMUNICATION = ("communication.speaker_consistency_bits", "communication.pearson_heading_change_bit")
 # the share of a run's training whose trend says whether a metric had stopped moving
 LATE_SHARE = 0.5
 
 
 class CurveError(ValueError):
-    """A run or sweep folder a curve cannot be drawn for (no checkpoints, a bilevel run, ...)."""
+    """A run or sweep folder a curve cannot be drawn for (no checkpoints, an unknown scenario, ...)."""
 
 
 def rule_metrics(env_id: str, table: dict, config: Any) -> dict[str, float]:
     """The curve's metrics (:data:`CURVE_METRICS`) of one checkpoint's episodes."""
-    if env_id == "real-junction-v0":
-        return {**junction_summary(table, config),
-                "red_light_violation_rate": traffic_light_metrics(table)["red_light_violation_rate"]}
     rates = outcome_rates(table)
     out = {k: rates[k] for k in OUTCOMES}
-    if env_id == "intersection-v0":
+    if env_id in ("intersection-v0", "real-junction-v0", "intersection-spline-v0"):
         out["red_light_violation_rate"] = traffic_light_metrics(table)["red_light_violation_rate"]
-    elif env_id == "crosswalk-v0":
-        out["pedestrian_collision_rate"] = crosswalk_metrics(table, config.a_max)["pedestrian_collision_rate"]
+    if env_id == "crosswalk-v0":
+        walk = crosswalk_metrics(table, config.a_max)
+        out.update({k: walk[k] for k in CURVE_METRICS[env_id][2:]})
+    elif env_id == "real-junction-v0":
+        summary = junction_summary(table, config)
+        out["right_of_way.fifo_share"] = summary["fifo_share"]
+        out["safety_distance.safe_share"] = summary["safe_share"]
+        if config.communication:
+            from box2d_driving.metrics.communication import communication_metrics
+
+            talk = communication_metrics(table)
+            out.update({k: talk[k.split(".", 1)[1]] for k in COMMUNICATION})
+    elif env_id == "intersection-spline-v0":
+        lanes = lane_metrics(table)
+        out.update({k: lanes[k.split(".", 1)[1]] for k in LANES[:3]})
+        samples = junction_lane_samples(table)  # the one-sided offset: |signed mean lane position|
+        out["lanes.one_sided_offset"] = float(abs(samples.mean())) if len(samples) else float("nan")
+    elif env_id == "highway-spline-v0":
+        out["fast_lanes.pearson_r"] = fast_lane_metrics(table, config.road_width)["pearson_r"]
     return out
 
 
-def kept_checkpoints(run: Path) -> list[tuple[int, Path]]:
-    """(decisions, file) of every kept checkpoint of a flat run, in training order."""
-    if (run / "accel").is_dir() and (run / "spline").is_dir():
-        raise CurveError(f"{run} is a bilevel run (lanes, fast lanes): its per-round numbers are in "
-                         f"{run / 'rounds.csv'}; a selection-seed curve covers flat runs only")
-    found = [(int(re.findall(r"\d+", p.stem)[-1]), p) for p in run.glob("checkpoints/model_*.safetensors")]
+def kept_checkpoints(run: Path) -> list[dict[str, Any]]:
+    """Every kept checkpoint of a run, in training order: ``decisions`` and how to load it
+    (``file``; for a bilevel run ``round``, its acceleration and spline checkpoints of that round)."""
+    if is_bilevel_run(run):
+        config = json.loads((run / "config.json").read_text())
+        per_round = int(config["accel_updates_per_round"]) * int(config["accel"]["batch_decisions"])
+        found = [{"round": int(re.findall(r"\d+", p.stem)[0]), "file": p}
+                 for p in run.glob("checkpoints/round_*_accel.safetensors")]
+        for f in found:
+            f["decisions"] = f["round"] * per_round
+    else:
+        found = [{"decisions": int(re.findall(r"\d+", p.stem)[-1]), "file": p}
+                 for p in run.glob("checkpoints/model_*.safetensors")]
     if not found:
-        raise CurveError(f"no checkpoints in {run / 'checkpoints'} (model_<decisions>.safetensors)")
-    return sorted(found)
+        raise CurveError(f"no checkpoints in {run / 'checkpoints'} (model_<decisions>.safetensors, or a bilevel "
+                         "run's round_<r>_accel.safetensors)")
+    return sorted(found, key=lambda f: f["decisions"])
 
 
 def agent_steps_at(run: Path, decisions: np.ndarray) -> np.ndarray:
-    """Agent-steps at the given slot-decision counts, interpolated from the run's progress logs."""
-    progress = plots.read_progress(run)
+    """Agent-steps at the given slot-decision counts, interpolated from the run's progress logs
+    (a bilevel run: its acceleration stage's)."""
+    progress = plots.read_progress(run) or plots.read_progress(run / "accel")
     if progress is None or "time/agent_steps" not in progress:
         return np.full(len(decisions), np.nan)
     return np.interp(decisions, progress["time/total_timesteps"], progress["time/agent_steps"])
@@ -89,18 +122,19 @@ def run_curve(run: Path, episodes: int, seed: int,
     """One row per kept checkpoint of ``run``: decisions, agent-steps and the scenario's curve
     metrics on ``episodes`` episodes from selection seed ``seed`` (the same episodes for every
     checkpoint, so the curve's steps are the policy's, not the episodes')."""
-    from training.runs.inference import load_policy
+    from training.runs.inference import load_bilevel_round, load_policy
 
     ckpts = kept_checkpoints(run)
-    steps = agent_steps_at(run, np.array([d for d, _ in ckpts], dtype=float))
+    steps = agent_steps_at(run, np.array([c["decisions"] for c in ckpts], dtype=float))
     rows = []
-    for (decisions, path), agent_steps in zip(ckpts, steps):
-        policy = load_policy(path)
+    for c, agent_steps in zip(ckpts, steps):
+        policy = load_bilevel_round(run, c["round"]) if "round" in c else load_policy(c["file"])
         env = policy.make_env()
         if policy.env_id not in CURVE_METRICS:
             raise CurveError(f"{run}: no curve metrics for {policy.env_id} (known: {', '.join(CURVE_METRICS)})")
         table = run_episodes(env, policy, episodes, seed=seed)
-        row = {"decisions": decisions, "agent_steps": float(agent_steps), "episodes": episodes, "first_seed": seed,
+        row = {"decisions": c["decisions"], **({"round": c["round"]} if "round" in c else {}),
+               "agent_steps": float(agent_steps), "episodes": episodes, "first_seed": seed,
                **rule_metrics(policy.env_id, table, env.config)}
         rows.append(row)
         log(" ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()))
@@ -142,8 +176,8 @@ def curve_of_run(run: Path, out: Path, episodes: int, seed: int) -> None:
     x = np.array([r["agent_steps"] for r in rows])
     if np.isnan(x).any():
         x = np.array([r["decisions"] for r in rows], dtype=float)
-    names = [k for k in rows[0] if k not in ("decisions", "agent_steps", "episodes", "first_seed")]
-    reference = (0.8525, "paper FIFO 85.25 %") if "fifo_share" in names else None
+    names = [k for k in rows[0] if k not in ("decisions", "round", "agent_steps", "episodes", "first_seed")]
+    reference = (0.8525, "paper FIFO 85.25 %") if "right_of_way.fifo_share" in names else None
     plots.metric_over_training(x, {k: np.array([r[k] for r in rows]) for k in names},
                                out / "curve.png", "share", reference=reference)
     print(f"wrote {out / 'curve.csv'} and {out / 'curve.png'}")

@@ -5,7 +5,7 @@ after the other on Ray Tune, each in ``RUNS/sweep-NAME``. A rule whose summary i
 summaries folder (``assets/sweeps/NAME.json`` in a checkout) continues from it: its finished trials
 are taken as they are (``sweep --reuse``), so a fresh machine goes on where the committed results
 stop. After each sweep its summary is copied back into that folder; the caller then rewrites the
-page. The learning curves of a flat behaviour's sweep (every kept checkpoint of every trial
+page. The learning curves of a sweep (every kept checkpoint of every trial
 run here, on selection episodes) go beside its summary as ``curves/NAME.csv``, merged with the
 trials already there. A sweep that stops before all its trials finish (Ctrl-C, the machine going away) ends the
 run there: the same command continues it.
@@ -45,7 +45,7 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     from training.sweeps.sweep import build_parser, run_sweep, spec_from_args
     from training.common.seeds import SELECTION
     from training.sweeps import curves
-    from training.sweeps.spec import SweepError, check_spec, is_bilevel
+    from training.sweeps.spec import SweepError, check_spec
     from training.sweeps.summary import reusable_rows
 
     # check every rule before hours of training: its command, and that its summary is its own
@@ -72,10 +72,11 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
         Path(folder).mkdir(parents=True, exist_ok=True)
         for ext in ("json", "csv"):
             _copy_atomic(out / f"summary.{ext}", Path(folder) / f"{section.summary_name}.{ext}")
-        if not is_bilevel(spec.behaviour):  # the learning curves: has each metric stopped moving?
-            curve = curves.sweep_curve_rows(out, curves.SWEEP_CURVE_EPISODES, SELECTION.start, log=lambda line: print(line, flush=True))
-            if curve:
-                curves.merge_curves(Path(folder) / "curves" / f"{section.summary_name}.csv", curve)
+        # the learning curves: had each metric stopped moving?
+        curve = curves.sweep_curve_rows(out, curves.SWEEP_CURVE_EPISODES, SELECTION.start,
+                                        log=lambda line: print(line, flush=True))
+        if curve:
+            curves.merge_curves(Path(folder) / "curves" / f"{section.summary_name}.csv", curve)
         counts = {s: sum(r["status"] == s for r in rows) for s in ("done", "error", "stopped", "pending")}
         print(f"== {section.title}: {counts['done']} of {len(rows)} trials done"
               + "".join(f", {n} {s}" for s, n in counts.items() if s != "done" and n)

@@ -58,10 +58,25 @@ def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPo
     path = Path(path)
     if is_bilevel_run(path):
         policy = load_policy(path / "accel", deterministic)
-        policy.attach_spline(_load_spline_policy(path))
+        policy.attach_spline(_load_spline_policy(path, path / "spline"))
         return policy
     ckpt = read_checkpoint(path)
-    config_path = find_config(ckpt.path)
+    return _trained(ckpt, find_config(ckpt.path), deterministic)
+
+
+def load_bilevel_round(run: Union[str, Path], round_: int, deterministic: bool = True) -> TrainedPolicy:
+    """A bilevel run's kept round ``round_``: its acceleration policy
+    (``checkpoints/round_NNNN_accel.safetensors``) with that round's spline policy attached
+    (``round_NNNN_spline.safetensors``), both as the run's configs shape them."""
+    run = Path(run)
+    stem = run / "checkpoints" / f"round_{round_:04d}"
+    policy = _trained(read_checkpoint(Path(f"{stem}_accel.safetensors")), run / "accel" / "config.json", deterministic)
+    policy.attach_spline(_load_spline_policy(run, Path(f"{stem}_spline.safetensors")))
+    return policy
+
+
+def _trained(ckpt: Any, config_path: Path, deterministic: bool) -> TrainedPolicy:
+    """The CTDE policy of checkpoint ``ckpt``, shaped by the run config at ``config_path``."""
     config = read_json(config_path)
     net = build_ctde_policy(config, config_path)
     load_policy_weights(net, ckpt)
@@ -84,12 +99,13 @@ def build_ctde_policy(config: dict, where: Path) -> Any:
     return policy.eval()
 
 
-def _load_spline_policy(run: Path) -> Any:
-    """The stage-0 (spline) policy of a bilevel run folder, rebuilt from its ``config.json``."""
+def _load_spline_policy(run: Path, checkpoint: Path) -> Any:
+    """The stage-0 (spline) policy of a bilevel run folder from ``checkpoint`` (its ``spline/``
+    folder or a kept round's file), rebuilt from the run's ``config.json``."""
     import box2d_driving
     from stable_baselines3.common.policies import ActorCriticPolicy
 
-    ckpt = read_checkpoint(run / "spline")
+    ckpt = read_checkpoint(checkpoint)
     config = read_json(run / "config.json")
     try:
         env = box2d_driving.make(config["accel"]["env_id"], **config["accel"]["env_overrides"])
