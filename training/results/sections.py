@@ -125,10 +125,14 @@ ONE_SIDED = Size(HistogramMean("lane_position_counts", tuple(float(b) for b in f
 AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
                  (PEARSON, "|Pearson(heading change, bit)|"),
                  (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
+# the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
+LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
+                  ("collision_rate", "collisions"))
+LIGHTS_NOISE_BUDGET = "4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 decisions (2.4 M)"
+DENSER_BUDGET = "8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for 1,000 epochs"
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
-            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
-             ("collision_rate", "collisions")),
+            LIGHTS_METRICS,
             "With one car the light is ignored; with more cars and more LiDAR noise, fewer cars enter "
             "on red (the paper shows this as histograms, without numbers).",
             f"{SWEEP} lights --grid lidar_noise=0,0.25,0.5,0.75 num_cars=1,4,8 --seeds 3 --timesteps 991552 "
@@ -136,8 +140,7 @@ SECTIONS: tuple[Section, ...] = (
             setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
                     "policy did.",
             figure=lights_figure, baseline=light_blind_rates, statements=(lights_statement,),
-            paper_budget="4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 "
-                         "decisions (2.4 M)",
+            paper_budget=LIGHTS_NOISE_BUDGET,
             shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
@@ -147,8 +150,7 @@ SECTIONS: tuple[Section, ...] = (
                                 (("lidar_noise", "0.5"), ("num_cars", "8")), ("red_light_violation_rate", "success_rate", "collision_rate")))),
     Section("traffic-lights-paper", "Stopping at red lights, at the paper's settings", "lights",
             (("init_from", "false"), ("num_cars", "4")),
-            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
-             ("collision_rate", "collisions")),
+            LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
             f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 3 --timesteps 2400000 --set num_cars=4 "
             "--out runs/sweep-lights-paper",
@@ -160,14 +162,12 @@ SECTIONS: tuple[Section, ...] = (
                                          ("success_rate", "success"))),
             statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
                                               paper=-1),),
-            paper_budget="4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 "
-                         "decisions (2.4 M)",
+            paper_budget=LIGHTS_NOISE_BUDGET,
             headlines=(Headline("stop at red lights, the paper's settings", "4 cars, LiDAR noise 1.0, 2.4 M decisions",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
-            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
-             ("collision_rate", "collisions")),
+            LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
             f"{SWEEP} lights --seeds 3 --timesteps 991552 --set num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lights-8cars",
@@ -177,14 +177,12 @@ SECTIONS: tuple[Section, ...] = (
                     "compare it with the grid's 4-car noise-0.5 row.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights", (("lidar_noise", "0.5"), ("num_cars", "4"))),
-            paper_budget="8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for "
-                         "1,000 epochs",
+            paper_budget=DENSER_BUDGET,
             headlines=(Headline("denser traffic", "8 cars, LiDAR noise 0.5, from the 4-car policy", (),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
     Section("denser-traffic-longer", "Denser traffic, trained longer (8 cars, 2.4 M decisions)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"), ("timesteps", "2400000")),
-            (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
-             ("collision_rate", "collisions")),
+            LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
             f"{SWEEP} lights --seeds 3 --timesteps 2400000 --set num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lights-8cars-paper",
@@ -193,8 +191,7 @@ SECTIONS: tuple[Section, ...] = (
                     "the paper's settings, which trained as many decisions from scratch.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
-            paper_budget="8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for "
-                         "1,000 epochs"),
+            paper_budget=DENSER_BUDGET),
     Section("lanes", "Lanes", "lanes", (),
             (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
              "time on the majority side"), ("lanes.mean_abs_lane_position", "mean |lane position|"),
