@@ -10,6 +10,7 @@ import pytest
 
 from training.results.reproduce import Group, ResultsError, main, trial_budget
 from training.common.seeds import REPORT, SELECTION
+from training.evaluation.figure_data import LANE_BINS
 from training.results.stats import mean_ci, t95, t_test_p
 
 
@@ -650,3 +651,37 @@ def test_the_same_fine_tune_at_a_larger_budget_has_its_own_section(tmp_path):
     long = text.split("## Denser traffic, trained longer")[1].split("\n## ")[0]
     assert "0.011" in short and "0.032" not in short
     assert "0.032" in long and "0.011" not in long
+
+
+def _lanes(path, rounds, cars, shares):
+    """A lanes sweep summary at ``rounds`` bilevel rounds: ``shares`` per car count, 3 seeds."""
+    n_bins = len(LANE_BINS) - 1
+    trials = []
+    for n, values in zip(cars, shares):
+        for seed, v in enumerate(values):
+            counts = [0] * n_bins
+            counts[n_bins // 2 + 3] = 100  # one-sided: every sample off the axis on the + side
+            trials.append({"trial": f"lanes_num_cars={n}_seed={seed}", "behaviour": "lanes", "seed": seed,
+                           "num_cars": str(n), "status": "done", "error": "", "report_episodes": 200,
+                           "report_first_seed": REPORT.start, "decisions": rounds * 32000,
+                           "lanes.majority_share": v, "lanes.time_share_majority": v,
+                           "lanes.mean_abs_lane_position": 0.3, "success_rate": 0.9,
+                           "figures": {"lane_position_counts": counts}})
+    sweep = {"behaviour": "lanes", "grid": {"num_cars": [str(n) for n in cars]}, "seeds": 3,
+             "fixed": {"lidar_noise": "0.5", "rounds": str(rounds)}, "timesteps": None, "minutes": None,
+             "episodes": 200, "quick": False}
+    path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    return path
+
+
+def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
+    short = _lanes(tmp_path / "lanes.json", 48, (2, 8), ([0.51, 0.52, 0.53], [0.97, 0.98, 0.99]))
+    paper = _lanes(tmp_path / "lanes-paper.json", 150, (8, 4), ([0.991, 0.992, 0.993], [0.61, 0.62, 0.63]))
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(short), str(paper), "--out", str(page)]) == 0
+    text = page.read_text()
+    mine = text.split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    grid = text.split("## Lanes\n")[1].split("\n## ")[0]
+    assert "| 4 | 3 | 0.620" in mine and "0.620" not in grid and "| 2 | 3 | 0.520" in grid
+    assert "0.992" in mine and "0.992" not in grid  # the 150-round 8-car trials: the more specific section only
+    assert "crossings on the majority side: num_cars=4 0.620" in mine and "intervals apart" in mine

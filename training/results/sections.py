@@ -130,6 +130,30 @@ LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("succes
                   ("collision_rate", "collisions"))
 LIGHTS_NOISE_BUDGET = "4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 decisions (2.4 M)"
 DENSER_BUDGET = "8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for 1,000 epochs"
+# the lanes rules' table columns, figure, statements (fewer cars against 8) and the paper's runs
+LANES_METRICS = (("lanes.majority_share", "crossings on the majority side"),
+                 ("lanes.time_share_majority", "time on the majority side"),
+                 ("lanes.mean_abs_lane_position", "mean |lane position|"), (ONE_SIDED, "one-sided offset"),
+                 ("success_rate", "success"))
+ONE_SIDED_WORDS = ("*One-sided offset*: the size of each seed's mean signed lane position in the junction (0 on "
+                   "the axis or on both sides in turn, +-1 at the road edges); *mean |lane position|* counts "
+                   "driving off the axis on either side.")
+LANES_FIGURE = distribution_figure("lane_position_counts", fd.LANE_BINS,
+                                   "lane position inside the junction, each seed mirrored so that its "
+                                   "majority side is +",
+                                   bars_figure("lanes.majority_share", "share on the majority side"))
+LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
+                "spline episodes per epoch")
+
+
+def lanes_statements(fewer: str) -> tuple[Statement, ...]:
+    """Fewer cars (``fewer``) against 8: the majority share and the one-sided offset, intervals apart."""
+    return (apart_statement("num_cars", fewer, "8", "lanes.majority_share", "crossings on the majority side",
+                            "more one-sided with 8 cars"),
+            apart_statement("num_cars", fewer, "8", ONE_SIDED, "one-sided offset",
+                            "further off the axis on one side with 8 cars"))
+
+
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
             LIGHTS_METRICS,
@@ -193,33 +217,40 @@ SECTIONS: tuple[Section, ...] = (
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
             paper_budget=DENSER_BUDGET),
     Section("lanes", "Lanes", "lanes", (),
-            (("lanes.majority_share", "crossings on the majority side"), ("lanes.time_share_majority",
-             "time on the majority side"), ("lanes.mean_abs_lane_position", "mean |lane position|"),
-             (ONE_SIDED, "one-sided offset"), ("success_rate", "success")),
+            LANES_METRICS,
             "With 8 cars and noisy LiDAR, cars settle on one side of the road; with 2 cars they do not.",
             f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=48 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--out runs/sweep-lanes",
             setting="Each trial is the shipped lanes run, for as many bilevel rounds as the shipped run "
                     "reached, the acceleration policy starting from the shipped 4-car noise-0.5 lights "
-                    "policy, the path policy from scratch. *One-sided offset*: the size of each seed's mean "
-                    "signed lane position in the junction (0 on the axis or on both sides in turn, +-1 at "
-                    "the road edges); *mean |lane position|* counts driving off the axis on either side.",
-            figure=distribution_figure("lane_position_counts", fd.LANE_BINS,
-                                       "lane position inside the junction, each seed mirrored so that its "
-                                       "majority side is +",
-                                       bars_figure("lanes.majority_share", "share on the majority side")),
-            statements=(apart_statement("num_cars", "2", "8", "lanes.majority_share", "crossings on the majority side",
-                                        "more one-sided with 8 cars"),
-                        apart_statement("num_cars", "2", "8", ONE_SIDED, "one-sided offset",
-                                        "further off the axis on one side with 8 cars")),
+                    "policy, the path policy from scratch. " + ONE_SIDED_WORDS,
+            figure=LANES_FIGURE,
+            statements=lanes_statements("2"),
             shipped="lanes_8cars_noise05",
-            paper_budget="4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
-                         "spline episodes per epoch",
+            paper_budget=LANES_BUDGET,
             headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
                        Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
                                 ("lanes.majority_share", ONE_SIDED)))),
+    Section("lanes-paper", "Lanes, at the paper's smallest budget", "lanes", (("rounds", "150"),),
+            LANES_METRICS,
+            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
+            "(the paper's runs: 4 and 8 cars).",
+            f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
+            "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
+            "--out runs/sweep-lanes-paper",
+            setting="The lanes run above with the paper's car counts (4 and 8) for 150 bilevel rounds, each "
+                    "one acceleration update of 32,000 decisions (4.8 M in all, the paper's 150 epochs) and two "
+                    "path updates of 2,048 car samples (the paper: 1,200 spline episodes per epoch), at LiDAR "
+                    "noise 0.5, with learning curves. " + ONE_SIDED_WORDS,
+            figure=LANES_FIGURE,
+            statements=lanes_statements("4"),
+            paper_budget=LANES_BUDGET,
+            headlines=(Headline("lanes at the paper's budget", "8 cars, LiDAR noise 0.5, 150 rounds (4.8 M decisions)",
+                                (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
+                       Headline("no lanes with 4 cars", "4 cars, LiDAR noise 0.5, 150 rounds",
+                                (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),
