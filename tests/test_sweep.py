@@ -157,6 +157,9 @@ def test_reuse_refuses_another_sweeps_summary(tmp_path):
     spec = SweepSpec("lights", grid={"lidar_noise": ["0"]})
     write_summary(tmp_path, spec, [{"trial": "t", "behaviour": "lights", "seed": 0, "status": "done"}])
     assert set(reusable_rows(tmp_path / "summary.json", spec)) == {"t"}
+    # more seeds of the same settings: the finished seed is kept, the new ones are trained
+    assert set(reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0"]}, seeds=5))) == {"t"}
+    assert reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0"]}, seeds=0)) == {}
     with pytest.raises(SweepError, match="another sweep"):
         reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0.5"]}))
     (tmp_path / "bad.json").write_text("[1, 2]")

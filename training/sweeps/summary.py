@@ -77,16 +77,20 @@ def metrics_from_row(row: dict[str, Any]) -> dict[str, Any]:
 
 def reusable_rows(path: Path, spec: SweepSpec) -> dict[str, dict[str, Any]]:
     """The finished trials of a summary written by this same sweep (e.g. committed from an
-    earlier machine), by trial name; :class:`SweepError` if it is another sweep's."""
+    earlier machine), by trial name; :class:`SweepError` if it is another sweep's. Only the
+    number of training seeds may differ: seed ``s`` of the same settings is the same trial in a
+    sweep of 3 seeds or of 5, so adding seeds trains only the new ones (and fewer seeds keep the
+    first ones)."""
     try:
         saved = json.loads(Path(path).read_text())
         old, rows = saved["sweep"], saved["trials"]
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise SweepError(f"--reuse {path}: not a sweep summary ({exc})") from None
-    diff = spec_differences(old, spec)
+    diff = [k for k in spec_differences(old, spec) if k != "seeds"]
     if diff:
         raise SweepError(f"--reuse {path}: another sweep's summary ({', '.join(diff)} differ)")
-    return {r["trial"]: {**r, "grid_keys": list(spec.grid)} for r in rows if r.get("status") == "done"}
+    return {r["trial"]: {**r, "grid_keys": list(spec.grid)} for r in rows
+            if r.get("status") == "done" and isinstance(r.get("seed"), int) and 0 <= r["seed"] < spec.seeds}
 
 
 def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], error: str = "",
