@@ -73,6 +73,16 @@ def test_a_sweep_curve_has_every_started_trials_checkpoints(tmp_path, capsys):
     # an existing curve is not replaced without --overwrite
     assert curves.main([str(sweep), "--episodes", "1"]) == 2
     assert "--overwrite" in capsys.readouterr().err
+    # --finished: only the trials the summary lists as done (here none yet, then the trained one)
+    assert curves.main([str(sweep), "--episodes", "1", "--finished", "--out", str(tmp_path / "f")]) == 2
+    assert "lights_lidar_noise=0_seed=0: not finished, skipped" in capsys.readouterr().out
+    (sweep / "summary.json").write_text(json.dumps({"sweep": {}, "trials": [
+        {"trial": "lights_lidar_noise=0_seed=0", "status": "done"},
+        {"trial": "lights_lidar_noise=0.5_seed=0", "status": "running"}]}))
+    assert curves.main([str(sweep), "--episodes", "1", "--finished", "--out", str(tmp_path / "f")]) == 0
+    assert list(csv.DictReader((tmp_path / "f" / "curves.csv").open())) == rows
+    assert curves.main([str(run), "--finished"]) == 2
+    assert "not a sweep folder" in capsys.readouterr().err
 
 
 def test_bad_folders_get_one_clear_error(tmp_path, capsys):

@@ -3,6 +3,7 @@ sweep (:mod:`training.evaluation.checkpoint_curve` draws one run's).
 
     box2d-driving curve runs/real_junction --episodes 20          # one run: RUN/checkpoint_curve/
     box2d-driving curve runs/sweep-lights-paper --episodes 100    # every trial: OUT/curves.csv
+    box2d-driving curve runs/sweep-lanes-paper --finished         # only the trials done so far
 
 A sweep's ``curves.csv`` has one row per kept checkpoint of every trial whose run folder is on
 this machine: the trial, its seed and grid values, decisions, agent-steps and the scenario's
@@ -22,7 +23,7 @@ from training.evaluation.checkpoint_curve import (CurveError, build_parser, chec
                                                   write_rows)
 from training.sweeps.spec import SweepSpec
 
-__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "main", "merge_curves", "sweep_curve_rows", "sweep_trials"]
+__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "finished_trials", "main", "merge_curves", "sweep_curve_rows", "sweep_trials"]
 
 # selection episodes per checkpoint when ``reproduce --run`` draws a sweep's curves
 SWEEP_CURVE_EPISODES = 100
@@ -38,11 +39,29 @@ def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
             for t in spec.trials()]
 
 
-def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+def finished_trials(sweep: Path) -> set[str]:
+    """The trials the sweep's ``summary.json`` lists as done (none if it has no summary yet)."""
+    path = sweep / "summary.json"
+    if not path.exists():
+        return set()
+    try:
+        return {r["trial"] for r in json.loads(path.read_text())["trials"] if r.get("status") == "done"}
+    except (ValueError, KeyError, TypeError) as exc:
+        raise CurveError(f"{path}: not a sweep summary ({exc})") from None
+
+
+def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print,
+                     finished_only: bool = False) -> list[dict[str, Any]]:
     """The curve rows of every trial of ``sweep`` whose run folder is here (finished or not: a
-    running sweep's curves so far; a trial taken from a committed summary has no run folder)."""
+    running sweep's curves so far; a trial taken from a committed summary has no run folder).
+    ``finished_only``: only the trials its summary lists as done, so that a curve judged over the
+    last half of training is not drawn from a trial still running."""
     rows = []
+    done = finished_trials(sweep) if finished_only else set()
     for t in sweep_trials(sweep):
+        if finished_only and t["trial"] not in done:
+            log(f"{t['trial']}: not finished, skipped")
+            continue
         if not t["run"].is_dir():
             log(f"{t['trial']}: no run folder here (not started, or taken from a committed summary), skipped")
             continue
@@ -66,8 +85,9 @@ def merge_curves(path: Path, rows: list[dict[str, Any]]) -> None:
     tmp.replace(path)
 
 
-def curve_of_sweep(sweep: Path, out: Path, episodes: int, seed: int) -> None:
-    rows = sweep_curve_rows(sweep, episodes, seed, log=lambda line: print(line, flush=True))
+def curve_of_sweep(sweep: Path, out: Path, episodes: int, seed: int, finished_only: bool = False) -> None:
+    rows = sweep_curve_rows(sweep, episodes, seed, log=lambda line: print(line, flush=True),
+                            finished_only=finished_only)
     if not rows:
         raise CurveError(f"{sweep}: no trial has checkpoints here")
     write_rows(out / "curves.csv", rows)
@@ -75,9 +95,14 @@ def curve_of_sweep(sweep: Path, out: Path, episodes: int, seed: int) -> None:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    args = build_parser("a run folder (checkpoints/model_<decisions>.safetensors) or a sweep folder "
-                        "(sweep.json: every trial's run)").parse_args(argv)
+    parser = build_parser("a run folder (checkpoints/model_<decisions>.safetensors) or a sweep folder "
+                          "(sweep.json: every trial's run)")
+    parser.add_argument("--finished", action="store_true",
+                        help="a sweep: only the trials its summary lists as done (not those still running)")
+    args = parser.parse_args(argv)
     is_sweep = (args.run / "sweep.json").exists()
+    if args.finished and not is_sweep:
+        return error(f"--finished: {args.run} is not a sweep folder (no sweep.json)")
     out = checked_out(args, "curves.csv" if is_sweep else "curve.csv",
                       args.run if is_sweep else args.run / "checkpoint_curve")
     if out is None:
@@ -87,7 +112,10 @@ def main(argv: Optional[list[str]] = None) -> int:
     torch.set_num_threads(1)
     out.mkdir(parents=True, exist_ok=True)
     try:
-        (curve_of_sweep if is_sweep else curve_of_run)(args.run, out, args.episodes, args.seed)
+        if is_sweep:
+            curve_of_sweep(args.run, out, args.episodes, args.seed, finished_only=args.finished)
+        else:
+            curve_of_run(args.run, out, args.episodes, args.seed)
     except CurveError as exc:
         return error(str(exc))
     return 0
