@@ -210,6 +210,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--warmup", type=int, default=1, help="untimed updates first (default 1)")
     p.add_argument("--updates", type=int, default=2, help="timed updates (default 2)")
     p.add_argument("--num-cpus", type=int, nargs="+", help="worker counts (default 0, 1, 2, 4, ... cores)")
+    p.add_argument("--threads", type=int, nargs="+",
+                   help="torch threads of the learner, each a row per worker count (default: as training "
+                        "sets them, the cores the env workers leave free)")
     p.add_argument("--devices", nargs="+", choices=("cpu", "cuda"),
                    help="devices (default: cpu, and cuda when torch sees a GPU)")
     p.add_argument("--minibatch-by-step", action=argparse.BooleanOptionalAction, default=True,
@@ -218,6 +221,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = p.parse_args(argv)
     if min(args.cars, args.n_envs, args.batch_decisions, args.updates) < 1 or args.warmup < 0:
         p.error("--cars, --n-envs, --batch-decisions and --updates must be >= 1, --warmup >= 0")
+    if args.threads and min(args.threads) < 1:
+        p.error(f"--threads must be >= 1, got {min(args.threads)}")
     if args.json and Path(args.json).exists():
         p.error(f"{args.json} exists; choose another --json")
     cores = os.cpu_count() or 1
@@ -229,13 +234,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     rows = []
     for device in devices:
         for n in counts:
-            cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
-                              "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
-                              batch_decisions=args.batch_decisions, num_cpus=n, device=device,
-                              minibatch_by_step=args.minibatch_by_step)
-            row = bench_row(cfg, args.warmup, args.updates)
-            rows.append(row)
-            print(f"  workers {n:>2}, {device}: {row.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
+            for threads in args.threads or [None]:
+                cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
+                                  "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
+                                  batch_decisions=args.batch_decisions, num_cpus=n, device=device,
+                                  minibatch_by_step=args.minibatch_by_step, threads=threads)
+                row = bench_row(cfg, args.warmup, args.updates)
+                rows.append(row)
+                print(f"  workers {n:>2}, {device}, {row.threads} threads: {row.agent_steps_per_s:,.0f} "
+                      f"agent-steps/s", flush=True)
     print()
     print(format_table(rows))
     gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"
