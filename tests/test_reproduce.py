@@ -685,3 +685,27 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
     assert "| 4 | 3 | 0.620" in mine and "0.620" not in grid and "| 2 | 3 | 0.520" in grid
     assert "0.992" in mine and "0.992" not in grid  # the 150-round 8-car trials: the more specific section only
     assert "crossings on the majority side: num_cars=4 0.620" in mine and "intervals apart" in mine
+    # curves beside the summary: the one-sided offset is judged from the curve's own column
+    import csv
+
+    (tmp_path / "curves").mkdir()
+    cols = ["trial", "seed", "num_cars", "decisions", "agent_steps", "episodes", "first_seed", "success_rate",
+            "collision_rate", "red_light_violation_rate", "lanes.majority_share", "lanes.time_share_majority",
+            "lanes.mean_abs_lane_position", "lanes.one_sided_offset"]
+    with open(tmp_path / "curves" / "lanes-paper.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=cols)
+        w.writeheader()
+        for n in (8, 4):
+            for seed in range(3):
+                for k in range(1, 16):
+                    d = 320_000 * k
+                    w.writerow({"trial": f"t{n}{seed}", "seed": seed, "num_cars": n, "decisions": d,
+                                "agent_steps": d // 2, "episodes": 100, "first_seed": SELECTION.start,
+                                "success_rate": 0.9, "collision_rate": 0.1, "red_light_violation_rate": 0.1,
+                                "lanes.majority_share": 1.0, "lanes.time_share_majority": 1.0,
+                                "lanes.mean_abs_lane_position": 0.3,
+                                "lanes.one_sided_offset": 0.3 if n == 8 else 0.1 + 0.01 * k})
+    assert main([str(short), str(paper), "--out", str(page)]) == 0
+    mine = page.read_text().split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    line = next(x for x in mine.splitlines() if x.startswith("- one-sided offset, change over the last 50 %"))
+    assert "num_cars 8 0.000 ± 0.000 (stopped moving)" in line and "num_cars 4 0.0" in line and "(still rising)" in line

@@ -151,7 +151,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 section.figure(groups, keys, figures / name, baseline)
                 parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
             if curves is not None:
-                shown = [(m, label) for m, label in section.metrics if isinstance(m, str)]
+                shown = [(m, label) for m, label in section.metrics if isinstance(m, str)] + list(section.curve_extra)
                 name = f"{section.key}_curves.png"
                 curve_figure(curves, keys, shown, figures / name)
                 parts += [f"**Learning curves** (`{curves_path(summary['path'])}`; selection seeds from "

@@ -70,6 +70,9 @@ class Section:
             against in a statement (same metrics, intervals apart or not).
         paper_budget: what the paper's own runs of this rule trained (from the original code's
             experiment list), shown beside ours; empty where we do not know it.
+        curve_extra: learning-curve columns (``box2d-driving curve``'s names) drawn and judged
+            beside the table's plain metrics, for table metrics derived from a summary's figures
+            (which a curve computes from its samples instead).
     """
 
     key: str
@@ -89,6 +92,7 @@ class Section:
     headlines: tuple[Headline, ...] = ()
     compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
     paper_budget: str = ""
+    curve_extra: tuple[tuple[str, str], ...] = ()
 
     @property
     def argv(self) -> list[str]:
@@ -142,6 +146,8 @@ LANES_FIGURE = distribution_figure("lane_position_counts", fd.LANE_BINS,
                                    "lane position inside the junction, each seed mirrored so that its "
                                    "majority side is +",
                                    bars_figure("lanes.majority_share", "share on the majority side"))
+# the one-sided offset of a learning curve: from the checkpoint's lane samples, not a histogram
+LANES_CURVE_EXTRA = (("lanes.one_sided_offset", "one-sided offset"),)
 LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
                 "spline episodes per epoch")
 
@@ -226,7 +232,7 @@ SECTIONS: tuple[Section, ...] = (
                     "reached, the acceleration policy starting from the shipped 4-car noise-0.5 lights "
                     "policy, the path policy from scratch. " + ONE_SIDED_WORDS,
             figure=LANES_FIGURE,
-            statements=lanes_statements("2"),
+            statements=lanes_statements("2"), curve_extra=LANES_CURVE_EXTRA,
             shipped="lanes_8cars_noise05",
             paper_budget=LANES_BUDGET,
             headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
@@ -245,7 +251,7 @@ SECTIONS: tuple[Section, ...] = (
                     "path updates of 2,048 car samples (the paper: 1,200 spline episodes per epoch), at LiDAR "
                     "noise 0.5, with learning curves. " + ONE_SIDED_WORDS,
             figure=LANES_FIGURE,
-            statements=lanes_statements("4"),
+            statements=lanes_statements("4"), curve_extra=LANES_CURVE_EXTRA,
             paper_budget=LANES_BUDGET,
             headlines=(Headline("lanes at the paper's budget", "8 cars, LiDAR noise 0.5, 150 rounds (4.8 M decisions)",
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
