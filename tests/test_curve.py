@@ -126,6 +126,9 @@ def test_plateau_lines_call_a_flat_a_moving_and_a_noisy_curve():
     assert "g flat 0.000 ± " in line and "(stopped moving)" in line
     assert "g falling -0.055 ± 0.012 (still falling)" in line
     assert f"(too noisy to tell: the interval is wider than ±{PLATEAU_TOLERANCE:g})" in line
+    # one seed: its change, and no verdict (no interval to judge by)
+    one = plateau_lines([r for r in rows if r["seed"] == 0], ["g"], [("m", "metric")])[0]
+    assert "g falling -0.050 (1 seed);" in one and "stopped" not in one and "still" not in one
 
 
 def test_a_bilevel_runs_curve_drives_each_kept_round_with_its_own_spline_policy(tmp_path):

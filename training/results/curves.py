@@ -85,9 +85,10 @@ def plateau_lines(rows: list[dict[str, Any]], keys: list[str], metrics: list[tup
         parts = []
         for point, e in late_changes(rows, keys, metric).items():
             where = ", ".join(f"{k} {v}" for k, v in zip(keys, point)) or "every trial"
-            if e.low is None:
-                verdict = "one seed, no interval"
-            elif e.low <= 0.0 <= e.high:
+            if e.low is None:  # its format says "(1 seed)": no interval, no verdict
+                parts.append(f"{where} {e.format()}")
+                continue
+            if e.low <= 0.0 <= e.high:
                 verdict = ("stopped moving" if (e.high - e.low) / 2 <= PLATEAU_TOLERANCE else
                            f"too noisy to tell: the interval is wider than ±{PLATEAU_TOLERANCE:g}")
             else:

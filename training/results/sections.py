@@ -255,7 +255,7 @@ SECTIONS: tuple[Section, ...] = (
             paper_budget=LANES_BUDGET,
             headlines=(Headline("lanes at the paper's budget", "8 cars, LiDAR noise 0.5, 150 rounds (4.8 M decisions)",
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
-                       Headline("no lanes with 4 cars", "4 cars, LiDAR noise 0.5, 150 rounds",
+                       Headline("4 cars (the paper: no lanes)", "4 cars, LiDAR noise 0.5, 150 rounds",
                                 (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
