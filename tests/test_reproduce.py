@@ -685,6 +685,12 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
     assert "| 4 | 3 | 0.620" in mine and "0.620" not in grid and "| 2 | 3 | 0.520" in grid
     assert "0.992" in mine and "0.992" not in grid  # the 150-round 8-car trials: the more specific section only
     assert "crossings on the majority side: num_cars=4 0.620" in mine and "intervals apart" in mine
+    # the paper's 4 cars form no lanes: whether each car count keeps to one side is said, and the
+    # offsets' difference alone names no agreement with the paper
+    assert "- one-sided offset (num_cars=4): " in mine and ": the cars keep to one side." in mine
+    assert "The paper: lanes with 8 cars, none with 4." in mine
+    offset_line = next(x for x in mine.splitlines() if x.startswith("- one-sided offset: num_cars=4"))
+    assert "paper" not in offset_line
     # curves beside the summary: the one-sided offset is judged from the curve's own column
     import csv
 

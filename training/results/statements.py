@@ -208,17 +208,20 @@ def unlearnt_statement(groups: list[Group]) -> list[str]:
     return lines
 
 
-def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, claim: str) -> Statement:
+def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, claim: str,
+                    judged: bool = True) -> Statement:
     """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals; ``claim``:
-    the paper's reading of that, in words."""
+    the paper's reading of that, in words. ``judged=False``: the difference alone is not the
+    paper's claim (the paper says more, stated elsewhere), so no verdict names the paper."""
     def say(groups: list[Group], baseline: Baseline) -> list[str]:
         by = {g.point.get(key): g.estimates[metric] for g in groups}
         if few not in by or many not in by or by[few].high is None or by[many].high is None:
             return []
         a, b = by[few], by[many]
-        verdict = {1: f"{claim}, intervals apart, as in the paper.",
-                   0: "the intervals overlap: no difference shown, unlike the paper.",
-                   -1: f"the opposite of {claim}, intervals apart, unlike the paper."}[apart(a, b)]
+        paper = (", as in the paper", ", unlike the paper") if judged else ("", "")
+        verdict = {1: f"{claim}, intervals apart{paper[0]}.",
+                   0: f"the intervals overlap: no difference shown{paper[1]}.",
+                   -1: f"the opposite of {claim}, intervals apart{paper[1]}."}[apart(a, b)]
         return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
     return say
 
