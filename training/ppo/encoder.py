@@ -8,14 +8,16 @@ to 25 features and concatenated with the sat-nav history. The weights live in or
 How it is computed: PyTorch's CPU convolution is slow for these shapes (5 input channels, length
 100, thousands of rows; its weight gradient especially), and the two encoders of the actor and
 the critic read the same rows during a PPO update. :func:`encode` therefore runs any number of
-encoders on the same rows as two matrix products:
+encoders on the same rows as matrix products:
 
-* layer 1 as a block-Toeplitz product: rays are cut into blocks of ``P`` neighbours; one row of
-  the left matrix holds the ``P + 4`` rays (all ``H`` frames) a block's outputs read, the right
-  matrix is built from the kernels of every encoder (``P x E x 8`` columns);
-* layer 2 (``8 -> 1``, kernel 5) as one product to ``E x 5`` kernel taps per ray (on the same
-  blocks of ``P`` rays, so the product is ``P`` times wider) followed by the sum of the
-  ring-shifted taps.
+* the rows: rays are cut into blocks of ``P`` neighbours; one row holds the ``P + 4`` rays (all
+  ``H`` frames) a block's outputs read, gathered from the observation columns in one
+  ``index_select`` (shared by every encoder);
+* layer 1 as a block-Toeplitz product of those rows with a matrix built from one encoder's
+  kernels (``P x 8`` columns);
+* layer 2 (``8 -> 1``, kernel 5) as one product of that encoder's hidden units to 5 kernel taps
+  per ray (on the same blocks of ``P`` rays, so the product is ``P`` times wider) followed by the
+  sum of the ring-shifted taps.
 
 The result equals the convolution (same sums, other order: within float rounding), which
 ``tests/test_training.py`` checks with gradients.
@@ -83,22 +85,35 @@ def block_size(n_rays: int) -> int:
 _INDEX_CACHE: dict[tuple[int, ...], th.Tensor] = {}
 
 
-def _toeplitz_index(n_enc: int, out_ch: int, in_ch: int, kernel: int, block: int) -> th.Tensor:
-    """Where each entry of the layer-1 block matrix ``(in_ch * (block + kernel - 1), block *
-    n_enc * out_ch)`` comes from in the flattened ``(n_enc, out_ch, in_ch, kernel)`` weights; the
-    index one past their end (a zero appended to them) where the kernel does not reach."""
-    key = (n_enc, out_ch, in_ch, kernel, block)
+def _toeplitz_index(out_ch: int, in_ch: int, kernel: int, block: int) -> th.Tensor:
+    """Where each entry of an encoder's layer-1 block matrix ``(in_ch * (block + kernel - 1),
+    block * out_ch)`` comes from in its flattened ``(out_ch, in_ch, kernel)`` weights; the index
+    one past their end (a zero appended to them) where the kernel does not reach."""
+    key = ("toeplitz", out_ch, in_ch, kernel, block)
     if key not in _INDEX_CACHE:
         span = block + kernel - 1
-        c = th.arange(in_ch)[:, None, None, None, None]
-        j = th.arange(span)[None, :, None, None, None]
-        q = th.arange(block)[None, None, :, None, None]
-        e = th.arange(n_enc)[None, None, None, :, None]
-        o = th.arange(out_ch)[None, None, None, None, :]
+        c = th.arange(in_ch)[:, None, None, None]
+        j = th.arange(span)[None, :, None, None]
+        q = th.arange(block)[None, None, :, None]
+        o = th.arange(out_ch)[None, None, None, :]
         k = j - q  # tap of the kernel that input ray j feeds into output ray q of a block
-        flat = ((e * out_ch + o) * in_ch + c) * kernel + k
-        zero = n_enc * out_ch * in_ch * kernel
+        flat = (o * in_ch + c) * kernel + k
+        zero = out_ch * in_ch * kernel
         _INDEX_CACHE[key] = th.where((k >= 0) & (k < kernel), flat, zero).reshape(in_ch * span, -1)
+    return _INDEX_CACHE[key]
+
+
+def _window_index(history: int, n_rays: int, kernel: int, block: int) -> th.Tensor:
+    """Observation columns of the layer-1 rows: for block ``m`` of ``block`` rays, frame ``h``
+    and window place ``j``, the LiDAR column ``h * n_rays + (m * block + j - pad) mod n_rays`` (the
+    ring's wrap-around padding), so one ``index_select`` gathers every row's window at once."""
+    key = ("window", history, n_rays, kernel, block)
+    if key not in _INDEX_CACHE:
+        pad, span = kernel // 2, block + kernel - 1
+        m = th.arange(n_rays // block)[:, None, None]
+        h = th.arange(history)[None, :, None]
+        j = th.arange(span)[None, None, :]
+        _INDEX_CACHE[key] = (h * n_rays + (m * block + j - pad) % n_rays).reshape(-1)
     return _INDEX_CACHE[key]
 
 
@@ -125,23 +140,29 @@ def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
     h, r = first.history, first.n_rays
     conv1s = [enc.conv[0] for enc in encoders]
     conv2s = [enc.conv[2] for enc in encoders]
-    n, out_ch, kernel = len(encoders), conv1s[0].out_channels, conv1s[0].kernel_size[0]
+    out_ch, kernel = conv1s[0].out_channels, conv1s[0].kernel_size[0]
     pad, block = kernel // 2, block_size(r)
     b = obs.shape[0]
-    lidar = obs[:, : h * r].reshape(b, h, r)
-    ring = th.cat([lidar[..., r - pad:], lidar, lidar[..., :pad]], dim=-1)  # (B, H, R + 2 pad)
-    cols = ring.unfold(2, block + 2 * pad, block).transpose(1, 2).reshape(b * (r // block), -1)
-    w1 = th.cat([th.stack([c.weight for c in conv1s]).reshape(-1), obs.new_zeros(1)])
-    m1 = w1[_toeplitz_index(n, out_ch, h, kernel, block).to(w1.device)]
-    b1 = th.stack([c.bias for c in conv1s]).reshape(-1).repeat(block)
-    hidden = th.addmm(b1, cols, m1).relu_()  # (B * R / P, P x E x out_ch): ray-major, (enc, ch)
-    m2 = th.block_diag(*[c.weight[0] for c in conv2s])  # (E * out_ch, E * kernel)
-    # one product per block of P rays (P copies of m2 on the diagonal): wider than one per ray,
-    # whose (B * R, 16) x (16, 10) shape and its weight gradient ran far below the matmul speed
-    taps = (hidden @ th.block_diag(*([m2] * block))).reshape(b, r, n, kernel)
-    # output ray p reads hidden ray p + k - pad with tap k: roll tap k by pad - k and sum
-    out = sum(th.roll(tap, pad - k, dims=1) for k, tap in enumerate(taps.unbind(-1)))
-    out = (out + th.cat([c.bias for c in conv2s])).relu_()  # (B, R, E)
-    pooled = F.adaptive_avg_pool1d(out.transpose(1, 2), first.conv[4].output_size)  # (B, E, 25)
+    # each row of ``cols``: one block of rays, the window (all frames) its outputs read; gathered
+    # straight from the observation columns (no padded copy of the ring, no unfold copy)
+    cols = obs.index_select(1, _window_index(h, r, kernel, block).to(obs.device))
+    cols = cols.reshape(b * (r // block), -1)
+    index = _toeplitz_index(out_ch, h, kernel, block).to(obs.device)
+    outs = []
+    for conv1, conv2 in zip(conv1s, conv2s):
+        # each encoder's own two products on the shared rows (one product over all encoders'
+        # columns would need slicing them apart again, whose gradient costs a zero-filled copy)
+        m1 = th.cat([conv1.weight.reshape(-1), obs.new_zeros(1)])[index]
+        hidden = th.addmm(conv1.bias.repeat(block), cols, m1).relu_()  # (B R / P, P x out_ch)
+        # layer 2: one product per block of P rays (P copies of the (out_ch, kernel) taps on the
+        # diagonal): wider than one per ray, whose (B x R, 8) x (8, 5) shape ran far below the
+        # matmul speed
+        taps = (hidden @ th.block_diag(*([conv2.weight[0]] * block))).reshape(b, r, kernel)
+        # output ray p reads hidden ray p + k - pad with tap k: roll tap k by pad - k and sum
+        # (unbind, not indexing: its gradient is one stack, not a zero-filled copy per tap)
+        out = sum(th.roll(tap, pad - k, dims=1) for k, tap in enumerate(taps.unbind(-1)))
+        outs.append(out + conv2.bias)
+    out = th.stack(outs, dim=1).relu_()  # (B, E, R)
+    pooled = F.adaptive_avg_pool1d(out, first.conv[4].output_size)  # (B, E, 25)
     rest = obs[:, h * r: first.out_dim - pooled.shape[2] + h * r]
-    return [th.cat([pooled[:, i], rest], dim=1) for i in range(n)]
+    return [th.cat([pooled[:, i], rest], dim=1) for i in range(len(encoders))]

@@ -34,6 +34,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+from supersuit.vector import ConcatVecEnv, ProcConcatVec
+from supersuit.vector.constructors import call_wrap
 
 
 @dataclass(frozen=True)
@@ -200,14 +202,43 @@ class InstanceSlots(gym.vector.VectorEnv):
         return [False] * self.n_cars
 
 
+class ConcatSlots(ConcatVecEnv):
+    """SuperSuit's ``ConcatVecEnv`` with its per-step concatenation done as whole arrays.
+
+    SuperSuit concatenates through Gymnasium's space utilities, which walk the batch one row at a
+    time: every step it iterates the 64-odd actions into a list, builds a fresh array per instance
+    from them, and rebuilds the observation batch row by row into a newly allocated array. For our
+    spaces (a flat ``Box`` slot observation, ``Discrete`` actions) the same batches are plain
+    slices and one ``np.concatenate``, which this subclass does (about a tenth of the env's
+    wall clock in a 4-car rollout was SuperSuit's concatenation). Everything else (reset, seeding,
+    closing, how worker processes drive it) is SuperSuit's; ``tests/test_vec_env.py`` checks that
+    steps return exactly what ``ConcatVecEnv`` returns.
+    """
+
+    def concat_obs(self, observations: Sequence[np.ndarray]) -> np.ndarray:
+        return np.concatenate(observations, axis=0)
+
+    def step(self, actions):
+        actions = np.asarray(actions)
+        data, start = [], 0
+        for venv in self.vec_envs:
+            data.append(venv.step(actions[start:start + venv.num_envs]))
+            start += venv.num_envs
+        observations, rewards, terminations, truncations, infos = zip(*data)
+        return (np.concatenate(observations, axis=0), np.concatenate(rewards, axis=0),
+                np.concatenate(terminations, axis=0), np.concatenate(truncations, axis=0),
+                [info for sub in infos for info in sub])
+
+
 class SlotVecEnv(CarSlots, VecEnv):
     """``len(env_fns) * num_cars`` slots over parameter-shared driving envs, as an SB3 ``VecEnv``.
 
     Built on SuperSuit: each instance is an :class:`InstanceSlots`, concatenated by SuperSuit's
-    ``MakeCPUAsyncConstructor`` (what ``supersuit.concat_vec_envs_v1`` uses) in the learner's
-    process (``num_cpus=0``) or in ``num_cpus`` worker processes that step their instances and
-    write observations to shared memory. This adapter fixes what SuperSuit's SB3 wrapper gets
-    wrong for us (each fix has a test in ``tests/test_vec_env.py``):
+    ``ConcatVecEnv`` (as :class:`ConcatSlots`) in the learner's process (``num_cpus=0``) or, split
+    as ``supersuit.concat_vec_envs_v1`` splits them, in ``num_cpus`` worker processes
+    (``ProcConcatVec``) that step their instances and write observations to shared memory. This
+    adapter fixes what SuperSuit's SB3 wrapper gets wrong for us (each fix has a test in
+    ``tests/test_vec_env.py``):
 
     * seeding: ``seed(s)`` gives instance ``k`` the seed ``s + k`` at the next reset, whatever the
       number of workers (SuperSuit's ``reset(seed)`` adds worker and position offsets, so seeds
@@ -217,6 +248,8 @@ class SlotVecEnv(CarSlots, VecEnv):
     * ``get_attr`` / ``set_attr`` / ``env_method`` reach the env instances in-process; with workers,
       ``get_attr`` answers from a local probe instance (static attributes: config, layout) and the
       others raise, since a live object cannot be set in another process;
+    * SuperSuit's row-by-row concatenation of each step's batches is done as whole arrays
+      (:class:`ConcatSlots`);
     * ``close()`` ends the workers, and is also called when the adapter is garbage-collected or
       the interpreter exits, so a forgotten ``close()`` cannot hang the interpreter.
 
@@ -225,8 +258,6 @@ class SlotVecEnv(CarSlots, VecEnv):
     """
 
     def __init__(self, env_fns: Sequence[Callable[[], Any]], num_cpus: int = 0) -> None:
-        from supersuit.vector import MakeCPUAsyncConstructor
-
         if isinstance(num_cpus, bool) or not isinstance(num_cpus, int) or num_cpus < 0:
             raise ValueError(f"num_cpus must be an integer >= 0, got {num_cpus!r}")
         self.num_cpus = min(num_cpus, len(env_fns))
@@ -235,16 +266,12 @@ class SlotVecEnv(CarSlots, VecEnv):
         fns = [functools.partial(InstanceSlots, fn, k) for k, fn in enumerate(env_fns)]
         spaces_ = (self.probe.observation_space, self.probe.action_space)
         if self.num_cpus == 0:
-            from supersuit.vector import ConcatVecEnv
-
             fns[0] = functools.partial(_same, self.probe)  # in-process, the probe is instance 0
-            self._inner = ConcatVecEnv(fns, *spaces_)
+            self._inner = ConcatSlots(fns, *spaces_)
             if any(list(inst.agents) != self.agents for inst in self._inner.vec_envs):
                 raise ValueError("all env instances must have the same agents")
-        elif self.num_cpus == 1:  # SuperSuit keeps 1 CPU in-process; the user asked for one worker
-            self._inner = _one_worker(fns, self.probe)
         else:
-            self._inner = MakeCPUAsyncConstructor(self.num_cpus)(fns, *spaces_)
+            self._inner = _workers(fns, self.probe, self.num_cpus)
         super().__init__(len(env_fns) * self.n_cars, *spaces_)
         self._seed_base: Optional[int] = None
         self.seed_range: Any = None  # a training.common.seeds.SeedRange every seed must lie in, if set
@@ -316,14 +343,15 @@ def _close_inner(inner: Any) -> None:
     inner.close()
 
 
-def _one_worker(fns: list, probe: InstanceSlots) -> Any:
-    """All instances in one worker process (SuperSuit's constructor runs 1 CPU in-process)."""
-    from supersuit.vector import ConcatVecEnv, ProcConcatVec
-
-    from supersuit.vector.constructors import call_wrap
-
-    return ProcConcatVec([call_wrap(ConcatVecEnv, fns)], probe.observation_space, probe.action_space,
-                         len(fns) * probe.n_cars, probe.metadata)
+def _workers(fns: list, probe: InstanceSlots, num_cpus: int) -> Any:
+    """The instances over ``num_cpus`` worker processes, as SuperSuit's
+    ``MakeCPUAsyncConstructor`` splits them (consecutive runs of ``ceil(n / num_cpus)``), each
+    worker stepping its run as one :class:`ConcatSlots`; with one worker too (SuperSuit's
+    constructor keeps a single CPU in the learner's process, but the user asked for a worker)."""
+    per_cpu = -(-len(fns) // num_cpus)
+    runs = [fns[i:i + per_cpu] for i in range(0, len(fns), per_cpu)]
+    return ProcConcatVec([call_wrap(ConcatSlots, run) for run in runs], probe.observation_space,
+                         probe.action_space, len(fns) * probe.n_cars, probe.metadata)
 
 
 def make_vec_env_from(env_id: str, overrides: dict, n_envs: int, num_cpus: int = 0,
