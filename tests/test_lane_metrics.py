@@ -25,6 +25,16 @@ def test_crossing_sides_average_only_inside_the_junction():
     assert m["majority_share"] == pytest.approx(2 / 3)
     assert m["time_share_majority"] == pytest.approx(3 / 5)  # 0.2, 0.4, 0.6 of 5 inside samples
     assert m["histogram"] == [0, 2, 2, 1]  # bins [-1,-.5) [-.5,0) [0,.5) [.5,1]
+    # inside samples 0.2, 0.4, -0.5, 0.6, -0.2: |mean| 0.1, mean |.| 0.38
+    assert m["one_sided_offset"] == pytest.approx(0.1)
+    assert m["mean_abs_lane_position"] == pytest.approx(0.38)
+
+
+def test_one_sided_offset_is_the_offset_when_every_car_keeps_to_one_side_and_zero_across_the_axis():
+    left = lane_metrics(_table([(0, 0, 1, 1, -0.3), (0, 1, 1, 1, -0.5)], LANE_COLS))
+    assert left["one_sided_offset"] == pytest.approx(0.4) == left["mean_abs_lane_position"]
+    both = lane_metrics(_table([(0, 0, 1, 1, -0.4), (0, 1, 1, 1, 0.4)], LANE_COLS))
+    assert both["one_sided_offset"] == pytest.approx(0.0) and both["mean_abs_lane_position"] == pytest.approx(0.4)
 
 
 def test_lane_metrics_left_majority_and_axis_crossings():

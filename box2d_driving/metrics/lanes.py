@@ -36,8 +36,11 @@ def crossing_sides(table: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def lane_metrics(table: dict[str, np.ndarray], bins: int = 20) -> dict:
-    """Majority side, share of crossings and of in-junction time on it, and the histogram of
-    normalised lane position through the junction (``bins`` over ``[-1, 1]``)."""
+    """Majority side, share of crossings and of in-junction time on it, how far off the axis the
+    cars drive (``mean_abs_lane_position`` on either side; ``one_sided_offset``, the size of the
+    mean signed position: ~0 on the axis or on both sides in turn, the offset when every car keeps
+    to one side), and the histogram of normalised lane position through the junction (``bins``
+    over ``[-1, 1]``)."""
     sides = crossing_sides(table)
     samples = junction_lane_samples(table)
     right, left = int(np.sum(sides > 0)), int(np.sum(sides < 0))
@@ -52,6 +55,7 @@ def lane_metrics(table: dict[str, np.ndarray], bins: int = 20) -> dict:
         "majority_share": float(max(right, left) / len(sides)) if len(sides) else float("nan"),
         "time_share_majority": float(np.mean(samples * sign > 0)) if len(samples) else float("nan"),
         "mean_abs_lane_position": float(np.mean(np.abs(samples))) if len(samples) else float("nan"),
+        "one_sided_offset": float(abs(np.mean(samples))) if len(samples) else float("nan"),
         "histogram": counts.tolist(),
         "bin_edges": edges.tolist(),
     }

@@ -29,7 +29,7 @@ import numpy as np
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
-from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples, lane_metrics  # noqa: E402
+from box2d_driving.metrics.lanes import fast_lane_metrics, lane_metrics  # noqa: E402
 from box2d_driving.metrics.lights import outcome_rates, traffic_light_metrics  # noqa: E402
 from box2d_driving.metrics.pedestrians import crosswalk_metrics  # noqa: E402
 from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
@@ -81,9 +81,7 @@ def rule_metrics(env_id: str, table: dict, config: Any) -> dict[str, float]:
             out.update({k: talk[k.split(".", 1)[1]] for k in COMMUNICATION})
     elif env_id == "intersection-spline-v0":
         lanes = lane_metrics(table)
-        out.update({k: lanes[k.split(".", 1)[1]] for k in LANES[:3]})
-        samples = junction_lane_samples(table)  # the one-sided offset: |signed mean lane position|
-        out["lanes.one_sided_offset"] = float(abs(samples.mean())) if len(samples) else float("nan")
+        out.update({k: lanes[k.split(".", 1)[1]] for k in LANES})
     elif env_id == "highway-spline-v0":
         out["fast_lanes.pearson_r"] = fast_lane_metrics(table, config.road_width)["pearson_r"]
     return out

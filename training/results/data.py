@@ -64,7 +64,20 @@ class HistogramMean:
         return f"mean of {self.name}"
 
 
-Metric = Union[str, Size, Difference, HistogramMean]
+@dataclass(frozen=True)
+class Preferred:
+    """A trial's own summary column where it has one, else ``fallback`` (older summaries, written
+    before the column existed): e.g. the one-sided lane offset from the lane samples, else from
+    the lane histogram's bin centres."""
+
+    column: str
+    fallback: "Metric"
+
+    def __str__(self) -> str:
+        return self.column
+
+
+Metric = Union[str, Size, Difference, HistogramMean, Preferred]
 
 
 @dataclass(frozen=True)
@@ -139,6 +152,9 @@ def metric_value(row: dict[str, Any], metric: Metric) -> float:
         return metric_value(row, metric.first) - metric_value(row, metric.second)
     if isinstance(metric, Size):
         return abs(metric_value(row, metric.column))
+    if isinstance(metric, Preferred):
+        value = as_number(row.get(metric.column))
+        return value if np.isfinite(value) else metric_value(row, metric.fallback)
     if isinstance(metric, HistogramMean):
         counts = (row.get("figures") or {}).get(metric.name)
         if counts is None or np.sum(counts) <= 0:
