@@ -16,9 +16,9 @@ from gymnasium.utils import EzPickle, seeding
 from pettingzoo import ParallelEnv
 
 from box2d_driving.config import DrivingConfig
+from box2d_driving.envs import core
 from box2d_driving.envs.actions import ActionError, check_actions  # noqa: F401  (ActionError: part of this module's API)
 from box2d_driving.envs.observation import FrameHistory, ObservationLayout
-from box2d_driving.envs.reward import TERMS, reward_terms
 from box2d_driving.physics.world import ACTIVE, ARRIVED, COLLIDED, DrivingWorld
 from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.layout import Layout
@@ -137,65 +137,29 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._received = np.zeros(n)
         self._seen = np.full(n, NO_LIGHT)
         self._lane_origin, self._lane_right, self._lane_half_width = _lane_axes(self.layout)
+        self._stop_point, self._stop_direction = _stop_lines(self.layout, self._light_index)
         self._approach = [c.approach for c in self.layout.cars]
         cars = np.arange(n)
-        lidar_frame, satnav_frame = self._frames(cars, senders=np.zeros(0, dtype=np.int64))
+        self._acting = cars
+        lidar_frame, satnav_frame = core.frames([self], [cars], senders=[np.zeros(0, dtype=np.int64)])
         self.history = FrameHistory(self.observation_layout, n)
         self.history.reset(lidar_frame, satnav_frame)
         obs = self.history.observations(cars)
         observations = {a: obs[i] for i, a in enumerate(self.agents)}
-        infos = dict(zip(self.agents, self._infos(cars)))
+        infos = dict(zip(self.agents, core.car_infos([self], [cars])))
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
-        cfg = self.config
-        n = cfg.num_cars
-        acting = np.array([self._index[a] for a in self.agents], dtype=np.int64)
-        raw = check_actions(actions, self.agents, cfg.n_actions)
-        n_acc = len(self._levels)
-        level = self._prev_level.copy()
-        level[acting] = self._levels[raw % n_acc]
-        self._bits[:] = 0.0
-        if cfg.communication:
-            self._bits[acting] = raw // n_acc
-        accel = np.zeros(n)
-        accel[acting] = level[acting] * self.world.ratings[acting]
-
-        events = self.world.advance(accel)
-        self.decision += 1
-
-        terms = reward_terms(
-            arrived=events.arrived[acting], collided=events.collided[acting],
-            accel_level=level[acting], prev_accel_level=self._prev_level[acting],
-            accel_range=self._accel_range, remaining=self._remaining()[acting],
-            initial=self._initial[acting], decision=self.decision, horizon=cfg.horizon,
-            goal_reward=cfg.goal_reward, collision_reward=cfg.collision_reward,
-        )
-        self._prev_level = level
-        total = sum(terms[t] for t in TERMS)
-
-        lidar_frame, satnav_frame = self._frames(acting, senders=acting)
-        self.history.push(acting, lidar_frame, satnav_frame)
-        obs = self.history.observations(acting)
-
-        done = events.arrived[acting] | events.collided[acting]
-        truncated = self.decision >= cfg.horizon
-        # per-car dicts only here, at the PettingZoo boundary, from whole-array columns
-        agents = [self.possible_agents[i] for i in acting.tolist()]
-        done_list = done.tolist()
-        observations = dict(zip(agents, obs))
-        rewards = dict(zip(agents, total.tolist()))
+        raw = check_actions(actions, self.agents, self.config.n_actions)
+        d = core.step_instances([self], [raw])[0]
+        # per-agent dicts only here, at the PettingZoo boundary, from the decision's arrays
+        agents = [self.possible_agents[i] for i in d.cars.tolist()]
+        done_list = d.terminated.tolist()
+        observations = dict(zip(agents, d.observations))
+        rewards = dict(zip(agents, d.rewards.tolist()))
         terminations = dict(zip(agents, done_list))
-        truncations = {a: truncated and not d for a, d in zip(agents, done_list)}
-        term_columns = [terms[t].tolist() for t in TERMS]
-        infos = {}
-        for agent, info, values in zip(agents, self._infos(acting), zip(*term_columns)):
-            info["reward_terms"] = dict(zip(TERMS, values))
-            infos[agent] = info
-        if truncated:
-            self.agents = []
-        else:
-            self.agents = [a for a, d in zip(agents, done_list) if not d]
+        truncations = {a: d.truncated and not t for a, t in zip(agents, done_list)}
+        infos = dict(zip(agents, d.infos))
         return observations, rewards, terminations, truncations, infos
 
     def state(self) -> np.ndarray:
@@ -262,52 +226,9 @@ class DrivingEnv(ParallelEnv, EzPickle):
     def _remaining(self) -> np.ndarray:
         return self.world.s_end - self.world.s
 
-    def _frames(self, cars: np.ndarray, senders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """LiDAR and sat-nav frames of ``cars`` at the current state; ``senders`` are the cars
-        whose bits were sent in the last decision."""
-        cfg, w = self.config, self.world
-        pos, head = w.positions[cars], w.headings[cars]
-        distances = self._lidar_distances(cars)
-        dropped = lidar.dropout_mask(self.np_random, len(cars), cfg.n_rays, cfg.lidar_noise)
-        if self.render_mode is not None:  # kept for drawing the rays
-            if self._last_rays is None or self.decision == 0:
-                self._last_rays = np.full((cfg.num_cars, cfg.n_rays), np.inf)
-                self._last_dropped = np.zeros((cfg.num_cars, cfg.n_rays), dtype=bool)
-            self._last_rays[cars] = distances
-            self._last_dropped[cars] = dropped
-        distances[dropped] = np.inf
-        lidar_frame = lidar.encode(distances, cfg.lidar_range, cfg.lidar_encoding)
-
-        if self.layout.lights is not None:
-            self._seen[cars] = self.layout.lights.seen(
-                self.time, self._light_index[cars], pos, head, cfg.light_view_distance)
-        remaining = self._remaining()[cars]
-        to_goal = self._goals[cars] - pos
-        heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
-        heading_error = np.where(remaining > 0, heading_error, 0.0)
-        cols = [self._seen[cars], w.speed[cars] / w.v_lim[cars], heading_error,
-                1.0 / np.maximum(remaining, 1.0)]
-        extras = self.satnav_extra_values()[cars]
-        satnav = np.concatenate([np.stack(cols, axis=1), extras], axis=1)
-        if cfg.communication:
-            self._received[cars] = self._receive(cars, senders) if cfg.messages_heard else 0.0
-            satnav = np.concatenate([satnav, self._received[cars][:, None]], axis=1)
-        return lidar_frame, satnav.astype(np.float32)
-
     def _lidar_distances(self, cars: np.ndarray) -> np.ndarray:
-        cfg, w = self.config, self.world
-        if self._backend == "box2d":
-            return lidar.cast_rays_box2d(w.world, [w.car_bodies[i] for i in cars],
-                                         w.positions[cars], w.headings[cars], cfg.n_rays,
-                                         cfg.lidar_range, cfg.lidar_sees_pedestrians)
-        peds = slice(None) if cfg.lidar_sees_pedestrians else slice(0, 0)
-        segs, owner, one_sided = lidar.scene_segments(
-            w.positions, w.headings, w.present, cfg.car_length, cfg.car_width,
-            w.ped_positions[peds], w.ped_sizes[peds], w.edge_segments)
-        out = np.empty((len(cars), cfg.n_rays))
-        lidar.cast_rays(w.positions[cars], w.headings[cars], cars, cfg.n_rays,
-                        float(cfg.lidar_range), segs, owner, one_sided, out)
-        return out
+        """Noise-free LiDAR distances of ``cars`` (m, ``inf``: no return)."""
+        return core.lidar_distances([self], [cars])
 
     def _receive(self, cars: np.ndarray, senders: np.ndarray) -> np.ndarray:
         """Bit of the nearest other sender within range and angle of each car's heading; with
@@ -327,51 +248,6 @@ class DrivingEnv(ParallelEnv, EzPickle):
         out[has] = self._bits[senders[best[has]]]
         return out
 
-    def _infos(self, cars: np.ndarray) -> list[dict[str, Any]]:
-        """One info dict per car in ``cars`` (see the docs of the envs for the keys), built from
-        whole-array columns, with the scenario's own facts (:meth:`scenario_info`) added."""
-        w = self.world
-        pos = w.positions[cars]
-        offset = np.full(len(cars), np.nan)
-        has_axis = ~np.isnan(self._lane_half_width[cars])
-        if has_axis.any():
-            rel = pos[has_axis] - self._lane_origin[cars[has_axis]]
-            right = self._lane_right[cars[has_axis]]
-            # a stack of vector products: the same rounding as one car's ``rel @ right``
-            dot = np.matmul(rel[:, None, :], right[:, :, None])[:, 0, 0]
-            offset[has_axis] = dot / self._lane_half_width[cars[has_axis]]
-        stop = np.full(len(cars), np.nan)
-        lights, li = self.layout.lights, self._light_index[cars]
-        if lights is not None and (li >= 0).any():
-            has = li >= 0
-            stop[has] = np.einsum("ij,ij->i", lights.stop_points[li[has]] - pos[has],
-                                  lights.directions[li[has]])
-        # per-car dicts from whole-array columns: each column read once as plain values (the same
-        # numbers as indexing it per car), then one dict per car in the documented key order
-        idx = cars.tolist()
-        heading, speed, accel = w.headings.tolist(), w.speed.tolist(), w.accel.tolist()
-        seen, togo, status = self._seen.tolist(), (w.s_end - w.s).tolist(), w.status.tolist()
-        partner, halted, rating = w.collision_partner.tolist(), w.partner_halted.tolist(), w.ratings.tolist()
-        in_junction = self.layout.in_junction(pos).tolist()
-        offsets = [None if v != v else v for v in offset.tolist()]  # None: no lane axis (NaN)
-        stops = [None if v != v else v for v in stop.tolist()]  # None: no light on its approach
-        approach, decision = self._approach, self.decision
-        infos = [{"position": p, "heading": heading[i], "speed": speed[i], "acceleration": accel[i],
-                  "light": seen[i], "in_junction": in_junction[k], "lane_offset": offsets[k],
-                  "stop_line_distance": stops[k], "distance_to_goal": togo[i],
-                  "arrived": status[i] == ARRIVED, "collided": status[i] == COLLIDED,
-                  "collided_with": w.collided_with[i], "collision_partner": partner[i],
-                  "partner_halted": halted[i], "rating": rating[i], "decision": decision,
-                  "approach": approach[i]}
-                 for k, (i, p) in enumerate(zip(idx, pos))]
-        if self.config.communication:
-            bits, heard = self._bits.astype(np.int64).tolist(), self._received.astype(np.int64).tolist()
-            for info, i in zip(infos, idx):
-                info["bit_sent"], info["bit_received"] = bits[i], heard[i]
-        for info, extra in zip(infos, self.scenario_info(cars)):
-            info.update(extra)
-        return infos
-
 
 def _lane_axes(layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every car's lane axis as arrays: origins ``(N, 2)``, right-hand unit vectors ``(N, 2)`` and
@@ -382,3 +258,15 @@ def _lane_axes(layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if car.lane_axis is not None:
             origin[i], right[i], half[i] = car.lane_axis.origin, car.lane_axis.right, car.lane_axis.half_width
     return origin, right, half
+
+
+def _stop_lines(layout: Layout, light_index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The stop-line centre ``(N, 2)`` and travel direction ``(N, 2)`` of each car's light, NaN
+    for cars without one (no light on their approach, or no lights at all)."""
+    n = len(light_index)
+    point, direction = np.full((n, 2), np.nan), np.full((n, 2), np.nan)
+    has = light_index >= 0
+    if layout.lights is not None and has.any():
+        point[has] = layout.lights.stop_points[light_index[has]]
+        direction[has] = layout.lights.directions[light_index[has]]
+    return point, direction

@@ -92,6 +92,15 @@ def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_s
 
     ``observer[c]`` is the car index of observer ``c`` (its own segments are skipped).
     """
+    n = origins.shape[0]
+    _cast_rays_in(origins, headings, observer, np.zeros(n, np.int64), np.full(n, segs.shape[0], np.int64),
+                  n_rays, max_range, segs, owner, one_sided, out)
+
+
+@njit(cache=True)
+def _cast_rays_in(origins, headings, observer, seg_lo, seg_hi, n_rays, max_range, segs, owner, one_sided, out):
+    """:func:`cast_rays` with observer ``c`` seeing only the segments ``seg_lo[c]:seg_hi[c]`` (its
+    own scene when several scenes' segments are stacked)."""
     dtheta = 2.0 * math.pi / n_rays
     r2max = max_range * max_range
     cos_r = np.empty(n_rays)
@@ -104,7 +113,7 @@ def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_s
             cos_r[k] = math.cos(h + k * dtheta)
             sin_r[k] = math.sin(h + k * dtheta)
             out[c, k] = math.inf
-        for m in range(segs.shape[0]):
+        for m in range(seg_lo[c], seg_hi[c]):
             if owner[m] == observer[c]:
                 continue
             ax = segs[m, 0] - ox
@@ -154,6 +163,68 @@ def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_s
                     out[c, k] = t
 
 
+def cast_rays_scenes(car_positions: np.ndarray, car_headings: np.ndarray, car_present: np.ndarray,
+                     n_cars: int, observers: np.ndarray, car_length: float, car_width: float,
+                     ped_positions: np.ndarray, ped_sizes: np.ndarray, ped_counts: np.ndarray,
+                     edges: np.ndarray, edge_counts: np.ndarray, n_rays: int, max_range: float) -> np.ndarray:
+    """Distances ``(len(observers), n_rays)`` of ``K`` scenes at once, each as
+    :func:`scene_segments` and :func:`cast_rays` would give them alone.
+
+    Scene ``k`` holds cars ``k * n_cars .. (k + 1) * n_cars - 1`` of ``car_positions`` (``(K *
+    n_cars, 2)``), ``car_headings`` and ``car_present``, the next ``ped_counts[k]`` rows of
+    ``ped_positions`` / ``ped_sizes`` and the next ``edge_counts[k]`` segments of ``edges``
+    (``(E, 4)``); ``observers`` are indices into the cars, and each sees only its own scene.
+    """
+    out = np.empty((len(observers), n_rays))
+    segs, owner, one_sided, seg_start = _scenes_segments(
+        car_positions, car_headings, car_present, n_cars, car_length / 2, car_width / 2,
+        ped_positions, ped_sizes / 2, ped_counts, edges, edge_counts)
+    scene = observers // n_cars
+    _cast_rays_in(car_positions[observers], car_headings[observers], observers % n_cars,
+                  seg_start[scene], seg_start[scene + 1], n_rays, float(max_range), segs, owner,
+                  one_sided, out)
+    return out
+
+
+@njit(cache=True)
+def _scenes_segments(car_positions, car_headings, car_present, n_cars, half_length, half_width,
+                     ped_positions, ped_half, ped_counts, edges, edge_counts):
+    """:func:`scene_segments` of several scenes stacked (see :func:`cast_rays_scenes`), and the
+    first segment of each scene (``K + 1`` entries)."""
+    n_scenes = ped_counts.shape[0]
+    seg_start = np.zeros(n_scenes + 1, dtype=np.int64)
+    for k in range(n_scenes):
+        present = 0
+        for i in range(n_cars):
+            if car_present[k * n_cars + i]:
+                present += 1
+        seg_start[k + 1] = seg_start[k] + 4 * (present + ped_counts[k]) + edge_counts[k]
+    segs = np.empty((seg_start[n_scenes], 4))
+    owner = np.empty(seg_start[n_scenes], dtype=np.int64)
+    one_sided = np.zeros(seg_start[n_scenes], dtype=np.bool_)
+    p0, e0 = 0, 0
+    for k in range(n_scenes):
+        base = k * n_cars
+        cars = np.flatnonzero(car_present[base:base + n_cars])
+        n_car, n_ped = cars.shape[0], ped_counts[k]
+        row = seg_start[k]
+        _fill_box_segments(car_positions[base + cars], car_headings[base + cars], np.full(n_car, half_length),
+                           np.full(n_car, half_width), segs, row)
+        if n_ped:
+            _fill_box_segments(ped_positions[p0:p0 + n_ped], np.zeros(n_ped), ped_half[p0:p0 + n_ped],
+                               ped_half[p0:p0 + n_ped], segs, row + 4 * n_car)
+        boxes = 4 * (n_car + n_ped)
+        segs[row + boxes:seg_start[k + 1]] = edges[e0:e0 + edge_counts[k]]
+        for i in range(n_car):
+            owner[row + 4 * i:row + 4 * i + 4] = cars[i]
+        owner[row + 4 * n_car:row + boxes] = OWNER_PEDESTRIAN
+        owner[row + boxes:seg_start[k + 1]] = OWNER_EDGE
+        one_sided[row:row + boxes] = True
+        p0 += n_ped
+        e0 += edge_counts[k]
+    return segs, owner, one_sided, seg_start
+
+
 class _ClosestHit(b2RayCastCallback):
     """Closest fixture along a ray, ignoring one body."""
 
@@ -197,12 +268,30 @@ def cast_rays_box2d(world, bodies, origins, headings, n_rays: int, max_range: fl
 def dropout_mask(rng: np.random.Generator, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
     """``(n_cars, n_rays)`` boolean mask with exactly ``round(noise * n_rays)`` True per row,
     chosen uniformly at random (the rays to drop)."""
-    k = int(math.floor(noise * n_rays + 0.5))
+    return dropout_from_draws(dropout_draws(rng, n_cars, n_rays, noise), n_cars, n_rays, noise)
+
+
+def _dropped_per_row(n_rays: int, noise: float) -> int:
+    return int(math.floor(noise * n_rays + 0.5))
+
+
+def dropout_draws(rng: np.random.Generator, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
+    """The random draws :func:`dropout_mask` takes from ``rng``: ``(n_cars, n_rays)`` uniforms,
+    or an empty ``(0, n_rays)`` array where the mask needs none (nothing or everything dropped)."""
+    k = _dropped_per_row(n_rays, noise)
+    if k == 0 or k >= n_rays or n_cars == 0:
+        return np.zeros((0, n_rays))
+    return rng.random((n_cars, n_rays))
+
+
+def dropout_from_draws(draws: np.ndarray, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
+    """The dropout mask of ``n_cars`` rows from their :func:`dropout_draws` (rows of several
+    generators' draws may be stacked: each row's mask depends on that row alone)."""
+    k = _dropped_per_row(n_rays, noise)
     if k == 0 or n_cars == 0:
         return np.zeros((n_cars, n_rays), dtype=bool)
     if k >= n_rays:
         return np.ones((n_cars, n_rays), dtype=bool)
-    draws = rng.random((n_cars, n_rays))
     # the k smallest draws of each row (draws are distinct doubles: exactly k per row)
     return draws <= np.partition(draws, k - 1, axis=1)[:, k - 1:k]
 

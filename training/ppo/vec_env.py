@@ -203,31 +203,93 @@ class InstanceSlots(gym.vector.VectorEnv):
 
 
 class ConcatSlots(ConcatVecEnv):
-    """SuperSuit's ``ConcatVecEnv`` with its per-step concatenation done as whole arrays.
+    """SuperSuit's ``ConcatVecEnv`` whose step runs every instance through one env-core decision.
 
-    SuperSuit concatenates through Gymnasium's space utilities, which walk the batch one row at a
-    time: every step it iterates the 64-odd actions into a list, builds a fresh array per instance
-    from them, and rebuilds the observation batch row by row into a newly allocated array. For our
-    spaces (a flat ``Box`` slot observation, ``Discrete`` actions) the same batches are plain
-    slices and one ``np.concatenate``, which this subclass does (about a tenth of the env's
-    wall clock in a 4-car rollout was SuperSuit's concatenation). Everything else (reset, seeding,
+    SuperSuit steps its sub-envs one after the other and concatenates through Gymnasium's space
+    utilities, which walk the batch one row at a time. Here every instance that has live cars is
+    stepped by one :func:`box2d_driving.envs.core.step_instances` call (the numpy work of all
+    cars of all instances together), and the slot batch (observations with their team blocks,
+    rewards, terminations, truncations, infos) is built as whole arrays; instances whose cars are
+    all done reset themselves as :class:`InstanceSlots` does. Everything else (reset, seeding,
     closing, how worker processes drive it) is SuperSuit's; ``tests/test_vec_env.py`` checks that
-    steps return exactly what ``ConcatVecEnv`` returns.
+    steps return exactly what SuperSuit's ``ConcatVecEnv`` over the same instances returns.
     """
 
     def concat_obs(self, observations: Sequence[np.ndarray]) -> np.ndarray:
         return np.concatenate(observations, axis=0)
 
     def step(self, actions):
-        actions = np.asarray(actions)
-        data, start = [], 0
-        for venv in self.vec_envs:
-            data.append(venv.step(actions[start:start + venv.num_envs]))
-            start += venv.num_envs
-        observations, rewards, terminations, truncations, infos = zip(*data)
-        return (np.concatenate(observations, axis=0), np.concatenate(rewards, axis=0),
-                np.concatenate(terminations, axis=0), np.concatenate(truncations, axis=0),
-                [info for sub in infos for info in sub])
+        from box2d_driving.envs.core import step_instances
+
+        insts: list[InstanceSlots] = self.vec_envs
+        first = insts[0]
+        n, lay = first.n_cars, first.layout
+        k_all = len(insts)
+        actions = np.asarray(actions).reshape(k_all, n)
+        live = [k for k, inst in enumerate(insts) if inst.env.agents]
+        envs = [insts[k].env for k in live]
+        raws = [_checked(actions[k, env._acting], first.action_space.n) for k, env in zip(live, envs)]
+        decisions = step_instances(envs, raws) if envs else []
+
+        own = np.zeros((k_all, n, lay.obs_dim), dtype=np.float32)
+        alive = np.zeros((k_all, n), dtype=np.float32)
+        rewards = np.zeros((k_all, n), dtype=np.float32)
+        terms = np.zeros((k_all, n), dtype=bool)
+        truncs = np.zeros((k_all, n), dtype=bool)
+        infos: list[dict[str, Any]] = [{} for _ in range(k_all * n)]  # distinct dicts
+        finished = []  # (instance, car) of every car whose trajectory ended now
+        for k, d in zip(live, decisions):
+            own[k, d.cars] = d.observations
+            alive[k, d.cars] = 1.0
+            rewards[k, d.cars] = d.rewards
+            terms[k, d.cars] = d.terminated
+            truncs[k, d.cars] = d.truncated & ~d.terminated
+            for i, info in zip(d.cars.tolist(), d.infos):
+                infos[k * n + i] = info
+            ended = d.cars if d.truncated else d.cars[d.terminated]
+            finished += [(k, i) for i in ended.tolist()]
+        final = _slot_rows(own, alive, lay)
+        if finished:
+            for k, i in finished:
+                info = infos[k * n + i]
+                info["terminal_observation"] = final[k, i].copy()
+                info["TimeLimit.truncated"] = bool(truncs[k, i])
+                own[k, i] = 0.0
+                alive[k, i] = 0.0
+            rows = _slot_rows(own, alive, lay)
+        else:
+            rows = final
+        for k in live:
+            if not insts[k].env.agents:  # every car of the instance is done: it starts over
+                rows[k] = insts[k].reset()[0]
+        return (rows.reshape(k_all * n, lay.size), rewards.reshape(-1), terms.reshape(-1),
+                truncs.reshape(-1), infos)
+
+
+def _slot_rows(own: np.ndarray, alive: np.ndarray, lay: TeamLayout) -> np.ndarray:
+    """Slot observations ``(K, N, size)`` of ``K`` instances from each car's own observation
+    ``(K, N, D)`` (zero for absent cars) and alive flag ``(K, N)``: every slot carries its
+    instance's whole team (as :meth:`InstanceSlots._rows` writes them)."""
+    k_all, n, d = own.shape
+    out = np.empty((k_all, n, lay.size), dtype=np.float32)
+    out[:, :, lay.own] = own
+    out[:, :, lay.team] = own.reshape(k_all, 1, n * d)
+    out[:, :, lay.alive] = alive[:, None, :]
+    out[:, :, lay.self_alive] = alive
+    return out
+
+
+def _checked(actions: np.ndarray, n_actions: int) -> np.ndarray:
+    """Slot actions as int64, or :class:`ActionError` naming the first one outside ``[0, n)``."""
+    from box2d_driving.envs.actions import ActionError
+
+    raw = actions.astype(np.int64)
+    if actions.dtype.kind not in "iu" and not np.array_equal(raw, actions):
+        raise ActionError(f"slot actions must be integers, got {actions.tolist()}")
+    if raw.size and (raw.min() < 0 or raw.max() >= n_actions):
+        bad = raw[(raw < 0) | (raw >= n_actions)][0]
+        raise ActionError(f"slot actions must be in [0, {n_actions}), got {bad}")
+    return raw
 
 
 class SlotVecEnv(CarSlots, VecEnv):

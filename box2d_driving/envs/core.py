@@ -1,0 +1,268 @@
+"""The env core: one decision of one or several instances of a scenario, as arrays.
+
+:meth:`DrivingEnv.step <box2d_driving.envs.base.DrivingEnv.step>` steps its one instance through
+:func:`step_instances`, and so does training's vector env with every instance of its process at
+once (``training/ppo/vec_env.py``). What each instance owns is done per instance: its Box2D world
+(:meth:`DrivingWorld.advance <box2d_driving.physics.world.DrivingWorld.advance>`), its random
+generator (LiDAR dropout), its lights and the scenario's hooks. Everything that is a formula over
+cars (acceleration levels, reward terms, sat-nav columns, LiDAR encoding, the numbers in the infos)
+runs once over the cars of all instances together, gathered by concatenation: the same
+element-wise operations on the same values, so a car's numbers do not depend on which other
+instances were stepped with it (``tests/test_env_core.py`` checks this bit for bit), while the
+numpy call overhead is paid once per decision instead of once per instance.
+
+Only the PettingZoo boundary (:class:`~box2d_driving.envs.base.DrivingEnv`) builds per-agent dicts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from box2d_driving.envs.reward import TERMS, reward_terms
+from box2d_driving.physics.world import ARRIVED, COLLIDED
+from box2d_driving.road.geometry import wrap_angle
+from box2d_driving.sensors import lidar
+
+# instances of box2d_driving.envs.base.DrivingEnv (not imported: base imports this module)
+Envs = Sequence[Any]
+
+
+@dataclass
+class Decision:
+    """One decision of one instance, as arrays over the cars that acted in it.
+
+    Attributes:
+        cars: ``(n,)`` indices of the cars that acted (the live agents before the step), ascending.
+        observations: ``(n, D)`` float32, each car's observation after the decision.
+        rewards: ``(n,)`` the sum of the reward terms.
+        terms: each reward term (:data:`box2d_driving.envs.reward.TERMS`), ``(n,)``.
+        terminated: ``(n,)`` the car reached its goal or crashed in this decision.
+        truncated: the horizon ended the episode with this decision (for every car not terminated).
+        infos: one dict per car (the env's documented keys, ``reward_terms`` last).
+    """
+
+    cars: np.ndarray
+    observations: np.ndarray
+    rewards: np.ndarray
+    terms: dict[str, np.ndarray]
+    terminated: np.ndarray
+    truncated: bool
+    infos: list[dict[str, Any]]
+
+
+def _cat(parts: Sequence[np.ndarray]) -> np.ndarray:
+    """The parts end to end (the part itself when there is one: callers never write into it)."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
+def _flat(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
+    """Indices of ``cars`` (per instance) into arrays gathered over ``envs`` (``num_cars`` each)."""
+    if len(envs) == 1:
+        return cars[0]
+    n = envs[0].config.num_cars
+    return np.concatenate([c + k * n for k, c in enumerate(cars)])
+
+
+def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
+    """One decision of each instance in ``envs`` (one scenario class and config, all reset and
+    with live agents); ``actions[k]`` holds the raw integer actions of ``envs[k]``'s live cars in
+    agent order, already checked. Updates every instance's state and live agents."""
+    first = envs[0]
+    cfg = first.config
+    n = cfg.num_cars
+    acting = [env._acting for env in envs]
+    flat = _flat(envs, acting)
+    raw = _cat(actions)
+    levels = first._levels
+    n_acc = len(levels)
+    prev = _cat([env._prev_level for env in envs])
+    level = prev.copy()
+    level[flat] = levels[raw % n_acc]
+    bits = np.zeros(len(prev))
+    if cfg.communication:
+        bits[flat] = raw // n_acc
+    ratings = _cat([env.world.ratings for env in envs])
+    accel = np.zeros(len(prev))
+    accel[flat] = level[flat] * ratings[flat]
+
+    events = []
+    for k, env in enumerate(envs):
+        events.append(env.world.advance(accel[k * n:(k + 1) * n]))
+        env.decision += 1
+        env._bits = bits[k * n:(k + 1) * n]
+
+    arrived = _cat([e.arrived for e in events])[flat]
+    collided = _cat([e.collided for e in events])[flat]
+    remaining = _cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs])
+    decision = np.repeat(np.array([env.decision for env in envs], dtype=np.int64),
+                         [len(c) for c in acting])
+    terms = reward_terms(
+        arrived=arrived, collided=collided, accel_level=level[flat], prev_accel_level=prev[flat],
+        accel_range=first._accel_range, remaining=remaining[flat],
+        initial=_cat([env._initial for env in envs])[flat], decision=decision, horizon=cfg.horizon,
+        goal_reward=cfg.goal_reward, collision_reward=cfg.collision_reward,
+    )
+    for k, env in enumerate(envs):
+        env._prev_level = level[k * n:(k + 1) * n]
+    total = sum(terms[t] for t in TERMS)
+
+    lidar_frame, satnav_frame = frames(envs, acting, senders=acting)
+    infos = car_infos(envs, acting)
+    for info, values in zip(infos, zip(*[terms[t].tolist() for t in TERMS])):
+        info["reward_terms"] = dict(zip(TERMS, values))
+    done = arrived | collided
+
+    out, start = [], 0
+    for env, cars in zip(envs, acting):
+        rows = slice(start, start + len(cars))
+        start += len(cars)
+        env.history.push(cars, lidar_frame[rows], satnav_frame[rows])
+        truncated = env.decision >= cfg.horizon
+        gone = done[rows]
+        out.append(Decision(cars=cars, observations=env.history.observations(cars), rewards=total[rows],
+                            terms={t: terms[t][rows] for t in TERMS}, terminated=gone,
+                            truncated=truncated, infos=infos[rows]))
+        env._acting = cars[:0] if truncated else cars[~gone]
+        env.agents = [env.possible_agents[i] for i in env._acting.tolist()]
+    return out
+
+
+def frames(envs: Envs, cars: Sequence[np.ndarray],
+           senders: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """LiDAR and sat-nav frames of ``cars[k]`` of each instance ``envs[k]`` at its current state,
+    rows in that order; ``senders[k]`` are the cars whose bits were sent in the last decision."""
+    first = envs[0]
+    cfg = first.config
+    flat = _flat(envs, cars)
+    distances = lidar_distances(envs, cars)
+    draws = [lidar.dropout_draws(env.np_random, len(c), cfg.n_rays, cfg.lidar_noise)
+             for env, c in zip(envs, cars)]
+    dropped = lidar.dropout_from_draws(_cat(draws), len(flat), cfg.n_rays, cfg.lidar_noise)
+    start = 0
+    for env, c in zip(envs, cars):
+        if env.render_mode is not None:  # kept for drawing the rays
+            rows = slice(start, start + len(c))
+            if env._last_rays is None or env.decision == 0:
+                env._last_rays = np.full((cfg.num_cars, cfg.n_rays), np.inf)
+                env._last_dropped = np.zeros((cfg.num_cars, cfg.n_rays), dtype=bool)
+            env._last_rays[c] = distances[rows]
+            env._last_dropped[c] = dropped[rows]
+        start += len(c)
+    distances[dropped] = np.inf
+    lidar_frame = lidar.encode(distances, cfg.lidar_range, cfg.lidar_encoding)
+
+    for env, c in zip(envs, cars):
+        if env.layout.lights is not None:
+            w = env.world
+            env._seen[c] = env.layout.lights.seen(
+                env.time, env._light_index[c], w.positions[c], w.headings[c], cfg.light_view_distance)
+    pos = _cat([env.world.positions for env in envs])[flat]
+    head = _cat([env.world.headings for env in envs])[flat]
+    remaining = (_cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs]))[flat]
+    to_goal = _cat([env._goals for env in envs])[flat] - pos
+    heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
+    heading_error = np.where(remaining > 0, heading_error, 0.0)
+    speed = _cat([env.world.speed for env in envs])[flat] / _cat([env.world.v_lim for env in envs])[flat]
+    cols = [_cat([env._seen for env in envs])[flat], speed, heading_error, 1.0 / np.maximum(remaining, 1.0)]
+    parts = [np.stack(cols, axis=1)]
+    if first.satnav_extras:
+        parts.append(_cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)]))
+    if cfg.communication:
+        for env, c, s in zip(envs, cars, senders):
+            env._received[c] = env._receive(c, s) if cfg.messages_heard else 0.0
+        parts.append(_cat([env._received for env in envs])[flat][:, None])
+    satnav = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
+    return lidar_frame, satnav.astype(np.float32)
+
+
+def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
+    """Noise-free LiDAR distances (m, ``inf``: no return) of ``cars[k]`` of each instance
+    ``envs[k]``, rows in that order: every scene in one compiled call (``numba``), or ray by ray
+    through each instance's Box2D world (``box2d``, the reference)."""
+    first = envs[0]
+    cfg = first.config
+    worlds = [env.world for env in envs]
+    if first._backend == "box2d":
+        return _cat([lidar.cast_rays_box2d(w.world, [w.car_bodies[i] for i in c], w.positions[c], w.headings[c],
+                                           cfg.n_rays, cfg.lidar_range, cfg.lidar_sees_pedestrians)
+                     for w, c in zip(worlds, cars)])
+    if cfg.lidar_sees_pedestrians:
+        peds = [w.ped_sizes for w in worlds]
+        ped_positions, ped_sizes = _cat([w.ped_positions for w in worlds]), _cat(peds)
+    else:
+        peds = [w.ped_sizes[:0] for w in worlds]
+        ped_positions, ped_sizes = np.zeros((0, 2)), np.zeros(0)
+    edges = [w.edge_segments.reshape(-1, 4) for w in worlds]
+    return lidar.cast_rays_scenes(
+        _cat([w.positions for w in worlds]), _cat([w.headings for w in worlds]), _cat([w.present for w in worlds]),
+        cfg.num_cars, _flat(envs, cars), cfg.car_length, cfg.car_width, ped_positions, ped_sizes,
+        np.array([len(p) for p in peds], dtype=np.int64), _cat(edges),
+        np.array([len(e) for e in edges], dtype=np.int64), cfg.n_rays, cfg.lidar_range)
+
+
+def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
+    """One info dict per car in ``cars[k]`` of each instance ``envs[k]`` (the keys the envs
+    document), rows in that order, with each scenario's own facts
+    (:meth:`~box2d_driving.envs.base.DrivingEnv.scenario_info`) added."""
+    flat = _flat(envs, cars)
+    worlds = [env.world for env in envs]
+    pos = _cat([w.positions for w in worlds])[flat]
+    offset = np.full(len(flat), np.nan)
+    half = _cat([env._lane_half_width for env in envs])[flat]
+    has_axis = ~np.isnan(half)
+    if has_axis.any():
+        rel = pos[has_axis] - _cat([env._lane_origin for env in envs])[flat[has_axis]]
+        right = _cat([env._lane_right for env in envs])[flat[has_axis]]
+        # a stack of vector products: the same rounding as one car's ``rel @ right``
+        dot = np.matmul(rel[:, None, :], right[:, :, None])[:, 0, 0]
+        offset[has_axis] = dot / half[has_axis]
+    stop = np.full(len(flat), np.nan)
+    has = _cat([env._light_index for env in envs])[flat] >= 0
+    if has.any():
+        stop[has] = np.einsum("ij,ij->i", _cat([env._stop_point for env in envs])[flat[has]] - pos[has],
+                              _cat([env._stop_direction for env in envs])[flat[has]])
+    in_junction = _cat([env.layout.in_junction(w.positions[c]) for env, w, c in zip(envs, worlds, cars)])
+
+    # per-car dicts from whole-array columns: each column read once as plain values (the same
+    # numbers as indexing it per car), then one dict per car in the documented key order
+    def column(values: list[np.ndarray]) -> list:
+        return _cat(values)[flat].tolist()
+
+    heading, speed = column([w.headings for w in worlds]), column([w.speed for w in worlds])
+    accel, seen = column([w.accel for w in worlds]), column([env._seen for env in envs])
+    togo = column([w.s_end - w.s for w in worlds])
+    status = column([w.status for w in worlds])
+    partner, halted = column([w.collision_partner for w in worlds]), column([w.partner_halted for w in worlds])
+    rating = column([w.ratings for w in worlds])
+    offsets = [None if v != v else v for v in offset.tolist()]  # None: no lane axis (NaN)
+    stops = [None if v != v else v for v in stop.tolist()]  # None: no light on its approach
+    in_junction = in_junction.tolist()
+    idx, decision, approach, collided_with = [], [], [], []
+    for env, w, c in zip(envs, worlds, cars):
+        ci = c.tolist()
+        idx += ci
+        decision += [env.decision] * len(ci)
+        approach += [env._approach[i] for i in ci]
+        collided_with += [w.collided_with[i] for i in ci]
+    infos = [{"position": p, "heading": heading[k], "speed": speed[k], "acceleration": accel[k],
+              "light": seen[k], "in_junction": in_junction[k], "lane_offset": offsets[k],
+              "stop_line_distance": stops[k], "distance_to_goal": togo[k],
+              "arrived": status[k] == ARRIVED, "collided": status[k] == COLLIDED,
+              "collided_with": collided_with[k], "collision_partner": partner[k],
+              "partner_halted": halted[k], "rating": rating[k], "decision": decision[k],
+              "approach": approach[k]}
+             for k, p in enumerate(pos)]
+    if envs[0].config.communication:
+        bits = column([env._bits for env in envs])
+        heard = column([env._received for env in envs])
+        for info, b, h in zip(infos, bits, heard):
+            info["bit_sent"], info["bit_received"] = int(b), int(h)
+    start = 0
+    for env, c in zip(envs, cars):
+        for info, extra in zip(infos[start:start + len(c)], env.scenario_info(c)):
+            info.update(extra)
+        start += len(c)
+    return infos
