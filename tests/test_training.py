@@ -221,6 +221,26 @@ def test_fast_lidar_encoder_equals_the_convolution(n_rays):
     assert not th.allclose(g_fast[0], th.zeros_like(g_fast[0]))
 
 
+def test_encoder_without_gradients_equals_the_convolution_and_follows_weight_updates():
+    """The rollout's fused no-gradient path (few rows) and the training path (many rows) give the
+    reference convolution's values, also after an optimiser step changes the weights it caches."""
+    from training.ppo.encoder import FUSED_ROWS, LidarEncoder, encode
+
+    th.manual_seed(1)
+    encoders = [LidarEncoder(5, 100, 4), LidarEncoder(5, 100, 4)]
+    opt = th.optim.SGD([p for e in encoders for p in e.parameters()], lr=0.5)
+    for rows in (64, FUSED_ROWS + 1):
+        x = th.randn(rows, 520)
+        for _ in range(2):
+            with th.no_grad():
+                fast, slow = encode(encoders, x), [e.reference(x) for e in encoders]
+            for a, b in zip(fast, slow):
+                assert th.allclose(a, b, atol=1e-5)
+            opt.zero_grad()
+            sum((o * o).sum() for o in encode(encoders, x)).backward()
+            opt.step()  # new weights: the cached fused matrices must not be reused
+
+
 def test_critic_encodes_a_repeated_team_once_with_the_same_values():
     th.manual_seed(0)
     net, _ = _network()

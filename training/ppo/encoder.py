@@ -66,6 +66,20 @@ class LidarEncoder(nn.Module):
         )
         self.out_dim = pooled + history * n_satnav
 
+    # the layers by name (``nn.Sequential``'s ``[i]`` walks its modules: microseconds per access,
+    # and a rollout's forward pass reads each layer every decision)
+    @property
+    def layer1(self) -> CircularConv1d:
+        return self.conv._modules["0"]
+
+    @property
+    def layer2(self) -> CircularConv1d:
+        return self.conv._modules["2"]
+
+    @property
+    def pooled(self) -> int:
+        return self.conv._modules["4"].output_size
+
     def forward(self, obs: th.Tensor) -> th.Tensor:
         return encode([self], obs)[0]
 
@@ -118,6 +132,10 @@ def _window_index(history: int, n_rays: int, kernel: int, block: int) -> th.Tens
 
 
 _REFERENCE = False
+# Without gradients, up to this many rows go the way of :func:`_encode_no_grad` (fewer, fused
+# operations: a rollout step's few dozen rows); more rows are faster the training way, whose
+# layer-2 products are a quarter of the fused block diagonal's
+FUSED_ROWS = 1024
 
 
 @contextmanager
@@ -136,10 +154,12 @@ def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
     """The outputs of ``encoders`` (same architecture, own weights) on the same rows ``obs``."""
     if _REFERENCE:
         return [enc.reference(obs) for enc in encoders]
+    if obs.shape[0] <= FUSED_ROWS and not th.is_grad_enabled():
+        return _encode_no_grad(encoders, obs)
     first = encoders[0]
     h, r = first.history, first.n_rays
-    conv1s = [enc.conv[0] for enc in encoders]
-    conv2s = [enc.conv[2] for enc in encoders]
+    conv1s = [enc.layer1 for enc in encoders]
+    conv2s = [enc.layer2 for enc in encoders]
     out_ch, kernel = conv1s[0].out_channels, conv1s[0].kernel_size[0]
     pad, block = kernel // 2, block_size(r)
     b = obs.shape[0]
@@ -163,6 +183,52 @@ def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
         out = sum(th.roll(tap, pad - k, dims=1) for k, tap in enumerate(taps.unbind(-1)))
         outs.append(out + conv2.bias)
     out = th.stack(outs, dim=1).relu_()  # (B, E, R)
-    pooled = F.adaptive_avg_pool1d(out, first.conv[4].output_size)  # (B, E, 25)
+    pooled = F.adaptive_avg_pool1d(out, first.pooled)  # (B, E, 25)
     rest = obs[:, h * r: first.out_dim - pooled.shape[2] + h * r]
     return [th.cat([pooled[:, i], rest], dim=1) for i in range(len(encoders))]
+
+
+def _fused_weights(encoders: Sequence[LidarEncoder], device: th.device) -> tuple[th.Tensor, ...]:
+    """Every encoder's layer-1 block matrix side by side ``(in_ch * span, E * P * out_ch)`` with its
+    biases, the layer-2 tap matrices on one block diagonal ``(E * P * out_ch, E * P * kernel)`` and
+    the layer-2 biases ``(E,)``: built from the weights once and kept on the first encoder until
+    an optimiser step changes a weight (its version counter) or the weights are replaced."""
+    params = [p for enc in encoders for layer in (enc.layer1, enc.layer2) for p in (layer.weight, layer.bias)]
+    key = [p._version for p in params]
+    cached = encoders[0].__dict__.get("_fused")
+    if cached is not None and cached[0] == key and all(a is b for a, b in zip(cached[1], params)):
+        return cached[2]
+    conv1 = encoders[0].layer1
+    out_ch, kernel = conv1.out_channels, conv1.kernel_size[0]
+    block = block_size(encoders[0].n_rays)
+    index = _toeplitz_index(out_ch, conv1.in_channels, kernel, block).to(device)
+    m1 = th.cat([th.cat([enc.layer1.weight.reshape(-1), enc.layer1.weight.new_zeros(1)])[index]
+                 for enc in encoders], dim=1)
+    b1 = th.cat([enc.layer1.bias.repeat(block) for enc in encoders])
+    m2 = th.block_diag(*[enc.layer2.weight[0] for enc in encoders for _ in range(block)])
+    b2 = th.cat([enc.layer2.bias for enc in encoders])
+    weights = (m1, b1, m2, b2)
+    encoders[0].__dict__["_fused"] = (key, params, weights)  # not a module attribute: no state
+    return weights
+
+
+def _encode_no_grad(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
+    """:func:`encode` without gradients (a rollout's forward pass on a few dozen rows, where the
+    number of operations, not their size, sets the time): every encoder in the same two products,
+    with matrices built once per weight update (:func:`_fused_weights`), and layer 2's ring sum
+    over all encoders at once; within float rounding of the training path."""
+    first = encoders[0]
+    h, r, e = first.history, first.n_rays, len(encoders)
+    conv1 = first.layer1
+    kernel = conv1.kernel_size[0]
+    pad, block = kernel // 2, block_size(r)
+    b = obs.shape[0]
+    m1, b1, m2, b2 = _fused_weights(encoders, obs.device)
+    cols = obs.index_select(1, _window_index(h, r, kernel, block).to(obs.device)).reshape(b * (r // block), -1)
+    hidden = th.addmm(b1, cols, m1).relu_()  # (B R / P, E P out_ch)
+    taps = (hidden @ m2).reshape(b, r // block, e, block * kernel).transpose(1, 2).reshape(b, e, r, kernel)
+    out = sum(th.roll(tap, pad - k, dims=2) for k, tap in enumerate(taps.unbind(-1)))
+    out = (out + b2[:, None]).relu_()  # (B, E, R)
+    pooled = F.adaptive_avg_pool1d(out, first.pooled)  # (B, E, 25)
+    rest = obs[:, h * r: first.out_dim - pooled.shape[2] + h * r]
+    return [th.cat([pooled[:, i], rest], dim=1) for i in range(e)]
