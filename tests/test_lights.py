@@ -87,3 +87,39 @@ def test_hand_built_light_visible_only_to_its_approach():
     obs, info = env.reset(seed=0)
     assert info["car_0"]["light"] == GREEN
     assert info["car_1"]["light"] == NO_LIGHT
+
+
+def test_lights_of_several_junctions_at_once_are_each_junctions_own_to_the_bit():
+    """seen_by_cars (the env core's batched rule) against TrafficLights.seen, junction by junction,
+    over random cars around the stop lines (with and without a light) at random times."""
+    from box2d_driving.road.lights import seen_by_cars
+
+    rng = np.random.default_rng(0)
+    junctions = [TrafficLights(rng.uniform(-5, 5, (4, 2)), np.array([[1.0, 0], [0, 1], [-1, 0], [0, -1]]),
+                               np.array([0, 1, 0, 1]), float(rng.uniform(10, 15)), 1.0, float(rng.uniform(0, 20)))
+                 for _ in range(3)]
+    cols = {k: [] for k in ("time", "stop", "dir", "group", "period", "yellow", "offset", "pos", "head")}
+    want = []
+    for _ in range(200):
+        for lights in junctions:
+            t = float(rng.uniform(0, 60))
+            li = rng.integers(-1, 4, 5)
+            pos = lights.stop_points[np.maximum(li, 0)] + rng.uniform(-35, 35, (5, 2))
+            head = rng.uniform(-np.pi, np.pi, 5)
+            want.append(lights.seen(t, li, pos, head, 30.0))
+            has = li >= 0
+            cols["time"].append(np.full(5, t))
+            cols["stop"].append(np.where(has[:, None], lights.stop_points[np.maximum(li, 0)], np.nan))
+            cols["dir"].append(np.where(has[:, None], lights.directions[np.maximum(li, 0)], np.nan))
+            cols["group"].append(np.where(has, lights.groups[np.maximum(li, 0)], 0))
+            cols["period"].append(np.full(5, lights.half_period))
+            cols["yellow"].append(np.full(5, lights.yellow))
+            cols["offset"].append(np.full(5, lights.offset))
+            cols["pos"].append(pos)
+            cols["head"].append(head)
+    c = {k: np.concatenate(v) for k, v in cols.items()}
+    got = seen_by_cars(c["time"], c["stop"], c["dir"], c["group"], c["period"], c["yellow"], c["offset"],
+                       c["pos"], c["head"], 30.0)
+    want = np.concatenate(want)
+    assert np.array_equal(got, want)
+    assert len(set(want.tolist())) == 4  # green, yellow, red and no light all occurred

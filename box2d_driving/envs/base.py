@@ -137,7 +137,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._received = np.zeros(n)
         self._seen = np.full(n, NO_LIGHT)
         self._lane_origin, self._lane_right, self._lane_half_width = _lane_axes(self.layout)
-        self._stop_point, self._stop_direction = _stop_lines(self.layout, self._light_index)
+        self._stop_point, self._stop_direction, self._light_group = _stop_lines(self.layout, self._light_index)
         self._approach = [c.approach for c in self.layout.cars]
         cars = np.arange(n)
         self._acting = cars
@@ -260,13 +260,15 @@ def _lane_axes(layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return origin, right, half
 
 
-def _stop_lines(layout: Layout, light_index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The stop-line centre ``(N, 2)`` and travel direction ``(N, 2)`` of each car's light, NaN
-    for cars without one (no light on their approach, or no lights at all)."""
+def _stop_lines(layout: Layout, light_index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stop-line centre ``(N, 2)``, travel direction ``(N, 2)`` and group ``(N,)`` of each
+    car's light; NaN (group 0) for cars without one (no light on their approach, or no lights)."""
     n = len(light_index)
     point, direction = np.full((n, 2), np.nan), np.full((n, 2), np.nan)
+    group = np.zeros(n, dtype=np.int64)
     has = light_index >= 0
     if layout.lights is not None and has.any():
         point[has] = layout.lights.stop_points[light_index[has]]
         direction[has] = layout.lights.directions[light_index[has]]
-    return point, direction
+        group[has] = layout.lights.groups[light_index[has]]
+    return point, direction, group

@@ -24,6 +24,7 @@ import numpy as np
 from box2d_driving.envs.reward import TERMS, reward_terms
 from box2d_driving.physics.world import ARRIVED, COLLIDED
 from box2d_driving.road.geometry import wrap_angle
+from box2d_driving.road.lights import NO_LIGHT, light_values, visible_lights
 from box2d_driving.sensors import lidar
 
 # instances of box2d_driving.envs.base.DrivingEnv (not imported: base imports this module)
@@ -154,28 +155,49 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     distances[dropped] = np.inf
     lidar_frame = lidar.encode(distances, cfg.lidar_range, cfg.lidar_encoding)
 
-    for env, c in zip(envs, cars):
-        if env.layout.lights is not None:
-            w = env.world
-            env._seen[c] = env.layout.lights.seen(
-                env.time, env._light_index[c], w.positions[c], w.headings[c], cfg.light_view_distance)
     pos = _cat([env.world.positions for env in envs])[flat]
     head = _cat([env.world.headings for env in envs])[flat]
+    if len(envs) == 1:  # one junction: its own rule, in plain floats (fastest for a handful of cars)
+        env = envs[0]
+        if env.layout.lights is not None:
+            env._seen[flat] = env.layout.lights.seen(env.time, env._light_index[flat], pos, head,
+                                                     cfg.light_view_distance)
+    elif any(env.layout.lights is not None for env in envs):  # the same rule over every instance's cars
+        visible = visible_lights(_cat([env._stop_point for env in envs])[flat],
+                                 _cat([env._stop_direction for env in envs])[flat], pos, head,
+                                 cfg.light_view_distance)
+        seen = np.full(len(flat), NO_LIGHT)
+        if visible.any():  # the lights' values only for the cars that see one (few, most decisions)
+            lights = [env.layout.lights for env in envs]
+            none = (0.0, 0.0, 0.0)  # an instance without lights: none of its cars sees one
+            params = np.array([(env.time,) + ((x.half_period, x.yellow, x.offset) if x is not None else none)
+                               for env, x in zip(envs, lights)])
+            scene = np.repeat(np.arange(len(envs)), [len(c) for c in cars])[visible]
+            seen[visible] = light_values(params[scene, 0], _cat([env._light_group for env in envs])[flat[visible]],
+                                         params[scene, 1], params[scene, 2], params[scene, 3])
+        start = 0
+        for env, c in zip(envs, cars):
+            if env.layout.lights is not None:
+                env._seen[c] = seen[start:start + len(c)]
+            start += len(c)
     remaining = (_cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs]))[flat]
     to_goal = _cat([env._goals for env in envs])[flat] - pos
     heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
     heading_error = np.where(remaining > 0, heading_error, 0.0)
     speed = _cat([env.world.speed for env in envs])[flat] / _cat([env.world.v_lim for env in envs])[flat]
-    cols = [_cat([env._seen for env in envs])[flat], speed, heading_error, 1.0 / np.maximum(remaining, 1.0)]
-    parts = [np.stack(cols, axis=1)]
-    if first.satnav_extras:
-        parts.append(_cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)]))
+    n_extra = len(first.satnav_extras)
+    satnav = np.empty((len(flat), 4 + n_extra + int(cfg.communication)), dtype=np.float32)
+    satnav[:, 0] = _cat([env._seen for env in envs])[flat]
+    satnav[:, 1] = speed
+    satnav[:, 2] = heading_error
+    satnav[:, 3] = 1.0 / np.maximum(remaining, 1.0)
+    if n_extra:
+        satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])
     if cfg.communication:
         for env, c, s in zip(envs, cars, senders):
             env._received[c] = env._receive(c, s) if cfg.messages_heard else 0.0
-        parts.append(_cat([env._received for env in envs])[flat][:, None])
-    satnav = parts[0] if len(parts) == 1 else np.concatenate(parts, axis=1)
-    return lidar_frame, satnav.astype(np.float32)
+        satnav[:, -1] = _cat([env._received for env in envs])[flat]
+    return lidar_frame, satnav
 
 
 def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
@@ -229,7 +251,9 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
     # per-car dicts from whole-array columns: each column read once as plain values (the same
     # numbers as indexing it per car), then one dict per car in the documented key order
     def column(values: list[np.ndarray]) -> list:
-        return _cat(values)[flat].tolist()
+        gathered = _cat(values)
+        # every car acted (flat is every row, in order): no need to pick rows
+        return (gathered if len(flat) == len(gathered) else gathered[flat]).tolist()
 
     heading, speed = column([w.headings for w in worlds]), column([w.speed for w in worlds])
     accel, seen = column([w.accel for w in worlds]), column([env._seen for env in envs])

@@ -176,14 +176,21 @@ def cast_rays_scenes(car_positions: np.ndarray, car_headings: np.ndarray, car_pr
     (``(E, 4)``); ``observers`` are indices into the cars, and each sees only its own scene.
     """
     out = np.empty((len(observers), n_rays))
+    _cast_rays_scenes(car_positions, car_headings, car_present, n_cars, observers, car_length / 2, car_width / 2,
+                      ped_positions, ped_sizes / 2, ped_counts, edges, edge_counts, n_rays, float(max_range), out)
+    return out
+
+
+@njit(cache=True)
+def _cast_rays_scenes(car_positions, car_headings, car_present, n_cars, observers, half_length, half_width,
+                      ped_positions, ped_half, ped_counts, edges, edge_counts, n_rays, max_range, out):
+    """:func:`cast_rays_scenes` in one compiled call (it runs every decision)."""
     segs, owner, one_sided, seg_start = _scenes_segments(
-        car_positions, car_headings, car_present, n_cars, car_length / 2, car_width / 2,
-        ped_positions, ped_sizes / 2, ped_counts, edges, edge_counts)
+        car_positions, car_headings, car_present, n_cars, half_length, half_width,
+        ped_positions, ped_half, ped_counts, edges, edge_counts)
     scene = observers // n_cars
     _cast_rays_in(car_positions[observers], car_headings[observers], observers % n_cars,
-                  seg_start[scene], seg_start[scene + 1], n_rays, float(max_range), segs, owner,
-                  one_sided, out)
-    return out
+                  seg_start[scene], seg_start[scene + 1], n_rays, max_range, segs, owner, one_sided, out)
 
 
 @njit(cache=True)
