@@ -544,3 +544,40 @@ def test_cli_renders_a_trained_policy_and_delegates_train(tmp_path, capsys):
     assert cli(["render", "highway-v0", "--policy", str(out), "--out", str(tmp_path / "w.mp4")]) == 2
     assert cli(["train", "nope"]) == 2
     assert "trained on intersection-v0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("critic", ["mean", "own+mean", "own"])
+def test_rollout_forward_in_numpy_gives_the_torch_forwards_actions_values_and_log_probs(critic):
+    """A rollout step's forward pass (numpy, training/ppo/rollout_forward.py) against SB3's torch
+    forward of the same policy: the same sampled actions, values and log-probabilities within float
+    rounding, with dead slots in the batch, before and after the weights change."""
+    from training.ppo.vec_env import _slot_rows
+
+    cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": 4, "lidar_noise": 0.5}, n_envs=3,
+                      critic=critic, device="cpu")
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4, lidar_noise=0.5)] * 3)
+    model = build_model(cfg, venv)
+    policy = model.policy
+    venv.seed(2)
+    rows = venv.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(4):
+        rows = venv.step(rng.integers(0, 13, venv.num_envs))[0]
+    lay = venv.layout
+    own = rows[:, lay.own].reshape(3, 4, -1).copy()
+    alive = np.ones((3, 4), np.float32)
+    alive[0, 2] = alive[2, 0] = alive[2, 3] = 0.0  # dead slots: padding rows
+    own[alive == 0] = 0.0
+    x = th.as_tensor(_slot_rows(own, alive, lay).reshape(12, -1))
+    for _ in range(2):
+        with th.no_grad():
+            th.manual_seed(5)
+            fast = policy(x)
+            th.manual_seed(5)
+            reference = super(CTDEPolicy, policy).forward(x)
+        assert policy.__dict__.get("_rollout_forward") is not None  # the numpy way was taken
+        assert th.equal(fast[0], reference[0])
+        assert th.allclose(fast[1], reference[1], atol=1e-5) and th.allclose(fast[2], reference[2], atol=1e-5)
+        with th.no_grad():  # new weights, changed in place as an optimiser step changes them
+            for p in policy.parameters():
+                p.add_(0.2 * th.randn_like(p))
