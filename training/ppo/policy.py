@@ -21,12 +21,10 @@ from typing import Any, Optional
 
 import numpy as np
 import torch as th
-from stable_baselines3.common.distributions import CategoricalDistribution
 from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
 from training.ppo.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
-from training.ppo.rollout_forward import RolloutForward
 
 CRITICS = ("mean", "own+mean", "own")
 
@@ -146,26 +144,6 @@ class CTDEPolicy(ActorCriticPolicy):
 
     def _build_mlp_extractor(self) -> None:
         self.mlp_extractor = CTDENetwork(**self.ctde_kwargs)
-
-    def forward(self, obs: th.Tensor, deterministic: bool = False) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
-        """SB3's forward pass (actions, values, log-probabilities). A rollout step on the CPU
-        (whole env instances of slot rows, no gradients) gets its logits and values from
-        :class:`training.ppo.rollout_forward.RolloutForward`, a few times faster at that size;
-        SB3's distribution samples the actions from them as usual. Everything else goes the torch way."""
-        if not th.is_grad_enabled() and obs.device.type == "cpu" and isinstance(self.action_dist, CategoricalDistribution):
-            net = self.mlp_extractor
-            features = self.extract_features(obs)
-            slots = net._whole_instances(features) if features.shape[1] != net.obs_dim + 1 else None
-            if slots is not None:
-                fast = self.__dict__.get("_rollout_forward")
-                if fast is None:
-                    fast = self.__dict__["_rollout_forward"] = RolloutForward(self)
-                logits, values = fast(features[:, :net.obs_dim].numpy(), net.n_cars, slots[1].numpy())
-                distribution = self.action_dist.proba_distribution(action_logits=th.from_numpy(logits))
-                actions = distribution.get_actions(deterministic=deterministic)
-                log_prob = distribution.log_prob(actions)
-                return actions.reshape((-1, *self.action_space.shape)), th.from_numpy(values), log_prob
-        return super().forward(obs, deterministic)
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
