@@ -157,6 +157,32 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
 
     pos = _cat([env.world.positions for env in envs])[flat]
     head = _cat([env.world.headings for env in envs])[flat]
+    _update_lights_seen(envs, cars, flat, pos, head)
+    remaining = (_cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs]))[flat]
+    to_goal = _cat([env._goals for env in envs])[flat] - pos
+    heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
+    heading_error = np.where(remaining > 0, heading_error, 0.0)
+    speed = _cat([env.world.speed for env in envs])[flat] / _cat([env.world.v_lim for env in envs])[flat]
+    n_extra = len(first.satnav_extras)
+    satnav = np.empty((len(flat), 4 + n_extra + int(cfg.communication)), dtype=np.float32)
+    satnav[:, 0] = _cat([env._seen for env in envs])[flat]
+    satnav[:, 1] = speed
+    satnav[:, 2] = heading_error
+    satnav[:, 3] = 1.0 / np.maximum(remaining, 1.0)
+    if n_extra:
+        satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])
+    if cfg.communication:
+        for env, c, s in zip(envs, cars, senders):
+            env._received[c] = env._receive(c, s) if cfg.messages_heard else 0.0
+        satnav[:, -1] = _cat([env._received for env in envs])[flat]
+    return lidar_frame, satnav
+
+
+def _update_lights_seen(envs: Envs, cars: Sequence[np.ndarray], flat: np.ndarray, pos: np.ndarray,
+                        head: np.ndarray) -> None:
+    """Each instance's ``_seen`` for its ``cars``: the light each sees (``NO_LIGHT`` for none) at
+    positions ``pos`` and headings ``head`` (rows of ``flat``)."""
+    cfg = envs[0].config
     if len(envs) == 1:  # one junction: its own rule, in plain floats (fastest for a handful of cars)
         env = envs[0]
         if env.layout.lights is not None:
@@ -180,24 +206,6 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
             if env.layout.lights is not None:
                 env._seen[c] = seen[start:start + len(c)]
             start += len(c)
-    remaining = (_cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs]))[flat]
-    to_goal = _cat([env._goals for env in envs])[flat] - pos
-    heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
-    heading_error = np.where(remaining > 0, heading_error, 0.0)
-    speed = _cat([env.world.speed for env in envs])[flat] / _cat([env.world.v_lim for env in envs])[flat]
-    n_extra = len(first.satnav_extras)
-    satnav = np.empty((len(flat), 4 + n_extra + int(cfg.communication)), dtype=np.float32)
-    satnav[:, 0] = _cat([env._seen for env in envs])[flat]
-    satnav[:, 1] = speed
-    satnav[:, 2] = heading_error
-    satnav[:, 3] = 1.0 / np.maximum(remaining, 1.0)
-    if n_extra:
-        satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])
-    if cfg.communication:
-        for env, c, s in zip(envs, cars, senders):
-            env._received[c] = env._receive(c, s) if cfg.messages_heard else 0.0
-        satnav[:, -1] = _cat([env._received for env in envs])[flat]
-    return lidar_frame, satnav
 
 
 def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
