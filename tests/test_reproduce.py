@@ -615,7 +615,7 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
                 for k in range(1, 9):
                     d = 320_000 * k
                     v = 0.11 if noise == "0.25" else 0.3 - (0.02 + 0.001 * seed) * k
-                    w.writerow({"trial": f"t{noise}{seed}", "seed": seed, "lidar_noise": noise, "decisions": d,
+                    w.writerow({"trial": f"lights_lidar_noise={noise}_seed={seed}", "seed": seed, "lidar_noise": noise, "decisions": d,
                                 "agent_steps": d * 0.7, "episodes": 100, "first_seed": SELECTION.start,
                                 "success_rate": 0.9, "collision_rate": 0.1, "red_light_violation_rate": v})
     assert main([str(grid), str(paper), "--out", str(page)]) == 0
@@ -628,6 +628,16 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
     falls = mean_ci([-(0.02 + 0.001 * s) * 4 for s in range(3)])
     assert f"lidar_noise 1.0 {falls.format()} (still falling)" in line
     assert (tmp_path / "docs" / "images" / "results" / "traffic-lights-paper_curves.png").stat().st_size > 10_000
+    assert "of the 6 finished trials" not in mine  # the curves cover every finished trial
+    # curves of only some trials (the others finished on a machine that kept no checkpoints) say which
+    path = tmp_path / "curves" / "lights-paper.csv"
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(x for x in lines if "noise=1.0_seed=2," not in x) + "\n")
+    assert main([str(grid), str(paper), "--out", str(page)]) == 0
+    mine = page.read_text().split("## Stopping at red lights, at the paper's settings")[1].split("\n## ")[0]
+    assert ("; 5 of the 6 finished trials (lights_lidar_noise=0.25_seed=0, lights_lidar_noise=0.25_seed=1, "
+            "lights_lidar_noise=0.25_seed=2, lights_lidar_noise=1.0_seed=0, lights_lidar_noise=1.0_seed=1): the "
+            "others ran where their checkpoints were not kept):") in mine
     # a file that is not a sweep's curves is refused with the page's own error
     (tmp_path / "curves" / "lights-paper.csv").write_text("a,b\n1,2\n")
     assert main([str(grid), str(paper), "--out", str(page)]) == 2

@@ -155,7 +155,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                 name = f"{section.key}_curves.png"
                 curve_figure(curves, keys, shown, figures / name)
                 parts += [f"**Learning curves** (`{curves_path(summary['path'])}`; selection seeds from "
-                          f"{int(curves[0]['first_seed']):,}):", ""]
+                          f"{int(curves[0]['first_seed']):,}{curve_coverage(curves, trials, keys)}):", ""]
                 parts += plateau_lines(curves, keys, shown) + [""]
                 parts += [f"![{section.title}: learning curves]({(rel / name).as_posix()})", ""]
             failed = [r for r in trials if r.get("status") in ("error", "stopped")]
@@ -218,6 +218,22 @@ def budget_note(section: Section, curves: bool = False) -> str:
                         "checkpoint on selection episodes (`box2d-driving curve`).")
     return paper + (" Whether the metric had stopped moving at our budget is not measured (the sweep's checkpoints "
                     "were not kept for a learning curve).")
+
+
+def curve_coverage(curves: list[dict[str, Any]], trials: list[dict[str, Any]], keys: list[str]) -> str:
+    """Which finished trials the learning curves cover, where not all of them: a trial taken from a
+    summary committed on another machine has no checkpoints here to draw. A trial is its grid point
+    (``keys``) and seed."""
+    def ident(r: dict[str, Any]) -> tuple:
+        return (*(str(r.get(k)) for k in keys), int(r["seed"]))
+
+    drawn = {ident(r) for r in curves}
+    done = [r for r in trials if r.get("status") == "done"]
+    if all(ident(r) in drawn for r in done):
+        return ""
+    names = ", ".join(r["trial"] for r in done if ident(r) in drawn)
+    return (f"; {sum(ident(r) in drawn for r in done)} of the {len(done)} finished trials ({names}): the others "
+            "ran where their checkpoints were not kept")
 
 
 def ran_budget(trials: list[dict[str, Any]]) -> str:
