@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import box2d_driving
-from box2d_driving.metrics.lights import junction_entries, outcome_rates, traffic_light_metrics, violation_rate
+from box2d_driving.metrics.lights import (junction_entries, outcome_rates, traffic_light_metrics, violation_causes,
+                                         violation_rate)
 from box2d_driving.metrics.rollouts import (COLUMNS, RolloutRecorder, load_table, row_lookup, run_episodes,
                                             save_table)
 from box2d_driving.policies import LightRulePolicy, RandomPolicy
@@ -35,6 +36,55 @@ def test_entry_light_is_the_one_seen_before_entering():
     e = junction_entries(t)
     got = sorted(zip(e["car"].tolist(), e["light"].tolist(), e["decision"].tolist()))
     assert got == [(0, 0.0, 3), (1, 1.0, 1)]
+
+
+def test_a_violation_is_the_worlds_when_the_car_was_inside_its_braking_distance_as_the_light_changed():
+    # braking at 1.5 m/s^2 (rating 1) from 10 m/s takes 33.3 m, from 5 m/s 8.3 m
+    def car(c, lights, speeds, dists, enter_at):
+        return [(0, c, d, light, d >= enter_at, v, x) for d, (light, v, x) in enumerate(zip(lights, speeds, dists))]
+
+    rows = (
+        # green until 20 m before the line at 10 m/s: yellow, then red, enters: could not stop
+        car(0, [0.75, 0.0, 0.5, 1.0, 0.75], [10, 10, 10, 10, 10], [50, 30, 20, 10, 0], 4)
+        # the same change 20 m before the line at 5 m/s: room to stop, entered anyway
+        + car(1, [0.0, 0.5, 1.0, 1.0, 0.75], [5, 5, 5, 5, 5], [25, 20, 15, 5, -5], 4)
+        # came into view on red 30 m before the line at 10 m/s: could not stop
+        + car(2, [0.75, 1.0, 1.0, 0.75], [10, 10, 10, 10], [40, 30, 10, 0], 3)
+        # saw red, then green, then red again 9 m before the line at 5 m/s: the last run counts (room)
+        + car(3, [1.0, 0.0, 1.0, 0.75], [5, 5, 5, 5], [30, 20, 9, -2], 3)
+        # enters on green: not a violation
+        + car(4, [0.0, 0.0, 0.75], [10, 10, 10], [20, 10, 0], 2)
+        # no stop line on its approach: unknown
+        + car(5, [1.0, 1.0, 0.75], [5, 5, 5], [np.nan, np.nan, np.nan], 2)
+        # more entries on green than on red, so that red is the adopted stop value
+        + sum((car(c, [0.0, 0.0, 0.75], [10, 10, 10], [20, 10, 0], 2) for c in range(6, 11)), [])
+    )
+    n = len(rows)
+    t = {c: np.zeros(n) for c in COLUMNS}
+    ep, c, dec, light, inside, speed, dist = map(np.array, zip(*rows))
+    t.update(episode=ep.astype(int), car=c.astype(int), decision=dec.astype(int), light=light,
+             in_junction=inside.astype(bool), speed=speed.astype(float), stop_line_distance=dist.astype(float),
+             rating=np.ones(n), arrived=np.zeros(n, bool), collided=np.zeros(n, bool))
+    flip = np.arange(n)[::-1]
+    t = {k: v[flip] for k, v in t.items()}  # order must not matter
+    got = violation_causes(t, 1.0, 1.5)
+    assert (got.violations, got.could_not_stop, got.could_have_stopped, got.unknown) == (5, 2, 2, 1)
+    # a car rated 0.5 brakes at 0.75 m/s^2: car 1 (5 m/s, 20 m: needs 16.7 m) still could, car 3 (9 m) not
+    t["rating"] = np.full(n, 0.5)
+    got = violation_causes(t, 1.0, 1.5)
+    assert (got.could_not_stop, got.could_have_stopped) == (3, 1)
+    # the shares of all entries sum with the unknown ones to the violation rate
+    t["rating"] = np.ones(n)
+    m = traffic_light_metrics(t, max_brake=1.5)
+    assert m["stop_value"] == 1.0 and m["junction_entries"] == 11
+    assert m["violations_could_not_stop_rate"] == 2 / 11 and m["violations_could_have_stopped_rate"] == 2 / 11
+    assert m["violations_unknown_cause"] == 1 and m["red_light_violation_rate"] == 5 / 11
+    assert m["violators_collision_rate"] == 0.0
+    t["collided"] = (t["car"] == 2) & (t["decision"] == 3)  # car 2 (a violator) ends collided
+    assert traffic_light_metrics(t, max_brake=1.5)["violators_collision_rate"] == 1 / 5
+    assert "violations_could_not_stop_rate" not in traffic_light_metrics(t)
+    with pytest.raises(ValueError, match="max_brake"):
+        violation_causes(t, 1.0, 0.0)
 
 
 def test_violation_rate_adopts_the_rarer_value_as_stop():

@@ -6,6 +6,12 @@ symmetric, so a policy may adopt either 0.0 or 1.0 as "stop": the stop value is 
 {0.0, 1.0} on which fewer entries happen, and the red-light violation rate is the share of all
 entries made on it. A light-blind policy enters on both about equally, so it scores a little under
 one half (every car at full throttle, 200 report episodes: 0.415 with one car, 0.448 with four).
+
+Why a car entered on the stop value (:func:`violation_causes`): on the decision it first saw its
+light leave the go value (yellow or the stop value, without the go value again before entering),
+either it was already inside its braking distance of the stop line and could not have stopped
+there (the light changed too late for it: the world's share), or it could have stopped and did not
+(the policy's share).
 """
 
 from __future__ import annotations
@@ -57,6 +63,57 @@ def violation_rate(entry_lights: np.ndarray) -> Violations:
     return Violations(counts[stop] / len(lights), stop, len(lights), counts)
 
 
+@dataclass(frozen=True)
+class ViolationCauses:
+    """Entries on the stop value by whether the car could still have stopped.
+
+    Attributes:
+        violations: entries on the stop value.
+        could_not_stop: on the decision the car first saw yellow or the stop value (the run of
+            those values that ends at its entry), its braking distance ``v^2 / (2 b)`` was longer
+            than its distance to the stop line: braking hard from then on it would still have
+            crossed the line.
+        could_have_stopped: it had room to stop before the line then, and entered anyway.
+        unknown: no stop-line distance on that decision (no light on the car's approach).
+    """
+
+    violations: int
+    could_not_stop: int
+    could_have_stopped: int
+    unknown: int
+
+
+def violation_causes(table: dict[str, np.ndarray], stop_value: float, max_brake: float) -> ViolationCauses:
+    """Split the entries made on ``stop_value`` by whether the car could have stopped (see
+    :class:`ViolationCauses`). ``max_brake``: the hardest braking of a rating-1 car (m/s^2, > 0);
+    a car brakes at ``max_brake * rating``. Reads the columns ``speed`` (m/s),
+    ``stop_line_distance`` (m from the car's centre to its stop line, positive before it) and
+    ``rating``."""
+    if not max_brake > 0:
+        raise ValueError(f"max_brake must be > 0 m/s^2, got {max_brake!r}")
+    order = np.lexsort((table["decision"], table["car"], table["episode"]))
+    ep, car = table["episode"][order], table["car"][order]
+    inside, light = table["in_junction"][order], table["light"][order]
+    speed, dist = table["speed"][order], table["stop_line_distance"][order]
+    rating = table["rating"][order]
+    same = (ep[1:] == ep[:-1]) & (car[1:] == car[:-1])
+    enter = np.flatnonzero(same & inside[1:] & ~inside[:-1])  # the row before entering
+    not_go = np.isclose(light, YELLOW) | np.isclose(light, stop_value)
+    could_not = could = unknown = 0
+    for j in enter[np.isclose(light[enter], stop_value)].tolist():
+        first = j  # walk back over the run of yellow / stop values that ends at the entry
+        while first > 0 and ep[first - 1] == ep[j] and car[first - 1] == car[j] and not_go[first - 1]:
+            first -= 1
+        d = dist[first]
+        if not np.isfinite(d):
+            unknown += 1
+        elif speed[first] ** 2 / (2.0 * max_brake * rating[first]) > d:
+            could_not += 1
+        else:
+            could += 1
+    return ViolationCauses(could_not + could + unknown, could_not, could, unknown)
+
+
 def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
     """Success and collision rates over cars, and mean time to goal (decisions) of arrivals."""
     idx = last_rows(table)
@@ -71,14 +128,36 @@ def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
     }
 
 
-def traffic_light_metrics(table: dict[str, np.ndarray]) -> dict:
-    """The lights summary: outcome rates plus the violation rate with its convention."""
+def _collision_rate_of(table: dict[str, np.ndarray], entries: dict[str, np.ndarray], stop_value: float) -> float:
+    """The share of the cars that entered on ``stop_value`` that ended their episode collided."""
+    red = np.isclose(entries["light"], stop_value)
+    if not red.any():
+        return float("nan")
+    idx = last_rows(table)
+    collided = {(int(e), int(c)): bool(x) for e, c, x in
+                zip(table["episode"][idx], table["car"][idx], table["collided"][idx])}
+    return float(np.mean([collided[(int(e), int(c))] for e, c in zip(entries["episode"][red], entries["car"][red])]))
+
+
+def traffic_light_metrics(table: dict[str, np.ndarray], max_brake: float | None = None) -> dict:
+    """The lights summary: outcome rates plus the violation rate with its convention; with
+    ``max_brake`` (m/s^2, the env's hardest braking), also the violations split by whether the car
+    could have stopped (:func:`violation_causes`), as shares of all entries."""
     entries = junction_entries(table)
     v = violation_rate(entries["light"])
+    causes = {}
+    if max_brake is not None:
+        c = violation_causes(table, v.stop_value, max_brake)
+        share = (lambda k: k / v.entries) if v.entries else (lambda k: float("nan"))
+        causes = {"violations_could_not_stop_rate": share(c.could_not_stop),
+                  "violations_could_have_stopped_rate": share(c.could_have_stopped),
+                  "violations_unknown_cause": c.unknown,
+                  "violators_collision_rate": _collision_rate_of(table, entries, v.stop_value)}
     return {
         **outcome_rates(table),
         "red_light_violation_rate": v.rate,
         "stop_value": v.stop_value,
         "junction_entries": v.entries,
         "entries_by_light": {str(k): c for k, c in v.counts.items()},
+        **causes,
     }

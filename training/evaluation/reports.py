@@ -31,7 +31,8 @@ def add_collisions(metrics: dict, table: dict, out: Path) -> dict:
 
 def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                   make_env: Callable[..., Any]) -> dict:
-    metrics = traffic_light_metrics(table)
+    # the hardest braking a car has: whether a car that entered on the stop value could have stopped
+    metrics = traffic_light_metrics(table, max_brake=-min(env.config.accelerations))
     plots.acceleration_by_light(table, out / "acceleration_by_light.png", metrics["stop_value"])
     go = GO_STOP[1] if metrics["stop_value"] == GO_STOP[0] else GO_STOP[0]
     plots.junction_light_histogram(table, junction_entries(table), go, out / "junction_light.png")
