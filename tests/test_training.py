@@ -96,7 +96,7 @@ def _slot_rows(lay, instances, t, alive):
 def _filled_buffer(steps, instances, cars, group_size, seed=0):
     from gymnasium import spaces
 
-    from training.ppo.vec_env import TeamLayout, slot_observation_space
+    from training.ppo.slots import TeamLayout, slot_observation_space
 
     lay = TeamLayout(2, cars)
     space = slot_observation_space(spaces.Box(-1e6, 1e6, (2,), np.float32), cars)

@@ -8,7 +8,7 @@ transitions, so padding never reaches the policy loss, the value loss, the entro
 per-minibatch advantage normalisation.
 
 A slot observation carries the team block (every car of its instance, see
-:class:`training.ppo.vec_env.TeamLayout`), which is the instance's own observations again. The buffer
+:class:`training.ppo.slots.TeamLayout`), which is the instance's own observations again. The buffer
 keeps only each slot's own observation and alive flag (``N + 1`` times less memory and copying)
 and rebuilds what the policy reads:
 
@@ -31,7 +31,7 @@ import numpy as np
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.type_aliases import RolloutBufferSamples
 
-from training.ppo.vec_env import TeamLayout
+from training.ppo.slots import TeamLayout
 
 
 class MaskedRolloutBuffer(RolloutBuffer):

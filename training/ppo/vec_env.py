@@ -19,7 +19,7 @@ own PettingZoo path (``pettingzoo_env_to_vec_env_v1`` + ``black_death_v3``) is n
 ``black_death_v3`` for cars that finish at different times, which ends episodes on ``terminated
 AND truncated`` and never reports a car's own termination.
 
-Layout of a slot observation (``TeamLayout``): ``[own obs (D) | team obs (N x D) | alive (N) |
+Layout of a slot observation (:class:`training.ppo.slots.TeamLayout`): ``[own obs (D) | team obs (N x D) | alive (N) |
 own alive (1)]``.
 """
 
@@ -27,51 +27,15 @@ from __future__ import annotations
 
 import functools
 import weakref
-from dataclasses import dataclass
 from typing import Any, Callable, Optional, Sequence
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from supersuit.vector import ConcatVecEnv, ProcConcatVec
 from supersuit.vector.constructors import call_wrap
 
-
-@dataclass(frozen=True)
-class TeamLayout:
-    """Slices of a slot observation: ``own`` (D), ``team`` (N x D), ``alive`` (N), ``self_alive``."""
-
-    obs_dim: int
-    n_cars: int
-
-    @property
-    def own(self) -> slice:
-        return slice(0, self.obs_dim)
-
-    @property
-    def team(self) -> slice:
-        return slice(self.obs_dim, self.obs_dim * (1 + self.n_cars))
-
-    @property
-    def alive(self) -> slice:
-        start = self.obs_dim * (1 + self.n_cars)
-        return slice(start, start + self.n_cars)
-
-    @property
-    def self_alive(self) -> int:
-        return self.obs_dim * (1 + self.n_cars) + self.n_cars
-
-    @property
-    def size(self) -> int:
-        return self.self_alive + 1
-
-
-def slot_observation_space(base_space: spaces.Box, n_cars: int) -> spaces.Box:
-    """The space of a slot observation (``TeamLayout``) for cars whose own space is ``base_space``."""
-    low = np.concatenate([np.tile(base_space.low, 1 + n_cars), np.zeros(n_cars + 1)])
-    high = np.concatenate([np.tile(base_space.high, 1 + n_cars), np.ones(n_cars + 1)])
-    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+from training.ppo.slots import TeamLayout, checked_actions, slot_observation_space, slot_rows
 
 
 class CarSlots:
@@ -228,7 +192,7 @@ class ConcatSlots(ConcatVecEnv):
         actions = np.asarray(actions).reshape(k_all, n)
         live = [k for k, inst in enumerate(insts) if inst.env.agents]
         envs = [insts[k].env for k in live]
-        raws = [_checked(actions[k, env._acting], first.action_space.n) for k, env in zip(live, envs)]
+        raws = [checked_actions(actions[k, env._acting], first.action_space.n) for k, env in zip(live, envs)]
         decisions = step_instances(envs, raws) if envs else []
 
         own = np.zeros((k_all, n, lay.obs_dim), dtype=np.float32)
@@ -248,7 +212,7 @@ class ConcatSlots(ConcatVecEnv):
                 infos[k * n + i] = info
             ended = d.cars if d.truncated else d.cars[d.terminated]
             finished += [(k, i) for i in ended.tolist()]
-        final = _slot_rows(own, alive, lay)
+        final = slot_rows(own, alive, lay)
         if finished:
             for k, i in finished:
                 info = infos[k * n + i]
@@ -256,7 +220,7 @@ class ConcatSlots(ConcatVecEnv):
                 info["TimeLimit.truncated"] = bool(truncs[k, i])
                 own[k, i] = 0.0
                 alive[k, i] = 0.0
-            rows = _slot_rows(own, alive, lay)
+            rows = slot_rows(own, alive, lay)
         else:
             rows = final
         for k in live:
@@ -264,32 +228,6 @@ class ConcatSlots(ConcatVecEnv):
                 rows[k] = insts[k].reset()[0]
         return (rows.reshape(k_all * n, lay.size), rewards.reshape(-1), terms.reshape(-1),
                 truncs.reshape(-1), infos)
-
-
-def _slot_rows(own: np.ndarray, alive: np.ndarray, lay: TeamLayout) -> np.ndarray:
-    """Slot observations ``(K, N, size)`` of ``K`` instances from each car's own observation
-    ``(K, N, D)`` (zero for absent cars) and alive flag ``(K, N)``: every slot carries its
-    instance's whole team (as :meth:`InstanceSlots._rows` writes them)."""
-    k_all, n, d = own.shape
-    out = np.empty((k_all, n, lay.size), dtype=np.float32)
-    out[:, :, lay.own] = own
-    out[:, :, lay.team] = own.reshape(k_all, 1, n * d)
-    out[:, :, lay.alive] = alive[:, None, :]
-    out[:, :, lay.self_alive] = alive
-    return out
-
-
-def _checked(actions: np.ndarray, n_actions: int) -> np.ndarray:
-    """Slot actions as int64, or :class:`ActionError` naming the first one outside ``[0, n)``."""
-    from box2d_driving.envs.actions import ActionError
-
-    raw = actions.astype(np.int64)
-    if actions.dtype.kind not in "iu" and not np.array_equal(raw, actions):
-        raise ActionError(f"slot actions must be integers, got {actions.tolist()}")
-    if raw.size and (raw.min() < 0 or raw.max() >= n_actions):
-        bad = raw[(raw < 0) | (raw >= n_actions)][0]
-        raise ActionError(f"slot actions must be in [0, {n_actions}), got {bad}")
-    return raw
 
 
 class SlotVecEnv(CarSlots, VecEnv):

@@ -88,7 +88,7 @@ def _trained(ckpt: Any, config_path: Path, deterministic: bool) -> TrainedPolicy
 def build_ctde_policy(config: dict, where: Path) -> Any:
     """An untrained :class:`CTDEPolicy` shaped for the env and critic a run's config names."""
     from training.ppo.policy import CTDEPolicy, policy_kwargs_for
-    from training.ppo.vec_env import slot_observation_space
+    from training.ppo.slots import slot_observation_space
 
     env = run_env(config, where)
     critic = config.get("critic", "mean")
