@@ -291,7 +291,7 @@ SECTIONS: tuple[Section, ...] = (
              ("success_rate", "success"), ("collision_rate", "collisions")),
             "Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time; 98.45 % of "
             "following samples keep the speed-matching distance (human drivers in nuScenes: 99.56 %).",
-            f"{SWEEP} real-junction --seeds 5 --timesteps 5984128 --set num_cars=8 collision_reward=-3 "
+            f"{SWEEP} real-junction --seeds 6 --timesteps 5984128 --set num_cars=8 collision_reward=-3 "
             "ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --out runs/sweep-real-junction",
             setting="Each trial repeats the last stage of the shipped `real_junction_8cars_collision3`: "
                     "from the shipped 8-car base policy, collision reward -3, as many decisions as that "
