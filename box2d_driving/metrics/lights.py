@@ -36,20 +36,27 @@ class Violations:
     counts: dict[float, int]
 
 
-def junction_entries(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """One row per junction entry: ``episode``, ``car``, ``decision`` (first inside),
-    ``light`` (seen on the decision before), ``x``, ``y`` (where it was then)."""
+def _entry_rows(table: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The table's row order by (episode, car, decision) and, in that order, the index of the row
+    before each junction entry (the car outside, its next row inside)."""
     order = np.lexsort((table["decision"], table["car"], table["episode"]))
     ep, car = table["episode"][order], table["car"][order]
     inside = table["in_junction"][order]
     same = (ep[1:] == ep[:-1]) & (car[1:] == car[:-1])
-    enter = np.flatnonzero(same & inside[1:] & ~inside[:-1])  # index of the row before entering
-    first_inside = enter + 1
+    return order, np.flatnonzero(same & inside[1:] & ~inside[:-1])
+
+
+def junction_entries(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """One row per junction entry: ``episode``, ``car``, ``decision`` (first inside),
+    ``light`` (seen on the decision before), ``x``, ``y`` (where it was then)."""
+    order, enter = _entry_rows(table)
+    first_inside = order[enter + 1]
+    before = order[enter]
     return {
-        "episode": ep[first_inside], "car": car[first_inside],
-        "decision": table["decision"][order][first_inside],
-        "light": table["light"][order][enter],
-        "x": table["x"][order][enter], "y": table["y"][order][enter],
+        "episode": table["episode"][first_inside], "car": table["car"][first_inside],
+        "decision": table["decision"][first_inside],
+        "light": table["light"][before],
+        "x": table["x"][before], "y": table["y"][before],
     }
 
 
@@ -75,12 +82,14 @@ class ViolationCauses:
             crossed the line.
         could_have_stopped: it had room to stop before the line then, and entered anyway.
         unknown: no stop-line distance on that decision (no light on the car's approach).
+        collided: violators whose episode ended in a collision.
     """
 
     violations: int
     could_not_stop: int
     could_have_stopped: int
     unknown: int
+    collided: int
 
 
 def violation_causes(table: dict[str, np.ndarray], stop_value: float, max_brake: float) -> ViolationCauses:
@@ -91,15 +100,13 @@ def violation_causes(table: dict[str, np.ndarray], stop_value: float, max_brake:
     ``rating``."""
     if not max_brake > 0:
         raise ValueError(f"max_brake must be > 0 m/s^2, got {max_brake!r}")
-    order = np.lexsort((table["decision"], table["car"], table["episode"]))
-    ep, car = table["episode"][order], table["car"][order]
-    inside, light = table["in_junction"][order], table["light"][order]
+    order, enter = _entry_rows(table)
+    ep, car, light = table["episode"][order], table["car"][order], table["light"][order]
     speed, dist = table["speed"][order], table["stop_line_distance"][order]
-    rating = table["rating"][order]
-    same = (ep[1:] == ep[:-1]) & (car[1:] == car[:-1])
-    enter = np.flatnonzero(same & inside[1:] & ~inside[:-1])  # the row before entering
+    rating, collided = table["rating"][order], table["collided"][order]
+    ends = np.flatnonzero(np.append((ep[1:] != ep[:-1]) | (car[1:] != car[:-1]), True))  # each car's last row
     not_go = np.isclose(light, YELLOW) | np.isclose(light, stop_value)
-    could_not = could = unknown = 0
+    could_not = could = unknown = crashed = 0
     for j in enter[np.isclose(light[enter], stop_value)].tolist():
         first = j  # walk back over the run of yellow / stop values that ends at the entry
         while first > 0 and ep[first - 1] == ep[j] and car[first - 1] == car[j] and not_go[first - 1]:
@@ -111,7 +118,8 @@ def violation_causes(table: dict[str, np.ndarray], stop_value: float, max_brake:
             could_not += 1
         else:
             could += 1
-    return ViolationCauses(could_not + could + unknown, could_not, could, unknown)
+        crashed += bool(collided[ends[np.searchsorted(ends, j)]])
+    return ViolationCauses(could_not + could + unknown, could_not, could, unknown, crashed)
 
 
 def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
@@ -128,17 +136,6 @@ def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
     }
 
 
-def _collision_rate_of(table: dict[str, np.ndarray], entries: dict[str, np.ndarray], stop_value: float) -> float:
-    """The share of the cars that entered on ``stop_value`` that ended their episode collided."""
-    red = np.isclose(entries["light"], stop_value)
-    if not red.any():
-        return float("nan")
-    idx = last_rows(table)
-    collided = {(int(e), int(c)): bool(x) for e, c, x in
-                zip(table["episode"][idx], table["car"][idx], table["collided"][idx])}
-    return float(np.mean([collided[(int(e), int(c))] for e, c in zip(entries["episode"][red], entries["car"][red])]))
-
-
 def traffic_light_metrics(table: dict[str, np.ndarray], max_brake: float | None = None) -> dict:
     """The lights summary: outcome rates plus the violation rate with its convention; with
     ``max_brake`` (m/s^2, the env's hardest braking), also the violations split by whether the car
@@ -148,11 +145,11 @@ def traffic_light_metrics(table: dict[str, np.ndarray], max_brake: float | None 
     causes = {}
     if max_brake is not None:
         c = violation_causes(table, v.stop_value, max_brake)
-        share = (lambda k: k / v.entries) if v.entries else (lambda k: float("nan"))
-        causes = {"violations_could_not_stop_rate": share(c.could_not_stop),
-                  "violations_could_have_stopped_rate": share(c.could_have_stopped),
+        nan = float("nan")
+        causes = {"violations_could_not_stop_rate": c.could_not_stop / v.entries if v.entries else nan,
+                  "violations_could_have_stopped_rate": c.could_have_stopped / v.entries if v.entries else nan,
                   "violations_unknown_cause": c.unknown,
-                  "violators_collision_rate": _collision_rate_of(table, entries, v.stop_value)}
+                  "violators_collision_rate": c.collided / c.violations if c.violations else nan}
     return {
         **outcome_rates(table),
         "red_light_violation_rate": v.rate,
