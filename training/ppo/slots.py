@@ -49,7 +49,7 @@ def slot_observation_space(base_space: spaces.Box, n_cars: int) -> spaces.Box:
 def slot_rows(own: np.ndarray, alive: np.ndarray, lay: TeamLayout) -> np.ndarray:
     """Slot observations ``(K, N, size)`` of ``K`` instances from each car's own observation
     ``(K, N, D)`` (zero for absent cars) and alive flag ``(K, N)``: every slot carries its
-    instance's whole team (as :meth:`InstanceSlots._rows` writes them)."""
+    instance's whole team."""
     k_all, n, d = own.shape
     out = np.empty((k_all, n, lay.size), dtype=np.float32)
     out[:, :, lay.own] = own

@@ -96,19 +96,13 @@ class InstanceSlots(gym.vector.VectorEnv):
 
     def _rows(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         """Slot observations from the agents' observation dict (padding for absent agents)."""
-        lay = self.layout
-        out = np.zeros((self.n_cars, lay.size), dtype=np.float32)
+        own = np.zeros((self.n_cars, self.layout.obs_dim), dtype=np.float32)
+        alive = np.zeros(self.n_cars, dtype=np.float32)
         if obs:
             slots = [self._slot[a] for a in obs]
-            own = np.zeros((self.n_cars, lay.obs_dim), dtype=np.float32)
             own[slots] = np.stack(list(obs.values()))
-            out[:, lay.own] = own
-            out[:, lay.team] = own.reshape(-1)  # every slot carries the whole team
-            alive = np.zeros(self.n_cars, dtype=np.float32)
             alive[slots] = 1.0
-            out[:, lay.alive] = alive
-            out[:, lay.self_alive] = alive
-        return out
+        return slot_rows(own[None], alive[None], self.layout)[0]
 
     def _without(self, rows: np.ndarray, gone: list[int]) -> np.ndarray:
         """``rows`` with the slots ``gone`` turned to padding (as :meth:`_rows` would write them

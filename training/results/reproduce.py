@@ -229,10 +229,10 @@ def curve_coverage(curves: list[dict[str, Any]], trials: list[dict[str, Any]], k
 
     drawn = {ident(r) for r in curves}
     done = [r for r in trials if r.get("status") == "done"]
-    if all(ident(r) in drawn for r in done):
+    covered = [r["trial"] for r in done if ident(r) in drawn]
+    if len(covered) == len(done):
         return ""
-    names = ", ".join(r["trial"] for r in done if ident(r) in drawn)
-    return (f"; {sum(ident(r) in drawn for r in done)} of the {len(done)} finished trials ({names}): the others "
+    return (f"; {len(covered)} of the {len(done)} finished trials ({', '.join(covered)}): the others "
             "ran where their checkpoints were not kept")
 
 
