@@ -137,6 +137,34 @@ def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():
     assert t_test_p([0.5, 0.5], 0.0) == 0.0
 
 
+def test_welch_p_value_and_the_seeds_two_independent_rows_would_need():
+    from training.results.stats import welch_p
+    from training.results.statements import reference_statement, seeds_needed_apart
+
+    # equal spreads and sizes: Welch's t equals Student's, t = 3 / sqrt(2 / 3) = 3.674 with 4 dof: p = 0.0213
+    assert welch_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]) == pytest.approx(0.0213, abs=5e-4)
+    assert welch_p([4.0, 5.0, 6.0], [1.0, 2.0, 3.0]) == welch_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
+    assert welch_p([1.0, 2.0, 3.0], [1.0, 2.0, 3.0]) == pytest.approx(1.0)
+    assert welch_p([1.0], [2.0, 3.0]) is None
+    assert welch_p([1.0, 1.0], [2.0, 2.0]) == 0.0
+    # unequal spreads: fewer degrees of freedom than pooling would give, so a larger p
+    assert welch_p([2.0, 2.1, 2.2, 2.3], [0.0, 3.0, 6.0]) > 0.3
+    # sd 0.01 in each row, means 0.02 apart: k seeds per row tell once t95(dof) * sqrt(2e-4 / k) < 0.02,
+    # with dof = 2 (k - 1): k = 4 (t95(6) = 2.447: 0.0173)
+    assert seeds_needed_apart([0.09, 0.10, 0.11], [0.11, 0.12, 0.13]) == \
+        "; at this difference and spread about 4 seeds per row would tell"
+    assert seeds_needed_apart([0.1, 0.2], [0.1, 0.2]) == ""
+    more = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.118, 0.134, 0.127])})
+    four = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.076, 0.077, 0.114])})
+    line = reference_statement([more], four, "the 4-car row")[0]
+    assert "the intervals overlap: no difference shown, unlike the paper (Welch's t-test p = " in line
+    assert f"p = {welch_p([0.118, 0.134, 0.127], [0.076, 0.077, 0.114]):.3f}; at this difference" in line
+    apart = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.01, 0.011, 0.012])})
+    line = reference_statement([apart], four, "the 4-car row")[0]
+    assert line.endswith("fewer violations with more cars, intervals apart, as in the paper (Welch's t-test p = "
+                         f"{welch_p([0.01, 0.011, 0.012], [0.076, 0.077, 0.114]):.3f}).")
+
+
 def test_lanes_measures_from_hand_built_trials():
     import numpy as np
 

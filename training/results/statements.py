@@ -11,7 +11,7 @@ from collections import defaultdict
 from typing import Callable, Sequence
 
 from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
-from training.results.stats import Estimate, mean_ci, t95, t_test_p
+from training.results.stats import Estimate, mean_ci, t95, t_test_p, welch_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
@@ -190,6 +190,25 @@ def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
     return f"; at this mean and spread more than {most} seeds would be needed"
 
 
+def seeds_needed_apart(a: Sequence[float], b: Sequence[float], most: int = 200) -> str:
+    """How many seeds per row two independent rows (their means and spreads taken as true) would
+    need for a 95 % interval of their difference (Welch) that excludes zero, in words ("" when
+    they cannot tell)."""
+    if len(a) < 2 or len(b) < 2:
+        return ""
+    ma, mb = sum(a) / len(a), sum(b) / len(b)
+    va = sum((x - ma) ** 2 for x in a) / (len(a) - 1)
+    vb = sum((x - mb) ** 2 for x in b) / (len(b) - 1)
+    if ma == mb or va + vb == 0.0:
+        return ""
+    for k in range(2, most + 1):
+        # Welch-Satterthwaite degrees of freedom with k seeds in each row
+        dof = (va + vb) ** 2 * (k - 1) / (va * va + vb * vb) if va * vb else k - 1
+        if t95(max(1, int(dof))) * math.sqrt((va + vb) / k) < abs(ma - mb):
+            return f"; at this difference and spread about {k} seeds per row would tell"
+    return f"; at this difference and spread more than {most} seeds per row would be needed"
+
+
 def unlearnt_statement(groups: list[Group]) -> list[str]:
     """Grid points whose cars mostly fail to arrive: their rule measures say little. Points that
     differ only in LiDAR noise share a line."""
@@ -264,5 +283,9 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
             continue
         verdict = more_cars_verdict(ref, e)
         these = "these trials" if not g.point else f"these trials at {_where(g.point)}"
-        lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: {verdict}")
+        # the two rows' seeds were not trained in pairs: Welch's two-sample test
+        test = f" (Welch's t-test p = {welch_p(e.values, ref.values):.3f}"
+        test += (seeds_needed_apart(e.values, ref.values) if apart(ref, e) == 0 else "") + ")"
+        lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: "
+                     f"{verdict.rstrip('.')}{test}.")
     return lines

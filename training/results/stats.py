@@ -109,3 +109,22 @@ def t_test_p(values: Iterable[float], value: float) -> Optional[float]:
     t = (mean - value) / (sd / math.sqrt(n))
     dof = n - 1
     return incomplete_beta(dof / 2.0, 0.5, dof / (dof + t * t))
+
+
+def welch_p(a: Iterable[float], b: Iterable[float]) -> Optional[float]:
+    """Two-sided p-value of Welch's t-test that two independent samples (say, the training seeds
+    of two rows that were not trained in pairs) have the same mean; None with fewer than two
+    values in either (0 or 1 when both spreads are zero)."""
+    xs = [float(v) for v in a if v is not None and math.isfinite(float(v))]
+    ys = [float(v) for v in b if v is not None and math.isfinite(float(v))]
+    if len(xs) < 2 or len(ys) < 2:
+        return None
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    vx = sum((x - mx) ** 2 for x in xs) / (len(xs) - 1) / len(xs)  # squared standard errors
+    vy = sum((y - my) ** 2 for y in ys) / (len(ys) - 1) / len(ys)
+    if vx + vy == 0.0:
+        return 1.0 if mx == my else 0.0
+    t = (mx - my) / math.sqrt(vx + vy)
+    # Welch-Satterthwaite degrees of freedom (real-valued: the incomplete beta takes any)
+    dof = (vx + vy) ** 2 / (vx * vx / (len(xs) - 1) + vy * vy / (len(ys) - 1))
+    return incomplete_beta(dof / 2.0, 0.5, dof / (dof + t * t))
