@@ -11,7 +11,7 @@ from collections import defaultdict
 from typing import Callable, Sequence
 
 from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
-from training.results.stats import Estimate, mean_ci, t95, t_test_p, welch_p
+from training.results.stats import Estimate, mean_ci, mean_var, t95, t_test_p, welch_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
@@ -179,9 +179,8 @@ def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
     """How many seeds the observed differences (paired, or each seed's value minus a reference
     number; their mean and spread taken as true) would need for a 95 % interval that excludes
     zero, in words ("" when they cannot tell)."""
-    n = len(diffs)
-    mean = sum(diffs) / n
-    sd = math.sqrt(sum((x - mean) ** 2 for x in diffs) / (n - 1))
+    mean, var = mean_var(diffs)
+    sd = math.sqrt(var)
     if mean == 0.0 or sd == 0.0:
         return ""
     for k in range(2, most + 1):
@@ -196,9 +195,7 @@ def seeds_needed_apart(a: Sequence[float], b: Sequence[float], most: int = 200) 
     they cannot tell)."""
     if len(a) < 2 or len(b) < 2:
         return ""
-    ma, mb = sum(a) / len(a), sum(b) / len(b)
-    va = sum((x - ma) ** 2 for x in a) / (len(a) - 1)
-    vb = sum((x - mb) ** 2 for x in b) / (len(b) - 1)
+    (ma, va), (mb, vb) = mean_var(a), mean_var(b)
     if ma == mb or va + vb == 0.0:
         return ""
     for k in range(2, most + 1):

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Sequence
 
 # two-sided 95 % quantiles of Student's t, by degrees of freedom (standard table values)
 _T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
@@ -49,17 +49,27 @@ class Estimate:
         return f"{self.mean:.{digits}f} ± {half:.{digits}f}"
 
 
+def finite(values: Iterable[Optional[float]]) -> tuple[float, ...]:
+    """The finite ``values`` as floats (None and NaN, e.g. a metric a run could not measure, left out)."""
+    return tuple(float(v) for v in values if v is not None and math.isfinite(float(v)))
+
+
+def mean_var(xs: Sequence[float]) -> tuple[float, float]:
+    """Mean and sample variance (divided by ``n - 1``) of two or more values."""
+    mean = sum(xs) / len(xs)
+    return mean, sum((x - mean) ** 2 for x in xs) / (len(xs) - 1)
+
+
 def mean_ci(values: Iterable[float]) -> Estimate:
     """Mean and 95 % t-interval of the finite ``values`` (NaNs, e.g. a metric a run could not
     measure, are left out and not counted)."""
-    xs = tuple(float(v) for v in values if v is not None and math.isfinite(float(v)))
+    xs = finite(values)
     if not xs:
         return Estimate(math.nan, None, None, 0, ())
-    mean = sum(xs) / len(xs)
     if len(xs) < 2:
-        return Estimate(mean, None, None, 1, xs)
-    sd = math.sqrt(sum((x - mean) ** 2 for x in xs) / (len(xs) - 1))
-    half = t95(len(xs) - 1) * sd / math.sqrt(len(xs))
+        return Estimate(sum(xs) / len(xs), None, None, 1, xs)
+    mean, var = mean_var(xs)
+    half = t95(len(xs) - 1) * math.sqrt(var) / math.sqrt(len(xs))
     return Estimate(mean, mean - half, mean + half, len(xs), xs)
 
 
@@ -98,12 +108,12 @@ def incomplete_beta(a: float, b: float, x: float) -> float:
 def t_test_p(values: Iterable[float], value: float) -> Optional[float]:
     """Two-sided p-value of the one-sample t-test that the mean of ``values`` is ``value`` (None
     for fewer than two values; 0 when they are all equal and differ from ``value``)."""
-    xs = [float(v) for v in values if v is not None and math.isfinite(float(v))]
+    xs = finite(values)
     if len(xs) < 2:
         return None
     n = len(xs)
-    mean = sum(xs) / n
-    sd = math.sqrt(sum((x - mean) ** 2 for x in xs) / (n - 1))
+    mean, var = mean_var(xs)
+    sd = math.sqrt(var)
     if sd == 0.0:
         return 1.0 if mean == value else 0.0
     t = (mean - value) / (sd / math.sqrt(n))
@@ -115,13 +125,11 @@ def welch_p(a: Iterable[float], b: Iterable[float]) -> Optional[float]:
     """Two-sided p-value of Welch's t-test that two independent samples (say, the training seeds
     of two rows that were not trained in pairs) have the same mean; None with fewer than two
     values in either (0 or 1 when both spreads are zero)."""
-    xs = [float(v) for v in a if v is not None and math.isfinite(float(v))]
-    ys = [float(v) for v in b if v is not None and math.isfinite(float(v))]
+    xs, ys = finite(a), finite(b)
     if len(xs) < 2 or len(ys) < 2:
         return None
-    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
-    vx = sum((x - mx) ** 2 for x in xs) / (len(xs) - 1) / len(xs)  # squared standard errors
-    vy = sum((y - my) ** 2 for y in ys) / (len(ys) - 1) / len(ys)
+    (mx, vx), (my, vy) = mean_var(xs), mean_var(ys)
+    vx, vy = vx / len(xs), vy / len(ys)  # squared standard errors
     if vx + vy == 0.0:
         return 1.0 if mx == my else 0.0
     t = (mx - my) / math.sqrt(vx + vy)
