@@ -263,3 +263,33 @@ def test_array_concatenation_steps_exactly_as_supersuits_concat_vec_env():
         assert finished  # cars ended within the steps, so padding and resets were compared too
     finally:
         ours.close(), theirs.close()
+
+
+def test_worker_path_steps_as_supersuits_proc_concat_vec_and_returns_its_own_objects(monkeypatch):
+    """``WorkerSlots`` drops ``ProcConcatVec``'s deep copy of each step's infos: the same steps as
+    SuperSuit's class, and nothing returned is the workers' shared buffer or another step's dict."""
+    import training.ppo.vec_env as vec_env
+    from supersuit.vector import ProcConcatVec
+
+    ours = _rollout(2)
+    with monkeypatch.context() as m:
+        m.setattr(vec_env, "WorkerSlots", ProcConcatVec)
+        theirs = _rollout(2)
+    for a, b in zip(ours[:3], theirs[:3]):
+        assert np.array_equal(a, b)
+    for a, b in zip(ours[3], theirs[3]):
+        _same_infos(a, b)
+
+    venv = make_vec_env_from("intersection-v0", KW, 4, 2)
+    try:
+        assert isinstance(venv._inner, vec_env.WorkerSlots)
+        venv.seed(3)
+        venv.reset()
+        rng = np.random.default_rng(1)
+        first, _, _, infos1 = venv.step(rng.integers(0, 13, venv.num_envs))
+        kept = first.copy()
+        _, _, _, infos2 = venv.step(rng.integers(0, 13, venv.num_envs))
+    finally:
+        venv.close()
+    assert np.array_equal(first, kept)  # the next step did not write into the returned array
+    assert not {id(i) for i in infos1} & {id(i) for i in infos2}
