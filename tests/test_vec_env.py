@@ -162,16 +162,18 @@ def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
 
 def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
     from box2d_driving.bench import main as bench
+    from training.trainers.trainer import resolve_device
 
     out = tmp_path / "train.json"
     assert bench(["--train", "--cars", "2", "--n-envs", "2", "--batch-decisions", "160", "--warmup", "1",
-                  "--updates", "1", "--num-cpus", "0", "2", "--threads", "1", "2", "--devices", "cpu",
+                  "--updates", "1", "--num-cpus", "0", "2", "--threads", "1", "2", "--device", "auto",
                   "--json", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "| env workers | device |" in printed and "machine: " in printed and " cores" in printed
     assert "cores" in json.loads(out.read_text())["machine"]  # a table says where it was measured
     rows = json.loads(out.read_text())["rows"]
     assert [(r["num_cpus"], r["threads"]) for r in rows] == [(0, 1), (0, 2), (2, 1), (2, 2)]
+    assert {r["device"] for r in rows} == {resolve_device("auto")}  # auto: the GPU if torch sees one
     for r in rows:
         assert r["agent_steps"] > 0 and r["agent_steps_per_s"] > 0
         assert abs(r["env_share"] + r["inference_share"] + r["update_share"] - 1.0) < 0.05
@@ -179,6 +181,9 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
     assert "| update GFLOP/s | matmul GFLOP/s |" in printed
     with pytest.raises(SystemExit):  # never replaces a table
         bench(["--train", "--json", str(out)])
+    if resolve_device("auto") == "cpu":
+        with pytest.raises(SystemExit):  # cuda asked for where torch sees no GPU: a usage error
+            bench(["--train", "--devices", "cuda"])
 
 
 def test_world_benchmark_prints_its_table_and_the_machine(tmp_path, capsys):

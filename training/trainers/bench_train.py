@@ -213,8 +213,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--threads", type=int, nargs="+",
                    help="torch threads of the learner, each a row per worker count (default: as training "
                         "sets them, the cores the env workers leave free)")
-    p.add_argument("--devices", nargs="+", choices=("cpu", "cuda"),
-                   help="devices (default: cpu, and cuda when torch sees a GPU)")
+    p.add_argument("--devices", "--device", nargs="+", choices=("auto", "cpu", "cuda"),
+                   help="devices (default: cpu, and cuda when torch sees a GPU; auto: the GPU when "
+                        "torch sees one, else the CPU, as train --device auto)")
     p.add_argument("--minibatch-by-step", action=argparse.BooleanOptionalAction, default=True,
                    help="minibatches of whole env steps (default; --no-minibatch-by-step: by transition)")
     p.add_argument("--json", help="also write the table to this JSON file (must not exist)")
@@ -227,7 +228,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         p.error(f"{args.json} exists; choose another --json")
     cores = os.cpu_count() or 1
     counts = args.num_cpus or worker_counts(cores)
+    if "cuda" in (args.devices or ()) and not th.cuda.is_available():
+        p.error("--devices cuda: torch sees no GPU (a CPU-only torch build, or no driver); use auto or cpu")
     devices = args.devices or (["cpu", "cuda"] if th.cuda.is_available() else ["cpu"])
+    devices = list(dict.fromkeys(resolve_device(d) for d in devices))  # auto -> cpu or cuda, once
     print(f"training benchmark: intersection-v0, {args.cars} cars, noise {args.lidar_noise}, {args.n_envs} "
           f"instances, {args.batch_decisions:,} decisions per update, {args.warmup} warm-up + {args.updates} "
           f"timed updates; {cores} cores, python {platform.python_version()}, torch {th.__version__}", flush=True)
