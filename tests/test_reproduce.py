@@ -139,7 +139,7 @@ def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():
 
 def test_welch_p_value_and_the_seeds_two_independent_rows_would_need():
     from training.results.stats import welch_p
-    from training.results.statements import reference_statement, seeds_needed_apart
+    from training.results.statements import apart, reference_statement, seeds_needed_apart
 
     # equal spreads and sizes: Welch's t equals Student's, t = 3 / sqrt(2 / 3) = 3.674 with 4 dof: p = 0.0213
     assert welch_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]) == pytest.approx(0.0213, abs=5e-4)
@@ -159,8 +159,17 @@ def test_welch_p_value_and_the_seeds_two_independent_rows_would_need():
     line = reference_statement([more], four, "the 4-car row")[0]
     assert "the intervals overlap: no difference shown, unlike the paper (Welch's t-test p = " in line
     assert f"p = {welch_p([0.118, 0.134, 0.127], [0.076, 0.077, 0.114]):.3f}; at this difference" in line
-    apart = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.01, 0.011, 0.012])})
-    line = reference_statement([apart], four, "the 4-car row")[0]
+    # overlapping intervals whose difference Welch's test still separates (the 8-car 16 M row against
+    # five 4-car seeds): the verdict follows the test and names no seed count
+    five = Group({}, [0, 1, 2, 3, 4], {"red_light_violation_rate": mean_ci([0.076, 0.0775, 0.114, 0.076, 0.099])})
+    assert apart(five.estimates["red_light_violation_rate"], more.estimates["red_light_violation_rate"]) == 0
+    line = reference_statement([more], five, "the 4-car row")[0]
+    p = welch_p([0.118, 0.134, 0.127], [0.076, 0.0775, 0.114, 0.076, 0.099])
+    assert p < 0.05
+    assert line.endswith("more violations with more cars by Welch's test, though the two intervals overlap, "
+                         f"unlike the paper (Welch's t-test p = {p:.3f}).")
+    apart_ = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.01, 0.011, 0.012])})
+    line = reference_statement([apart_], four, "the 4-car row")[0]
     assert line.endswith("fewer violations with more cars, intervals apart, as in the paper (Welch's t-test p = "
                          f"{welch_p([0.01, 0.011, 0.012], [0.076, 0.077, 0.114]):.3f}).")
 

@@ -197,7 +197,7 @@ SECTIONS: tuple[Section, ...] = (
             (("init_from", "false"), ("num_cars", "4")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 3 --timesteps 2400000 --set num_cars=4 "
+            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 5 --timesteps 2400000 --set num_cars=4 "
             "--out runs/sweep-lights-paper",
             setting="Each trial trains 4 cars from scratch at the paper's settings: LiDAR noise 0.25, 0.5, 0.75 "
                     "and 1.0 (the share of LiDAR rays dropped at every decision: at 1.0 the cars see no other car and have only "
