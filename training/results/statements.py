@@ -281,10 +281,10 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
         verdict = more_cars_verdict(ref, e)
         these = "these trials" if not g.point else f"these trials at {_where(g.point)}"
         # the two rows' seeds were not trained in pairs: Welch's two-sample test
-        p = welch_p(e.values, ref.values)
+        p = welch_p(e.values, ref.values)  # both rows have 2+ seeds here (an interval each)
         test = f" (Welch's t-test p = {p:.3f}"
         if apart(ref, e) == 0:
-            if p is not None and p < 0.05:
+            if p < 0.05:
                 # two 95 % intervals of the means may overlap while their difference is still
                 # significant: the test of the difference decides, and the page says so
                 fewer = e.mean < ref.mean
@@ -293,5 +293,5 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
             else:
                 test += seeds_needed_apart(e.values, ref.values)
         lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: "
-                     f"{verdict.rstrip('.')}{test + ')'}.")
+                     f"{verdict.rstrip('.')}{test}).")
     return lines
