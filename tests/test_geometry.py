@@ -49,3 +49,19 @@ def test_path_pose_and_projection():
     assert np.allclose(p, [10, 10])
     with pytest.raises(ValueError):
         Path.from_points(np.array([[1.0, 1.0], [1.0, 1.0]]))
+
+
+def test_straight_path_and_start_pose_are_the_general_constructions_to_the_bit():
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        a, b = rng.normal(size=2) * rng.uniform(0, 200), rng.normal(size=2) * rng.uniform(0, 200)
+        a[rng.random(2) < 0.1] = -0.0  # signed zeros survive both constructions alike
+        fast, general = Path.straight(a, b), Path.from_points(np.array([a, b]))
+        assert np.array_equal(fast.points, general.points) and np.array_equal(fast.cumlen, general.cumlen)
+        (p, h), (q, g) = fast.start_pose(), general.pose(0.0)
+        assert np.array_equal(p, q) and np.array_equal(np.signbit(p), np.signbit(q)) and h == g
+    curved = spline_path(CONTROL)
+    (p, h), (q, g) = curved.start_pose(), curved.pose(0.0)
+    assert np.array_equal(p, q) and h == g
+    with pytest.raises(ValueError, match="distinct"):
+        Path.straight(np.array([1.0, 2.0]), np.array([1.0, 2.0]))

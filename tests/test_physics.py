@@ -317,3 +317,23 @@ def test_car_following_a_spline_stays_on_it():
         if term["car_0"]:
             break
     assert info["car_0"]["arrived"]
+
+
+@pytest.mark.parametrize("env_id", ["intersection-v0", "intersection-spline-v0", "real-junction-v0", "crosswalk-v0"])
+def test_cached_poses_and_velocity_records_match_the_bodies_after_every_decision(env_id):
+    """The world reads back only the poses of cars that moved and skips velocity writes its
+    records say are already in place: after every decision both must agree with Box2D itself."""
+    rng = np.random.default_rng(1)
+    env = box2d_driving.make(env_id, **({"num_cars": 8} if env_id != "crosswalk-v0" else {}))
+    for seed in range(4):
+        env.reset(seed=seed)
+        while env.agents:
+            env.step({x: int(rng.integers(env.action_space(x).n)) for x in env.agents})
+            w = env.world
+            bodies = w.car_bodies
+            assert np.array_equal(w.positions, np.array([b.position.tuple for b in bodies]))
+            assert np.array_equal(w.headings, (np.array([b.angle for b in bodies]) + np.pi) % (2 * np.pi) - np.pi)
+            for i in np.flatnonzero(w.status == 0):  # cars still driving
+                v = bodies[i].linearVelocity
+                assert w._standing[i] == (v.x == 0.0 and v.y == 0.0)
+                assert np.float32(w._angular[i]) == np.float32(bodies[i].angularVelocity)

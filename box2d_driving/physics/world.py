@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from Box2D import b2EdgeShape, b2PolygonShape, b2World
+from Box2D import b2BodyDef, b2EdgeShape, b2FixtureDef, b2PolygonShape, b2World, b2_dynamicBody
 
 from box2d_driving.config import DrivingConfig
 from box2d_driving.physics.contacts import (
@@ -66,6 +66,16 @@ class DrivingWorld:
         # about 50 MiB per 1,000 resets of a real junction if a new one were made each time).
         self._edge_shape = b2EdgeShape(vertices=[(0.0, 0.0), (1.0, 0.0)])
         self._box_shape = b2PolygonShape(box=(0.5, 0.5))
+        # Likewise one definition of each fixture and of a moving body, reused: a definition
+        # points at its shape (edited in place before each fixture) and Box2D copies it into the
+        # fixture or body it creates; building them from keywords each time was a third of a reset.
+        self._edge_def = b2FixtureDef(shape=self._edge_shape, isSensor=True,
+                                      categoryBits=CAT_EDGE, maskBits=CAT_CAR)
+        self._car_def = b2FixtureDef(shape=self._box_shape, density=1.0, isSensor=True, categoryBits=CAT_CAR,
+                                     maskBits=CAT_CAR | CAT_EDGE | CAT_PEDESTRIAN)
+        self._ped_def = b2FixtureDef(shape=self._box_shape, density=1.0, isSensor=True,
+                                     categoryBits=CAT_PEDESTRIAN, maskBits=CAT_CAR)
+        self._body_def = b2BodyDef(type=b2_dynamicBody)
 
     # -- building ------------------------------------------------------------------------------
     def reset(self, layout: Layout) -> None:
@@ -79,10 +89,7 @@ class DrivingWorld:
         edge_body = self.world.CreateStaticBody()
         for j, (a, b) in enumerate(np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)):
             self._edge_shape.vertices = [tuple(a), tuple(b)]
-            fx = edge_body.CreateFixture(
-                shape=self._edge_shape, isSensor=True,
-                categoryBits=CAT_EDGE, maskBits=CAT_CAR,
-            )
+            fx = edge_body.CreateFixture(self._edge_def)
             fx.userData = (EDGE, j)
         self.edge_segments = np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)
 
@@ -99,19 +106,18 @@ class DrivingWorld:
         self.collision_partner = np.full(n, -1, dtype=np.int64)
         self.partner_halted = np.zeros(n, dtype=bool)
 
-        hl, hw = cfg.car_length / 2, cfg.car_width / 2
+        self._box_shape.SetAsBox(cfg.car_length / 2, cfg.car_width / 2)
+        bd = self._body_def
         self.car_bodies = []
         for i, spawn in enumerate(layout.cars):
-            (x, y), heading = spawn.path.pose(0.0)
-            body = self.world.CreateDynamicBody(position=(float(x), float(y)), angle=float(heading))
-            self._box_shape.SetAsBox(hl, hw)
-            fx = body.CreateFixture(
-                shape=self._box_shape, density=1.0, isSensor=True,
-                categoryBits=CAT_CAR, maskBits=CAT_CAR | CAT_EDGE | CAT_PEDESTRIAN,
-            )
+            (x, y), heading = spawn.path.start_pose()
+            bd.position, bd.angle = (float(x), float(y)), float(heading)
+            body = self.world.CreateBody(bd)
+            fx = body.CreateFixture(self._car_def)
             fx.userData = (CAR, i)
             self.car_bodies.append(body)
         self._angular = [0.0] * n
+        self._turns = (self.path_counts > 2).tolist()  # paths of more than one segment
         self._standing = [True] * n  # whether a car's body was last given zero linear velocity
 
         self.ped_bodies = []
@@ -120,12 +126,10 @@ class DrivingWorld:
         self.ped_velocity = np.array([p.velocity for p in layout.pedestrians], dtype=float).reshape(-1, 2)
         self.ped_turn_back = [p.turn_back for p in layout.pedestrians]
         for k, ped in enumerate(layout.pedestrians):
-            body = self.world.CreateDynamicBody(position=tuple(map(float, ped.position)))
+            bd.position, bd.angle = tuple(map(float, ped.position)), 0.0
+            body = self.world.CreateBody(bd)
             self._box_shape.SetAsBox(ped.size / 2, ped.size / 2)
-            fx = body.CreateFixture(
-                shape=self._box_shape, density=1.0, isSensor=True,
-                categoryBits=CAT_PEDESTRIAN, maskBits=CAT_CAR,
-            )
+            fx = body.CreateFixture(self._ped_def)
             fx.userData = (PEDESTRIAN, k)
             body.linearVelocity = tuple(map(float, ped.velocity))
             self.ped_bodies.append(body)
@@ -167,10 +171,17 @@ class DrivingWorld:
         xy = np.empty((n, k_steps + 1, 2))
         heading = np.empty((n, k_steps + 1))
         path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
-        velocity = ((xy[:, 1:] - xy[:, :-1]) / dt).tolist()
-        angular = (wrap_angle(heading[:, 1:] - heading[:, :-1]) / dt).tolist()
+        rows = np.flatnonzero(moving)
+        live = rows.tolist()
+        # per moving car (a dict by car index): the others get no velocity
+        velocity = dict(zip(live, ((xy[rows, 1:] - xy[rows, :-1]) / dt).tolist()))
+        # only a path of more than one segment turns: a one-segment path's angular velocity is
+        # exactly 0 at every step, the value its body has, so it is never written
+        turning = [i for i in live if self._turns[i]]
+        if turning:
+            angular = dict(zip(live, (wrap_angle(heading[rows, 1:] - heading[rows, :-1]) / dt).tolist()))
         arriving: dict[int, list[int]] = {}  # physics step (1-based) -> cars reaching their goal
-        for i in np.flatnonzero(moving & (arrive > 0)).tolist():
+        for i in rows[arrive[rows] > 0].tolist():
             arriving.setdefault(int(arrive[i]), []).append(i)
 
         events = DecisionEvents(
@@ -178,21 +189,23 @@ class DrivingWorld:
             collided_with=[None] * n, partner=np.full(n, -1, dtype=np.int64),
             partner_halted=np.zeros(n, dtype=bool), substep=np.zeros(n, dtype=np.int64),
         )
-        live = [i for i in range(n) if moving[i]]
-        bodies = self.car_bodies
+        bodies, standing, spin = self.car_bodies, self._standing, self._angular
         for k in range(k_steps):
             for i in live:
-                body = bodies[i]
                 v = velocity[i][k]
                 # a car standing still (waiting at a red light) keeps the zero velocity it has: no
                 # gravity or damping acts on these bodies, so Box2D leaves it exactly as set
-                if v[0] or v[1] or not self._standing[i]:
-                    body.linearVelocity = v
-                    self._standing[i] = not (v[0] or v[1])
+                if v[0] or v[1]:
+                    bodies[i].linearVelocity = v
+                    standing[i] = False
+                elif not standing[i]:
+                    bodies[i].linearVelocity = v
+                    standing[i] = True
+            for i in turning:
                 w = angular[i][k]
-                if w != self._angular[i]:
-                    body.angularVelocity = w
-                    self._angular[i] = w
+                if w != spin[i]:
+                    bodies[i].angularVelocity = w
+                    spin[i] = w
             self.world.Step(dt, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
             self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
             if self.contacts.events:
@@ -200,9 +213,13 @@ class DrivingWorld:
                     self.s[i] = s_out[i, k + 1]
                     if i in live:
                         live.remove(i)
+                        if i in turning:
+                            turning.remove(i)
             for i in arriving.get(k + 1, ()):
                 if i in live:  # not halted by a contact earlier in this decision
                     live.remove(i)
+                    if i in turning:
+                        turning.remove(i)
                     self.status[i] = ARRIVED
                     events.arrived[i] = True
                     events.substep[i] = k + 1
@@ -216,7 +233,7 @@ class DrivingWorld:
             self.s[i] = s_out[i, k_steps]
             self.speed[i] = v_out[i, k_steps]
         self._turn_pedestrians()
-        self.read_poses()
+        self.read_poses(rows)
         return events
 
     def _apply_contacts(self, contacts, events: DecisionEvents, substep: int) -> list[int]:
@@ -262,11 +279,22 @@ class DrivingWorld:
                 body.linearVelocity = tuple(self.ped_velocity[k])
 
     # -- reading ------------------------------------------------------------------------------
-    def read_poses(self) -> None:
-        """Cache car and pedestrian poses from Box2D (float64 copies)."""
+    def read_poses(self, cars: np.ndarray | None = None) -> None:
+        """Cache car and pedestrian poses from Box2D (float64 copies): of every car, or only of
+        ``cars`` (indices), the others keeping their cached poses. A car that did not move in a
+        decision (halted, arrived or removed: zero velocity, no forces on a sensor body) has the
+        pose Box2D would return, so reading only the cars that moved gives the same arrays."""
         bodies = self.car_bodies
-        self.positions = np.array([b.position.tuple for b in bodies], dtype=float).reshape(-1, 2)
-        self.headings = wrap_angle(np.array([b.angle for b in bodies], dtype=float))
+        if cars is None:
+            self.positions = np.array([b.position.tuple for b in bodies], dtype=float).reshape(-1, 2)
+            self.headings = wrap_angle(np.array([b.angle for b in bodies], dtype=float))
+        elif len(cars):
+            moved = [bodies[i] for i in cars.tolist()]
+            # new arrays, not writes into the old ones: callers may hold the previous decision's
+            self.positions = self.positions.copy()
+            self.positions[cars] = np.array([b.position.tuple for b in moved], dtype=float)
+            self.headings = self.headings.copy()
+            self.headings[cars] = wrap_angle(np.array([b.angle for b in moved], dtype=float))
         self.ped_positions = np.array([b.position.tuple for b in self.ped_bodies],
                                       dtype=float).reshape(-1, 2)
 

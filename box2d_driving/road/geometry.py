@@ -37,7 +37,23 @@ class Path:
 
     @staticmethod
     def straight(start: np.ndarray, end: np.ndarray) -> "Path":
-        return Path.from_points(np.array([start, end], dtype=np.float64))
+        """The segment from ``start`` to ``end``: ``from_points`` of the two points, the same
+        numbers (its norm is ``sqrt(dx * dx + dy * dy)`` too), built without its general checks
+        (a reset builds one per car)."""
+        pts = np.array([start, end], dtype=np.float64)
+        if pts.shape != (2, 2):
+            raise ValueError(f"a path needs at least two 2-D points, got shape {pts.shape}")
+        dx, dy = pts[1] - pts[0]
+        length = np.sqrt(dx * dx + dy * dy)
+        if not length > 1e-9:
+            raise ValueError("a path needs two distinct points")
+        return Path(pts, np.array([0.0, length]))
+
+    def start_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """``pose(0.0)``, the same numbers, without the search along the path."""
+        a = self.points[0]
+        d = self.points[1] - a
+        return a + 0.0 * d, np.arctan2(d[..., 1], d[..., 0])
 
     @property
     def length(self) -> float:

@@ -122,6 +122,10 @@ def _cast_rays_in(origins, headings, observer, seg_lo, seg_hi, n_rays, max_range
             by = segs[m, 3] - oy
             ex = bx - ax
             ey = by - ay
+            # a one-sided (box) segment facing away from the origin: every ray that could reach it
+            # has ``denom`` of this sign, so below it is skipped as one-sided or as ``t < 0``
+            if one_sided[m] and ax * ey - ay * ex > 0.0:
+                continue
             ll = ex * ex + ey * ey
             if ll <= 0.0:
                 continue
