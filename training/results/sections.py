@@ -241,7 +241,7 @@ SECTIONS: tuple[Section, ...] = (
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"), ("timesteps", "16000000")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
-            f"{SWEEP} lights --seeds 3 --timesteps 16000000 --set num_cars=8 lidar_noise=0.5 "
+            f"{SWEEP} lights --seeds 5 --timesteps 16000000 --set num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --cpus-per-trial 2 --max-concurrent 1 "
             "--out runs/sweep-lights-8cars-16M",
             setting="The denser-traffic fine-tune above at the paper's own 8-car budget (500 updates of 32,000 "
