@@ -123,3 +123,16 @@ def test_lights_of_several_junctions_at_once_are_each_junctions_own_to_the_bit()
     want = np.concatenate(want)
     assert np.array_equal(got, want)
     assert len(set(want.tolist())) == 4  # green, yellow, red and no light all occurred
+
+
+def test_plain_values_are_the_array_values_to_the_bit():
+    from box2d_driving.road.lights import sample_lights
+
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        lights = sample_lights(rng, rng.normal(size=(4, 2)), rng.normal(size=(4, 2)), np.arange(4) % 2,
+                               (5.0, 30.0), float(rng.uniform(0.0, 4.0)))
+        t, y, off = lights.half_period, lights.yellow, lights.offset
+        # random times and the phase boundaries themselves, where a rounding difference would show
+        for time in rng.uniform(0.0, 500.0, size=10).tolist() + [0.0, t - off, t - y - off, 2 * t - y - off]:
+            assert lights.plain_values(time) == lights.values(time).tolist()

@@ -110,6 +110,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
         """Scenario-specific per-car facts added to ``infos`` (one dict per car in ``cars``)."""
         return [{} for _ in cars]
 
+    scenario_info.adds_nothing = True  # the env core skips merging the empty dicts of this default
+
     def _seed(self, seed: Optional[int]) -> None:
         if seed is not None or self.np_random is None:
             self.np_random, _ = seeding.np_random(seed)

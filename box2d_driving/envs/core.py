@@ -294,7 +294,8 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
             info["bit_sent"], info["bit_received"] = int(b), int(h)
     start = 0
     for env, c in zip(envs, cars):
-        for info, extra in zip(infos[start:start + len(c)], env.scenario_info(c)):
-            info.update(extra)
+        if not getattr(env.scenario_info, "adds_nothing", False):  # a scenario's own facts
+            for info, extra in zip(infos[start:start + len(c)], env.scenario_info(c)):
+                info.update(extra)
         start += len(c)
     return infos

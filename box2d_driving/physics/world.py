@@ -281,20 +281,22 @@ class DrivingWorld:
     # -- reading ------------------------------------------------------------------------------
     def read_poses(self, cars: np.ndarray | None = None) -> None:
         """Cache car and pedestrian poses from Box2D (float64 copies): of every car, or only of
-        ``cars`` (indices), the others keeping their cached poses. A car that did not move in a
+        ``cars`` (indices), the others keeping their last read. A car that did not move in a
         decision (halted, arrived or removed: zero velocity, no forces on a sensor body) has the
         pose Box2D would return, so reading only the cars that moved gives the same arrays."""
         bodies = self.car_bodies
         if cars is None:
-            self.positions = np.array([b.position.tuple for b in bodies], dtype=float).reshape(-1, 2)
-            self.headings = wrap_angle(np.array([b.angle for b in bodies], dtype=float))
-        elif len(cars):
-            moved = [bodies[i] for i in cars.tolist()]
-            # new arrays, not writes into the old ones: callers may hold the previous decision's
-            self.positions = self.positions.copy()
-            self.positions[cars] = np.array([b.position.tuple for b in moved], dtype=float)
-            self.headings = self.headings.copy()
-            self.headings[cars] = wrap_angle(np.array([b.angle for b in moved], dtype=float))
+            self._xy = [b.position.tuple for b in bodies]
+            self._angle = [b.angle for b in bodies]
+        else:
+            xy, angle = self._xy, self._angle
+            for i in cars.tolist():
+                body = bodies[i]
+                xy[i] = body.position.tuple
+                angle[i] = body.angle
+        # new arrays each time: callers may hold the previous decision's
+        self.positions = np.array(self._xy, dtype=float).reshape(-1, 2)
+        self.headings = wrap_angle(np.array(self._angle, dtype=float))
         self.ped_positions = np.array([b.position.tuple for b in self.ped_bodies],
                                       dtype=float).reshape(-1, 2)
 

@@ -55,6 +55,23 @@ class TrafficLights:
         phase = (time + self.offset + self.groups * self.half_period) % cycle
         return phase_value(phase, self.half_period, self.yellow)
 
+    def plain_values(self, time: float) -> list[float]:
+        """:meth:`values` as a list, worked out in plain floats: the same operations in the same
+        order (Python's float ``%`` and numpy's remainder are the same rule), so the same values,
+        without a dozen numpy calls on an array of four lights."""
+        t, y = self.half_period, self.yellow
+        cycle = 2.0 * t
+        base = time + self.offset
+        out = []
+        for g in self._groups:
+            phase = (base + g * t) % cycle
+            out.append(GREEN if phase < t - y else YELLOW if phase < t else RED if phase < 2 * t - y else YELLOW)
+        return out
+
+    @functools.cached_property
+    def _groups(self) -> list[int]:
+        return self.groups.tolist()
+
     def seen(self, time: float, light_index: np.ndarray, positions: np.ndarray,
              headings: np.ndarray, view_distance: float) -> np.ndarray:
         """The light value each car sees, shape ``(N,)``.
@@ -78,7 +95,7 @@ class TrafficLights:
             ahead = (sx - px) * dx + (sy - py) * dy
             if 0.0 < ahead <= view_distance and cos_h[k] * dx + sin_h[k] * dy > 0.0:
                 if values is None:  # most decisions no car is before a stop line
-                    values = self.values(time).tolist()
+                    values = self.plain_values(time)
                 out[k] = values[li]
         return out
 
