@@ -7,7 +7,7 @@ import pytest
 
 import box2d_driving
 from box2d_driving.physics.kinematics import advance_speed
-from box2d_driving.road.geometry import spline_path
+from box2d_driving.road.geometry import spline_path, wrap_angle
 from box2d_driving.road.layout import PedestrianSpawn
 from box2d_driving.registry import registry
 from tests.helpers import hand_env, level_index, straight_car
@@ -332,7 +332,7 @@ def test_cached_poses_and_velocity_records_match_the_bodies_after_every_decision
             w = env.world
             bodies = w.car_bodies
             assert np.array_equal(w.positions, np.array([b.position.tuple for b in bodies]))
-            assert np.array_equal(w.headings, (np.array([b.angle for b in bodies]) + np.pi) % (2 * np.pi) - np.pi)
+            assert np.array_equal(w.headings, wrap_angle(np.array([b.angle for b in bodies])))
             for i in np.flatnonzero(w.status == 0):  # cars still driving
                 v = bodies[i].linearVelocity
                 assert w._standing[i] == (v.x == 0.0 and v.y == 0.0)
