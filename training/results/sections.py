@@ -336,6 +336,23 @@ SECTIONS: tuple[Section, ...] = (
                                      f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
                                      (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
                             for noise in ("0", "0.25", "0.5", "0.75"))),
+    Section("communication-paper", "Turn signals at the paper's car count (12 cars)", "real-junction",
+            (("communication", "true"), ("num_cars", "12")),
+            (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2]),
+            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
+            "more on the message when their perception is less reliable.",
+            f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 3 --timesteps 5887232 "
+            "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
+            "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars",
+            setting="The turn-signal runs above with the paper's 12 cars and its three LiDAR noise levels "
+                    "(0, 0.5, 0.75), with learning curves: each trial widens the shipped 8-car base policy "
+                    "to the 1-bit message and trains 12 cars for as many decisions as the 8-car trials "
+                    "(the paper: 32 M). The same training seeds run at every noise level, so the trend is "
+                    "tested paired by seed; the trials run one after the other, a whole set of noise "
+                    "levels per seed, so a summary holds the seeds finished so far.",
+            figure=against_noise_figure(AGAINST_NOISE),
+            statements=(noise_trend_statement(AGAINST_NOISE),),
+            paper_budget="12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             ((FAST_LANES_R, "Pearson(rating, lateral), size"),
              ("fast_lanes.pearson_r", "Pearson(rating, lateral), signed (below 0: fast cars on the right)"),
