@@ -241,6 +241,23 @@ def test_encoder_without_gradients_equals_the_convolution_and_follows_weight_upd
             opt.step()  # new weights: the cached fused matrices must not be reused
 
 
+def test_encoder_stand_ins_keep_shapes_and_gradients_and_only_inside_their_block():
+    """``bench --train``'s bound: within ``encoders_cost_nothing`` the encoders' outputs keep their
+    shapes and pass gradients on; outside it ``encode`` is the convolution again."""
+    from training.ppo.encoder import LidarEncoder, encode, encoders_cost_nothing
+
+    th.manual_seed(2)
+    encoders = [LidarEncoder(5, 100, 4), LidarEncoder(5, 100, 4)]
+    x = th.randn(30, 520)
+    with encoders_cost_nothing():
+        stand_ins = encode(encoders, x)
+    assert [tuple(o.shape) for o in stand_ins] == [(30, e.out_dim) for e in encoders]
+    sum(o.sum() for o in stand_ins).backward()
+    assert all(e.layer2.bias.grad is not None and e.layer1.weight.grad is None for e in encoders)
+    for a, b in zip(encode(encoders, x), [e.reference(x) for e in encoders]):
+        assert th.allclose(a, b, atol=1e-5)
+
+
 def test_critic_encodes_a_repeated_team_once_with_the_same_values():
     th.manual_seed(0)
     net, _ = _network()

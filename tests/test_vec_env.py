@@ -177,8 +177,8 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
     for r in rows:
         assert r["agent_steps"] > 0 and r["agent_steps_per_s"] > 0
         assert abs(r["env_share"] + r["inference_share"] + r["update_share"] - 1.0) < 0.05
-        assert r["update_gflop"] > 0 and r["update_gflops"] > 0 and r["matmul_gflops"] > 0
-    assert "| update GFLOP/s | matmul GFLOP/s |" in printed
+        assert r["update_gflop"] > 0 and r["update_gflops"] > 0 and r["matmul_gflops"] > 0 and r["bound_gflops"] > 0
+    assert "| update GFLOP/s | matmul GFLOP/s |" in printed and "| encoders free: GFLOP/s |" in printed
     with pytest.raises(SystemExit):  # never replaces a table
         bench(["--train", "--json", str(out)])
     if resolve_device("auto") == "cpu":

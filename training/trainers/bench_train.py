@@ -19,7 +19,10 @@ the update's matrix products and convolutions (forward and backward; element-wis
 not counted; the LiDAR convolutions counted as convolutions, not as the zero-padded products
 ``training/ppo/encoder.py`` computes them with). Their ratio is the update's achieved GFLOP/s, printed beside a plain matrix product
 of the update's widest layer (minibatch x 256 times 256 x 256) timed in the same run on the same
-device and threads: how close the learner comes to what the machine can do.
+device and threads: how close the learner comes to what the machine can do. Beside it, the same
+update timed once more with both LiDAR encoders replaced by stand-ins that cost next to nothing
+(:func:`training.ppo.encoder.encoders_cost_nothing`), over the same counted GFLOP: the most any
+faster encoder could give.
 
 Prints a table and writes it as JSON (``--json FILE``, never replacing an existing file).
 """
@@ -58,6 +61,7 @@ class TrainBenchRow:
     update_share: float
     update_gflop: float
     update_gflops: float
+    bound_gflops: float
     matmul_gflops: float
 
 
@@ -111,23 +115,33 @@ class _TimedStep:
         venv.step_wait = timed
 
 
-def update_flops(model) -> tuple[float, float]:
-    """FLOPs of one PPO update on the model's last batch (matrix products and convolutions,
-    forward and backward) and the seconds the same update takes without counting, scaled to the
-    epochs the counted update ran (PPO may stop early on its KL target)."""
-    from torch.utils.flop_counter import FlopCounterMode
-
-    from training.ppo.encoder import reference_convolutions
-
+def _timed_update(model) -> tuple[float, int]:
+    """Seconds and epochs of one PPO update on the model's last batch."""
     before = model._n_updates
     t0 = time.perf_counter()
     model.train()
-    seconds, timed_epochs = time.perf_counter() - t0, model._n_updates - before
+    return time.perf_counter() - t0, model._n_updates - before
+
+
+def update_flops(model) -> tuple[float, float, float]:
+    """FLOPs of one PPO update on the model's last batch (matrix products and convolutions,
+    forward and backward), the seconds the same update takes without counting, and the seconds it
+    takes with the LiDAR encoders costing nothing; both times scaled to the epochs the counted
+    update ran (PPO may stop early on its KL target)."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    from training.ppo.encoder import encoders_cost_nothing, reference_convolutions
+
+    seconds, timed_epochs = _timed_update(model)
     counter = FlopCounterMode(display=False)
+    before = model._n_updates
     with counter, reference_convolutions():  # the model's own operations, not the fast way's zeros
         model.train()
-    counted_epochs = model._n_updates - before - timed_epochs
-    return float(counter.get_total_flops()), seconds * counted_epochs / max(1, timed_epochs)
+    counted_epochs = model._n_updates - before
+    with encoders_cost_nothing():
+        bound_s, bound_epochs = _timed_update(model)
+    return (float(counter.get_total_flops()), seconds * counted_epochs / max(1, timed_epochs),
+            bound_s * counted_epochs / max(1, bound_epochs))
 
 
 def matmul_gflops(rows: int, width: int, device: str, repeats: int = 50) -> float:
@@ -165,7 +179,7 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
             per_update = model.n_steps * venv.num_envs
             model.learn(per_update * (warmup + updates), callback=clock)
             wall = time.perf_counter() - clock.t_start
-            flops, update_s = update_flops(model)
+            flops, update_s, bound_s = update_flops(model)
     finally:
         venv.close()
     env_s = venv.env_wait_s
@@ -174,7 +188,7 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
         env_share=env_s / wall, inference_share=max(0.0, clock.rollout_s - env_s) / wall,
         update_share=max(0.0, wall - clock.rollout_s) / wall, update_gflop=flops / 1e9,
-        update_gflops=flops / update_s / 1e9,
+        update_gflops=flops / update_s / 1e9, bound_gflops=flops / bound_s / 1e9,
         matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)))
 
 
@@ -191,13 +205,14 @@ def worker_counts(cores: int) -> list[int]:
 
 def format_table(rows: list[TrainBenchRow]) -> str:
     lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update "
-             "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         lines.append(f"| {r.num_cpus} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
                      f"{r.update_gflop:.1f} | {r.update_gflops:.1f} | {r.matmul_gflops:.0f} | "
-                     f"{r.update_gflops / r.matmul_gflops:.0%} |")
+                     f"{r.update_gflops / r.matmul_gflops:.0%} | {r.bound_gflops:.1f} | "
+                     f"{r.bound_gflops / r.matmul_gflops:.0%} |")
     return "\n".join(lines)
 
 
