@@ -1,0 +1,100 @@
+"""What one rule on the results page is (:class:`Section`) and its rows in the README's results
+table (:class:`Headline`); the rules themselves are listed in :mod:`training.results.sections`."""
+
+from __future__ import annotations
+
+import shlex
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+from training.results.data import Baseline, Group, Metric, PaperValue
+from training.results.figures import Figure
+from training.results.statements import Statement
+
+__all__ = ["Headline", "Section"]
+
+
+@dataclass(frozen=True)
+class Headline:
+    """A row of the README's results table: one grid point of a rule and the metrics shown.
+
+    Attributes:
+        rule: what the row shows, in words.
+        setting: the scenario and grid point, in words.
+        point: grid values (as typed in the sweep's ``--grid``) the row's trials have.
+        metrics: metric columns shown, labelled as in the section's table.
+    """
+
+    rule: str
+    setting: str
+    point: tuple[tuple[str, str], ...] = ()
+    metrics: tuple[Metric, ...] = ()
+
+
+@dataclass(frozen=True)
+class Section:
+    """One rule on the page.
+
+    Attributes:
+        key: anchor and figure file stem.
+        title: heading.
+        behaviour: the sweep behaviour that measures it.
+        match: fixed training options a sweep must have for this section (e.g. communication on).
+        metrics: (metric column, label) shown in the table.
+        paper: the paper's result in words.
+        command: the sweep that produces it (``box2d-driving sweep ... --out runs/sweep-NAME``).
+        setting: what each trial trains, in words (shown above the table).
+        paper_values: the paper's numbers to compare ours with.
+        figure: draws the section's figure from the grouped estimates (None: table only).
+        baseline: measures a scripted reference driver on a summary's report episodes, for the
+            section's statements and figure (the lights: a light-blind driver); None: none.
+        statements: the section's own plain statements of what the intervals say against the
+            paper's claim (beside the comparisons every section gets: with ``paper_values``, with
+            ``compare_with`` and the grid points not learnt).
+        shipped: the shipped policy animated in the section (a folder in assets/policies).
+        gif_size: the animation's frame size in pixels.
+        headlines: its rows in the README's results table.
+        compare_with: (another section's key, its grid point) whose trials this section's are set
+            against in a statement (same metrics, intervals apart or not).
+        paper_budget: what the paper's own runs of this rule trained (from the original code's
+            experiment list), shown beside ours; empty where we do not know it.
+        curve_extra: learning-curve columns (``box2d-driving curve``'s names) drawn and judged
+            beside the table's plain metrics, for table metrics derived from a summary's figures
+            (which a curve computes from its samples instead).
+    """
+
+    key: str
+    title: str
+    behaviour: str
+    match: tuple[tuple[str, str], ...]
+    metrics: tuple[tuple[Metric, str], ...]
+    paper: str
+    command: str
+    setting: str = ""
+    paper_values: tuple[PaperValue, ...] = ()
+    figure: Optional[Figure] = None
+    baseline: Optional[Callable[[dict[str, Any], list[Group]], Baseline]] = None
+    statements: tuple[Statement, ...] = ()
+    shipped: Optional[str] = None
+    gif_size: tuple[int, int] = (320, 320)
+    headlines: tuple[Headline, ...] = ()
+    compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
+    paper_budget: str = ""
+    curve_extra: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def argv(self) -> list[str]:
+        """The sweep's arguments (after ``box2d-driving sweep``)."""
+        return shlex.split(self.command)[2:]
+
+    @property
+    def out(self) -> Path:
+        """The sweep folder the command names."""
+        argv = self.argv
+        return Path(argv[argv.index("--out") + 1])
+
+    @property
+    def summary_name(self) -> str:
+        """File stem of the committed summary: the sweep folder's name without ``sweep-``."""
+        return self.out.name.removeprefix("sweep-")
