@@ -132,6 +132,7 @@ def _window_index(history: int, n_rays: int, kernel: int, block: int) -> th.Tens
 
 
 _REFERENCE = False
+_STAND_IN = False  # see encoders_cost_nothing
 # Without gradients, up to this many rows go the way of :func:`_encode_no_grad` (fewer, fused
 # operations: a rollout step's few dozen rows); more rows are faster the training way, whose
 # layer-2 products are a quarter of the fused block diagonal's
@@ -163,8 +164,6 @@ def encoders_cost_nothing() -> Iterator[None]:
     finally:
         _STAND_IN = before
 
-
-_STAND_IN = False
 
 
 def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
