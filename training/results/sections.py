@@ -44,6 +44,11 @@ ONE_SIDED = Size(Preferred("lanes.one_sided_offset",
 AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
                  (PEARSON, "|Pearson(heading change, bit)|"),
                  (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
+# the turn-signal rules' table columns, the paper's claim and its runs (both turn-signal sections)
+COMMUNICATION_METRICS = (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2])
+COMMUNICATION_CLAIM = ("Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
+                       "more on the message when their perception is less reliable.")
+COMMUNICATION_BUDGET = "12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"
 # the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
 LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
                   ("collision_rate", "collisions"))
@@ -223,9 +228,8 @@ SECTIONS: tuple[Section, ...] = (
                                 "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
     Section("communication", "Turn signals (communication)", "real-junction", (("communication", "true"),),
-            (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2]),
-            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
-            "more on the message when their perception is less reliable.",
+            COMMUNICATION_METRICS,
+            COMMUNICATION_CLAIM,
             f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
             "--set communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
             "--out runs/sweep-communication",
@@ -243,16 +247,15 @@ SECTIONS: tuple[Section, ...] = (
                                               "LiDAR), not to any one level: the trend across levels is the "
                                               "statement above.")),
             shipped="real_junction_comm_8cars/noise05",
-            paper_budget="12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)",
+            paper_budget=COMMUNICATION_BUDGET,
             headlines=tuple(Headline("turn signals (communication)",
                                      f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
                                      (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
                             for noise in ("0", "0.25", "0.5", "0.75"))),
     Section("communication-paper", "Turn signals at the paper's car count (12 cars)", "real-junction",
             (("communication", "true"), ("num_cars", "12")),
-            (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2]),
-            "Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
-            "more on the message when their perception is less reliable.",
+            COMMUNICATION_METRICS,
+            COMMUNICATION_CLAIM,
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 3 --timesteps 5887232 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars",
@@ -264,7 +267,7 @@ SECTIONS: tuple[Section, ...] = (
                     "levels per seed, so a summary holds the seeds finished so far.",
             figure=against_noise_figure(AGAINST_NOISE),
             statements=(noise_trend_statement(AGAINST_NOISE),),
-            paper_budget="12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"),
+            paper_budget=COMMUNICATION_BUDGET),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             ((FAST_LANES_R, "Pearson(rating, lateral), size"),
              ("fast_lanes.pearson_r", "Pearson(rating, lateral), signed (below 0: fast cars on the right)"),
