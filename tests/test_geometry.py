@@ -65,3 +65,33 @@ def test_straight_path_and_start_pose_are_the_general_constructions_to_the_bit()
     assert np.array_equal(p, q) and h == g
     with pytest.raises(ValueError, match="distinct"):
         Path.straight(np.array([1.0, 2.0]), np.array([1.0, 2.0]))
+
+
+def _even_odd_by_broadcasting(points, polygon):
+    """The even-odd rule as whole-array numpy (the compiled kernel's reference)."""
+    x, y = points[:, 0][:, None], points[:, 1][:, None]
+    xa, ya = polygon[:, 0][None, :], polygon[:, 1][None, :]
+    xb, yb = np.roll(polygon[:, 0], -1)[None, :], np.roll(polygon[:, 1], -1)[None, :]
+    crosses = (ya > y) != (yb > y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_at = xa + (y - ya) * (xb - xa) / (yb - ya)
+    return np.sum(crosses & (x < x_at), axis=1) % 2 == 1
+
+
+def test_points_in_polygon_matches_the_even_odd_rule_on_corners_edges_and_random_points():
+    from box2d_driving.road.geometry import points_in_polygon
+
+    rng = np.random.default_rng(0)
+    for n_corners in (3, 4, 7, 40):
+        angle = np.sort(rng.uniform(0, 2 * np.pi, n_corners))
+        polygon = np.stack([np.cos(angle), np.sin(angle)], axis=1) * rng.uniform(5, 20, (n_corners, 1))
+        polygon[0] = polygon[1] if n_corners == 40 else polygon[0]  # a repeated corner (zero-length edge)
+        mid = 0.5 * (polygon + np.roll(polygon, -1, axis=0))
+        points = np.concatenate([rng.uniform(-25, 25, (2_000, 2)), polygon, mid,
+                                 np.stack([rng.uniform(-25, 25, 50), np.repeat(polygon[2, 1], 50)], axis=1),
+                                 [[np.nan, 0.0], [0.0, np.nan]]])
+        got = points_in_polygon(points, polygon)
+        np.testing.assert_array_equal(got, _even_odd_by_broadcasting(points, polygon))
+        assert 0 < got.sum() < len(points)
+    assert points_in_polygon(np.zeros((0, 2)), polygon).shape == (0,)
+    assert not points_in_polygon(np.zeros((3, 2)), np.zeros((0, 2))).any()

@@ -70,6 +70,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._accel_range = float(self._levels[-1] - self._levels[0])
         self._backend = "numba" if cfg.lidar_backend == "auto" else cfg.lidar_backend
         self.world = DrivingWorld(cfg)
+        # ray directions kept between decisions (the env core keeps them on the first instance it steps)
+        self._ray_directions: Optional[lidar.RayDirections] = None
         self.np_random: Optional[np.random.Generator] = None
         self.layout: Optional[Layout] = None
         self._viewer = None

@@ -226,11 +226,14 @@ def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
         peds = [w.ped_sizes[:0] for w in worlds]
         ped_positions, ped_sizes = np.zeros((0, 2)), np.zeros(0)
     edges = [w.edge_segments.reshape(-1, 4) for w in worlds]
+    # car j of these instances uses slot j: the same instances in the same order every decision
+    # (training's vector env) reuse their cars' directions; any other order only recomputes them
+    first._ray_directions = lidar.RayDirections.sized(first._ray_directions, len(envs) * cfg.num_cars, cfg.n_rays)
     return lidar.cast_rays_scenes(
         _cat([w.positions for w in worlds]), _cat([w.headings for w in worlds]), _cat([w.present for w in worlds]),
         cfg.num_cars, _flat(envs, cars), cfg.car_length, cfg.car_width, ped_positions, ped_sizes,
         np.array([len(p) for p in peds], dtype=np.int64), _cat(edges),
-        np.array([len(e) for e in edges], dtype=np.int64), cfg.n_rays, cfg.lidar_range)
+        np.array([len(e) for e in edges], dtype=np.int64), cfg.n_rays, cfg.lidar_range, first._ray_directions)
 
 
 def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True)
@@ -166,10 +167,29 @@ def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
 
 def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     """Even-odd rule containment of each point ``(N, 2)`` in ``polygon`` ``(K, 2)``, ``(N,)`` bool."""
-    x, y = points[:, 0][:, None], points[:, 1][:, None]
-    xa, ya = polygon[:, 0][None, :], polygon[:, 1][None, :]
-    xb, yb = np.roll(polygon[:, 0], -1)[None, :], np.roll(polygon[:, 1], -1)[None, :]
-    crosses = (ya > y) != (yb > y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_at = xa + (y - ya) * (xb - xa) / (yb - ya)
-    return np.sum(crosses & (x < x_at), axis=1) % 2 == 1
+    out = np.empty(len(points), dtype=bool)
+    _points_in_polygon(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2),
+                       np.ascontiguousarray(polygon, dtype=np.float64).reshape(-1, 2), out)
+    return out
+
+
+@njit(cache=True)
+def _points_in_polygon(points, polygon, out):
+    """:func:`points_in_polygon` compiled (the env asks it for every car every decision on the
+    real junctions, whose outlines have dozens of corners): edge ``j`` runs from corner ``j`` to
+    ``j + 1`` (the last back to the first), and a point counts the edges that cross its
+    horizontal line to its right, the crossing's ``x`` worked out as
+    ``xa + (y - ya) * (xb - xa) / (yb - ya)``."""
+    k = polygon.shape[0]
+    for i in range(points.shape[0]):
+        x = points[i, 0]
+        y = points[i, 1]
+        inside = False
+        for j in range(k):
+            xa = polygon[j, 0]
+            ya = polygon[j, 1]
+            xb = polygon[(j + 1) % k, 0]
+            yb = polygon[(j + 1) % k, 1]
+            if (ya > y) != (yb > y) and x < xa + (y - ya) * (xb - xa) / (yb - ya):
+                inside = not inside
+        out[i] = inside

@@ -59,6 +59,15 @@ def slot_rows(own: np.ndarray, alive: np.ndarray, lay: TeamLayout) -> np.ndarray
     return out
 
 
+def clear_slot(rows: np.ndarray, i: int, lay: TeamLayout) -> None:
+    """Turn car ``i`` of one instance's slot observations ``rows`` ``(N, size)`` into padding in
+    place: what :func:`slot_rows` writes when that car's own observation and alive flag are zero."""
+    rows[:, lay.team.start + i * lay.obs_dim: lay.team.start + (i + 1) * lay.obs_dim] = 0.0
+    rows[:, lay.alive.start + i] = 0.0
+    rows[i, lay.own] = 0.0
+    rows[i, lay.self_alive] = 0.0
+
+
 def checked_actions(actions: np.ndarray, n_actions: int) -> np.ndarray:
     """Slot actions as int64, or :class:`ActionError` naming the first one outside ``[0, n)``."""
     from box2d_driving.envs.actions import ActionError

@@ -36,7 +36,7 @@ from supersuit.vector import ConcatVecEnv, ProcConcatVec
 from supersuit.vector.multiproc_vec import decompress_info
 from supersuit.vector.constructors import call_wrap
 
-from training.ppo.slots import TeamLayout, checked_actions, slot_observation_space, slot_rows
+from training.ppo.slots import TeamLayout, checked_actions, clear_slot, slot_observation_space, slot_rows
 
 
 class CarSlots:
@@ -108,13 +108,9 @@ class InstanceSlots(gym.vector.VectorEnv):
     def _without(self, rows: np.ndarray, gone: list[int]) -> np.ndarray:
         """``rows`` with the slots ``gone`` turned to padding (as :meth:`_rows` would write them
         without those agents)."""
-        lay = self.layout
         rows = rows.copy()
         for i in gone:
-            rows[:, lay.team.start + i * lay.obs_dim: lay.team.start + (i + 1) * lay.obs_dim] = 0.0
-            rows[:, lay.alive.start + i] = 0.0
-            rows[i, lay.own] = 0.0
-            rows[i, lay.self_alive] = 0.0
+            clear_slot(rows, i, self.layout)
         return rows
 
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
@@ -207,17 +203,13 @@ class ConcatSlots(ConcatVecEnv):
                 infos[k * n + i] = info
             ended = d.cars if d.truncated else d.cars[d.terminated]
             finished += [(k, i) for i in ended.tolist()]
-        final = slot_rows(own, alive, lay)
-        if finished:
-            for k, i in finished:
-                info = infos[k * n + i]
-                info["terminal_observation"] = final[k, i].copy()
-                info["TimeLimit.truncated"] = bool(truncs[k, i])
-                own[k, i] = 0.0
-                alive[k, i] = 0.0
-            rows = slot_rows(own, alive, lay)
-        else:
-            rows = final
+        rows = slot_rows(own, alive, lay)
+        for k, i in finished:  # their last observation, then padding in their slots from now on
+            info = infos[k * n + i]
+            info["terminal_observation"] = rows[k, i].copy()
+            info["TimeLimit.truncated"] = bool(truncs[k, i])
+        for k, i in finished:  # in place: the batch is a few MB, rebuilding it costs a copy
+            clear_slot(rows[k], i, lay)
         for k in live:
             if not insts[k].env.agents:  # every car of the instance is done: it starts over
                 rows[k] = insts[k].reset()[0]
