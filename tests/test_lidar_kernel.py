@@ -3,7 +3,7 @@
 The kernel tests a segment only against the rays inside the angle it subtends (found with an
 approximate ``atan2``) and keeps each car's ray directions while its heading stays the same. Both
 are shortcuts that must not change a single distance: here the kernel is compared bit for bit
-with a plain loop over every ray and every segment using the same formulas.
+with a plain loop over every ray and every segment through the kernel's own hit test (``_ray_hit``).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from box2d_driving.sensors import lidar
 
 
 def every_ray_on_every_segment(origins, headings, observer, n_rays, max_range, segs, owner, one_sided):
-    """Closest hits with no culling at all: each ray against each segment, the kernel's formulas."""
+    """Closest hits with no culling at all: each ray against each segment, the kernel's own hit test."""
     dtheta = 2.0 * math.pi / n_rays
     out = np.full((len(origins), n_rays), np.inf)
     for c in range(len(origins)):
@@ -29,15 +29,7 @@ def every_ray_on_every_segment(origins, headings, observer, n_rays, max_range, s
                     continue
                 ax, ay = segs[m, 0] - ox, segs[m, 1] - oy
                 ex, ey = segs[m, 2] - ox - ax, segs[m, 3] - oy - ay
-                denom = rc * ey - rs * ex
-                if denom == 0.0 or (one_sided[m] and denom > 0.0):
-                    continue
-                t = (ax * ey - ay * ex) / denom
-                if t < 0.0 or t > max_range or t >= out[c, k]:
-                    continue
-                s = (ax * rs - ay * rc) / denom
-                if 0.0 <= s <= 1.0:
-                    out[c, k] = t
+                out[c, k] = lidar._ray_hit(ax, ay, ex, ey, rc, rs, one_sided[m], max_range, out[c, k])
     return out
 
 

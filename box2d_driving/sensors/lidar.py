@@ -213,17 +213,23 @@ def _cast_rays_in(origins, headings, observer, slot, seg_lo, seg_hi, n_rays, max
                     k1 = n_rays - 1
             for kk in range(k0, k1 + 1):
                 k = kk % n_rays
-                rc = cos_r[k]
-                rs = sin_r[k]
-                denom = rc * ey - rs * ex
-                if denom == 0.0 or (one_sided[m] and denom > 0.0):
-                    continue
-                t = (ax * ey - ay * ex) / denom
-                if t < 0.0 or t > max_range or t >= out[c, k]:
-                    continue
-                s = (ax * rs - ay * rc) / denom
-                if 0.0 <= s <= 1.0:
-                    out[c, k] = t
+                out[c, k] = _ray_hit(ax, ay, ex, ey, cos_r[k], sin_r[k], one_sided[m], max_range, out[c, k])
+
+
+@njit(cache=True)
+def _ray_hit(ax, ay, ex, ey, rc, rs, one_sided, max_range, closest):
+    """The distance along the ray from the origin in direction ``(rc, rs)`` to the segment from
+    ``(ax, ay)`` to ``(ax + ex, ay + ey)`` (relative to the origin) where it crosses it closer
+    than ``closest`` and within ``max_range``; else ``closest``. A ``one_sided`` segment (a box
+    side, counter-clockwise) is hit only from outside."""
+    denom = rc * ey - rs * ex
+    if denom == 0.0 or (one_sided and denom > 0.0):
+        return closest
+    t = (ax * ey - ay * ex) / denom
+    if t < 0.0 or t > max_range or t >= closest:
+        return closest
+    s = (ax * rs - ay * rc) / denom
+    return t if 0.0 <= s <= 1.0 else closest
 
 
 def cast_rays_scenes(car_positions: np.ndarray, car_headings: np.ndarray, car_present: np.ndarray,
