@@ -49,13 +49,16 @@ COMMUNICATION_METRICS = (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINS
 COMMUNICATION_CLAIM = ("Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
                        "more on the message when their perception is less reliable.")
 COMMUNICATION_BUDGET = "12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"
-# whether the listeners rely on the message at each noise level (both turn-signal sections)
-COMMUNICATION_RELIANCE = above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
-                                         "the listeners rely on the message", "success rises without the message",
-                                         level=0.0, level_text="zero",
-                                         paper="The paper ties the listeners' reliance to noise (more with noisier "
-                                               "LiDAR), not to any one level: the trend across levels is the "
-                                               "statement above.")
+# both turn-signal sections' figure and statements: the trend with noise, then whether the
+# listeners rely on the message at each noise level
+COMMUNICATION_FIGURE = against_noise_figure(AGAINST_NOISE)
+COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
+                            above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
+                                            "the listeners rely on the message", "success rises without the message",
+                                            level=0.0, level_text="zero",
+                                            paper="The paper ties the listeners' reliance to noise (more with "
+                                                  "noisier LiDAR), not to any one level: the trend across levels "
+                                                  "is the statement above."))
 # the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
 LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
                   ("collision_rate", "collisions"))
@@ -245,9 +248,8 @@ SECTIONS: tuple[Section, ...] = (
                     "every noise level). *Success lost with messages unheard*: the trial's success minus its "
                     "success on the same report episodes with every message replaced by silence, so above "
                     "zero where the listeners rely on the message.",
-            figure=against_noise_figure(AGAINST_NOISE),
-            statements=(noise_trend_statement(AGAINST_NOISE),
-                        COMMUNICATION_RELIANCE),
+            figure=COMMUNICATION_FIGURE,
+            statements=COMMUNICATION_STATEMENTS,
             shipped="real_junction_comm_8cars/noise05",
             paper_budget=COMMUNICATION_BUDGET,
             headlines=tuple(Headline("turn signals (communication)",
@@ -267,8 +269,8 @@ SECTIONS: tuple[Section, ...] = (
                     "(the paper: 32 M). The same training seeds run at every noise level, so the trend is "
                     "tested paired by seed; the trials run one after the other, a whole set of noise "
                     "levels per seed, so a summary holds the seeds finished so far.",
-            figure=against_noise_figure(AGAINST_NOISE),
-            statements=(noise_trend_statement(AGAINST_NOISE), COMMUNICATION_RELIANCE),
+            figure=COMMUNICATION_FIGURE,
+            statements=COMMUNICATION_STATEMENTS,
             paper_budget=COMMUNICATION_BUDGET),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             ((FAST_LANES_R, "Pearson(rating, lateral), size"),
