@@ -60,7 +60,7 @@ def test_reset_seeds_the_action_spaces():
 
 
 def test_the_inverse_lidar_encoding_is_bounded():
-    from box2d_driving.sensors.lidar import MIN_DISTANCE, encode
+    from box2d_driving.sensors.readout import MIN_DISTANCE, encode
 
     values = encode(np.array([0.0, 1e-9, 0.05, 2.0, np.inf]), 50.0, "inverse")
     assert values.tolist() == pytest.approx([1 / MIN_DISTANCE] * 3 + [0.5, 0.0])
@@ -221,3 +221,24 @@ def test_infos_carry_metric_facts():
         assert keys <= set(info)
         assert set(info["reward_terms"]) == {"goal", "collision", "smoothness", "progress"}
         assert info["lane_offset"] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("encoding", ["inverse", "proximity"])
+def test_lidar_encoding_is_the_whole_array_formula_to_the_bit(encoding):
+    from box2d_driving.sensors.readout import MIN_DISTANCE, encode
+
+    rng = np.random.default_rng(5)
+    distances = rng.uniform(0.0, 50.0, (40, 32)) * rng.uniform(0, 1, (40, 1)) ** 3
+    distances[rng.random((40, 32)) < 0.3] = np.inf
+    dropped = rng.random((40, 32)) < 0.25
+    gone = dropped | ~np.isfinite(distances)
+    expected = np.zeros(distances.shape, dtype=np.float32)  # float64 values rounded once to float32
+    if encoding == "inverse":
+        expected[~gone] = 1.0 / np.maximum(distances[~gone], MIN_DISTANCE)
+    else:
+        expected[~gone] = 1.0 - distances[~gone] / 50.0
+    got = encode(distances, 50.0, encoding, dropped)
+    assert got.dtype == np.float32 and got.tobytes() == expected.tobytes()
+    assert encode(distances, 50.0, encoding)[dropped & np.isfinite(distances)].any()  # the mask is optional
+    with pytest.raises(ValueError, match="unknown LiDAR encoding"):
+        encode(distances, 50.0, "log")

@@ -95,3 +95,17 @@ def test_points_in_polygon_matches_the_even_odd_rule_on_corners_edges_and_random
         assert 0 < got.sum() < len(points)
     assert points_in_polygon(np.zeros((0, 2)), polygon).shape == (0,)
     assert not points_in_polygon(np.zeros((3, 2)), np.zeros((0, 2))).any()
+
+
+def test_points_in_box_counts_edges_and_corners_inside_and_nan_outside():
+    from box2d_driving.road.geometry import points_in_box
+
+    box = (-3.0, -2.0, 4.0, 5.0)
+    rng = np.random.default_rng(1)
+    points = np.concatenate([rng.uniform(-6, 7, (500, 2)), [[-3, -2], [4, 5], [-3, 5], [4, 0], [0, -2]],
+                             [[-3.0000001, 0], [0, 5.0000001], [np.nan, 0.0], [0.0, np.nan]]])
+    x, y = points[:, 0], points[:, 1]
+    expected = (x >= -3) & (x <= 4) & (y >= -2) & (y <= 5)
+    np.testing.assert_array_equal(points_in_box(points, box), expected)
+    assert points_in_box(points, box)[500:505].all() and not points_in_box(points, box)[505:].any()
+    assert points_in_box(np.zeros((0, 2)), box).shape == (0,)

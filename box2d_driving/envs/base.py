@@ -23,7 +23,7 @@ from box2d_driving.physics.world import ACTIVE, ARRIVED, COLLIDED, DrivingWorld
 from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.layout import Layout
 from box2d_driving.road.lights import NO_LIGHT
-from box2d_driving.sensors import lidar
+from box2d_driving.sensors import lidar, readout
 
 if TYPE_CHECKING:
     from box2d_driving.render.scene import Scene
@@ -92,7 +92,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
             "inv_goal_distance": (0.0, 1.0), "rating": (0.0, 1.0), "bit_received": (0.0, 1.0),
             "crosswalk_ahead": (0.0, 1.0),
         }
-        lidar_high = 1.0 / lidar.MIN_DISTANCE if self.config.lidar_encoding == "inverse" else 1.0
+        lidar_high = 1.0 / readout.MIN_DISTANCE if self.config.lidar_encoding == "inverse" else 1.0
         low = np.concatenate([np.zeros(lay.history * lay.n_rays),
                               np.tile([bounds[f][0] for f in lay.satnav_fields], lay.history)])
         high = np.concatenate([np.full(lay.history * lay.n_rays, lidar_high),

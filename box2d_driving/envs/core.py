@@ -20,12 +20,13 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
+from numba import njit
 
 from box2d_driving.envs.reward import TERMS, reward_terms
 from box2d_driving.physics.world import ARRIVED, COLLIDED
 from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.lights import NO_LIGHT, light_values, visible_lights
-from box2d_driving.sensors import lidar
+from box2d_driving.sensors import lidar, readout
 
 # instances of box2d_driving.envs.base.DrivingEnv (not imported: base imports this module)
 Envs = Sequence[Any]
@@ -139,9 +140,9 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     cfg = first.config
     flat = _flat(envs, cars)
     distances = lidar_distances(envs, cars)
-    draws = [lidar.dropout_draws(env.np_random, len(c), cfg.n_rays, cfg.lidar_noise)
+    draws = [readout.dropout_draws(env.np_random, len(c), cfg.n_rays, cfg.lidar_noise)
              for env, c in zip(envs, cars)]
-    dropped = lidar.dropout_from_draws(_cat(draws), len(flat), cfg.n_rays, cfg.lidar_noise)
+    dropped = readout.dropout_from_draws(_cat(draws), len(flat), cfg.n_rays, cfg.lidar_noise)
     start = 0
     for env, c in zip(envs, cars):
         if env.render_mode is not None:  # kept for drawing the rays
@@ -152,8 +153,7 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
             env._last_rays[c] = distances[rows]
             env._last_dropped[c] = dropped[rows]
         start += len(c)
-    distances[dropped] = np.inf
-    lidar_frame = lidar.encode(distances, cfg.lidar_range, cfg.lidar_encoding)
+    lidar_frame = readout.encode(distances, cfg.lidar_range, cfg.lidar_encoding, dropped)
 
     pos = _cat([env.world.positions for env in envs])[flat]
     head = _cat([env.world.headings for env in envs])[flat]
@@ -242,21 +242,13 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
     (:meth:`~box2d_driving.envs.base.DrivingEnv.scenario_info`) added."""
     flat = _flat(envs, cars)
     worlds = [env.world for env in envs]
-    pos = _cat([w.positions for w in worlds])[flat]
-    offset = np.full(len(flat), np.nan)
-    half = _cat([env._lane_half_width for env in envs])[flat]
-    has_axis = ~np.isnan(half)
-    if has_axis.any():
-        rel = pos[has_axis] - _cat([env._lane_origin for env in envs])[flat[has_axis]]
-        right = _cat([env._lane_right for env in envs])[flat[has_axis]]
-        # a stack of vector products: the same rounding as one car's ``rel @ right``
-        dot = np.matmul(rel[:, None, :], right[:, :, None])[:, 0, 0]
-        offset[has_axis] = dot / half[has_axis]
-    stop = np.full(len(flat), np.nan)
-    has = _cat([env._light_index for env in envs])[flat] >= 0
-    if has.any():
-        stop[has] = np.einsum("ij,ij->i", _cat([env._stop_point for env in envs])[flat[has]] - pos[has],
-                              _cat([env._stop_direction for env in envs])[flat[has]])
+    positions = _cat([w.positions for w in worlds])
+    pos = positions[flat]
+    offset, stop = np.empty(len(flat)), np.empty(len(flat))
+    _axis_offsets_and_stop_distances(
+        flat, positions, _cat([env._lane_origin for env in envs]), _cat([env._lane_right for env in envs]),
+        _cat([env._lane_half_width for env in envs]), _cat([env._stop_point for env in envs]),
+        _cat([env._stop_direction for env in envs]), offset, stop)
     in_junction = _cat([env.layout.in_junction(w.positions[c]) for env, w, c in zip(envs, worlds, cars)])
 
     # per-car dicts from whole-array columns: each column read once as plain values (the same
@@ -302,3 +294,21 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
                 info.update(extra)
         start += len(c)
     return infos
+
+
+@njit(cache=True)
+def _axis_offsets_and_stop_distances(rows, positions, lane_origin, lane_right, lane_half_width, stop_point,
+                                     stop_direction, offset, stop):
+    """For car ``rows[k]`` of the gathered arrays: ``offset[k]``, its signed distance right of its
+    lane axis in half widths, and ``stop[k]``, how far its stop line lies ahead (m, negative once
+    past it); NaN where it has no axis or no light (those inputs are NaN). Plain products and one
+    sum per car, so the same rounding as the vector product of one car's two 2-vectors (whose sum
+    starts from +0.0: an axis offset of zero is +0.0, never -0.0)."""
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        x = positions[i, 0]
+        y = positions[i, 1]
+        offset[k] = (0.0 + (x - lane_origin[i, 0]) * lane_right[i, 0]
+                     + (y - lane_origin[i, 1]) * lane_right[i, 1]) / lane_half_width[i]
+        stop[k] = ((stop_point[i, 0] - x) * stop_direction[i, 0]
+                   + (stop_point[i, 1] - y) * stop_direction[i, 1])

@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True)
@@ -76,15 +77,35 @@ class FrameHistory:
         self.satnav[:] = satnav[:, None, :]
 
     def push(self, cars: np.ndarray, lidar: np.ndarray, satnav: np.ndarray) -> None:
-        """Append a frame for the cars listed in ``cars`` (indices)."""
-        self.lidar[cars, :-1] = self.lidar[cars, 1:]
-        self.lidar[cars, -1] = lidar
-        self.satnav[cars, :-1] = self.satnav[cars, 1:]
-        self.satnav[cars, -1] = satnav
+        """Append a frame for the cars listed in ``cars`` (indices, no repeats), dropping their
+        oldest."""
+        _push(self.lidar, np.asarray(cars, dtype=np.int64), np.asarray(lidar, dtype=np.float32))
+        _push(self.satnav, np.asarray(cars, dtype=np.int64), np.asarray(satnav, dtype=np.float32))
 
     def observations(self, cars: np.ndarray) -> np.ndarray:
         """Flat ``(len(cars), size)`` observations."""
-        n = len(cars)
-        return np.concatenate(
-            [self.lidar[cars].reshape(n, -1), self.satnav[cars].reshape(n, -1)], axis=1
-        )
+        out = np.empty((len(cars), self.layout.size), dtype=np.float32)
+        _flatten(self.lidar, self.satnav, np.asarray(cars, dtype=np.int64), out)
+        return out
+
+
+# compiled: both run for every car every decision, and a handful of numpy fancy-index calls on
+# these small arrays cost more than the copies themselves
+@njit(cache=True)
+def _push(frames, cars, new):
+    """Shift each listed car's ``(H, F)`` frames one place older and write ``new[k]`` last."""
+    history = frames.shape[1]
+    for k in range(cars.shape[0]):
+        c = cars[k]
+        for h in range(history - 1):
+            frames[c, h, :] = frames[c, h + 1, :]
+        frames[c, history - 1, :] = new[k]
+
+
+@njit(cache=True)
+def _flatten(lidar, satnav, cars, out):
+    """Row ``k`` of ``out``: car ``cars[k]``'s LiDAR frames then its sat-nav frames, oldest first."""
+    n_lidar = lidar.shape[1] * lidar.shape[2]
+    for k in range(cars.shape[0]):
+        out[k, :n_lidar] = lidar[cars[k]].ravel()
+        out[k, n_lidar:] = satnav[cars[k]].ravel()

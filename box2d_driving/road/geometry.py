@@ -173,6 +173,25 @@ def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     return out
 
 
+def points_in_box(points: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray:
+    """Whether each point ``(N, 2)`` lies in the axis-aligned ``box`` ``(x0, y0, x1, y1)``, edges
+    included, ``(N,)`` bool."""
+    out = np.empty(len(points), dtype=bool)
+    x0, y0, x1, y1 = box
+    _points_in_box(np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2),
+                   float(x0), float(y0), float(x1), float(y1), out)
+    return out
+
+
+@njit(cache=True)
+def _points_in_box(points, x0, y0, x1, y1, out):
+    """:func:`points_in_box` compiled (every car, every decision at the paper's junctions)."""
+    for i in range(points.shape[0]):
+        x = points[i, 0]
+        y = points[i, 1]
+        out[i] = x0 <= x <= x1 and y0 <= y <= y1
+
+
 @njit(cache=True)
 def _points_in_polygon(points, polygon, out):
     """:func:`points_in_polygon` compiled (the env asks it for every car every decision on the

@@ -7,7 +7,7 @@ from typing import Optional
 
 import numpy as np
 
-from box2d_driving.road.geometry import Path, points_in_polygon
+from box2d_driving.road.geometry import Path, points_in_box, points_in_polygon
 from box2d_driving.road.lights import TrafficLights
 
 
@@ -100,6 +100,4 @@ class Layout:
             return points_in_polygon(np.asarray(positions, dtype=np.float64), self.junction_polygon)
         if self.junction_box is None:
             return np.zeros(len(positions), dtype=bool)
-        x0, y0, x1, y1 = self.junction_box
-        p = np.asarray(positions)
-        return (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
+        return points_in_box(positions, self.junction_box)

@@ -1,1 +1,1 @@
-"""Sensors: the LiDAR."""
+"""Sensors: the LiDAR (:mod:`.lidar` casts the rays, :mod:`.readout` turns distances into observation values)."""
