@@ -81,3 +81,27 @@ def test_every_term_sum_is_within_unit_bound_over_50_random_episodes(env_id):
                 assert -1.0 - 1e-9 <= s[t] <= 1.0 + 1e-9, (t, s[t])
                 worst[t] = min(worst[t], s[t])
     assert worst["progress"] < -0.2  # the bound is exercised, not vacuous
+
+
+def test_reward_terms_are_the_docstring_formulas_to_the_bit():
+    from box2d_driving.envs.reward import reward_terms
+
+    rng = np.random.default_rng(11)
+    n, h = 500, 200
+    arrived, collided = rng.random(n) < 0.2, rng.random(n) < 0.2
+    level, prev = rng.choice([-3.0, -1.5, 0.0, 0.75, 1.5], n), rng.choice([-3.0, 0.0, 1.5], n)
+    initial = rng.uniform(10, 120, n)
+    remaining, decision = initial * rng.random(n), rng.integers(1, h + 1, n)
+    got = reward_terms(arrived=arrived, collided=collided, accel_level=level, prev_accel_level=prev,
+                       accel_range=4.5, remaining=remaining, initial=initial, decision=decision, horizon=h,
+                       goal_reward=1.0, collision_reward=-1.0)
+    want = {"goal": np.where(arrived, 1.0, 0.0), "collision": np.where(collided, -1.0, 0.0),
+            "smoothness": -np.abs(level - prev) / 4.5 / h,
+            "progress": -(remaining / initial) * np.where(collided, h - decision + 1, 1) / h}
+    assert list(got) == list(TERMS)
+    for term in TERMS:
+        assert got[term].tobytes() == want[term].tobytes(), term
+    one = reward_terms(arrived=arrived, collided=collided, accel_level=level, prev_accel_level=prev,
+                       accel_range=4.5, remaining=remaining, initial=initial, decision=7, horizon=h,
+                       goal_reward=1.0, collision_reward=-1.0)  # one decision for every car
+    assert one["progress"][collided].tolist() == pytest.approx((-(remaining / initial) * (h - 6) / h)[collided].tolist())

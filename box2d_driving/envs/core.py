@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
-from numba import njit
 
+from box2d_driving.envs import kernels
 from box2d_driving.envs.reward import TERMS, reward_terms
 from box2d_driving.physics.world import ARRIVED, COLLIDED
 from box2d_driving.road.geometry import wrap_angle
@@ -79,16 +79,10 @@ def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
     flat = _flat(envs, acting)
     raw = _cat(actions)
     levels = first._levels
-    n_acc = len(levels)
     prev = _cat([env._prev_level for env in envs])
-    level = prev.copy()
-    level[flat] = levels[raw % n_acc]
-    bits = np.zeros(len(prev))
-    if cfg.communication:
-        bits[flat] = raw // n_acc
-    ratings = _cat([env.world.ratings for env in envs])
-    accel = np.zeros(len(prev))
-    accel[flat] = level[flat] * ratings[flat]
+    level, bits, accel = prev.copy(), np.zeros(len(prev)), np.zeros(len(prev))
+    kernels.split_actions(flat, raw, levels, _cat([env.world.ratings for env in envs]), cfg.communication,
+                          level, bits, accel)
 
     events = []
     for k, env in enumerate(envs):
@@ -158,17 +152,19 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     pos = _cat([env.world.positions for env in envs])[flat]
     head = _cat([env.world.headings for env in envs])[flat]
     _update_lights_seen(envs, cars, flat, pos, head)
-    remaining = (_cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs]))[flat]
-    to_goal = _cat([env._goals for env in envs])[flat] - pos
-    heading_error = wrap_angle(np.arctan2(to_goal[:, 1], to_goal[:, 0]) - head)
-    heading_error = np.where(remaining > 0, heading_error, 0.0)
-    speed = _cat([env.world.speed for env in envs])[flat] / _cat([env.world.v_lim for env in envs])[flat]
     n_extra = len(first.satnav_extras)
     satnav = np.empty((len(flat), 4 + n_extra + int(cfg.communication)), dtype=np.float32)
-    satnav[:, 0] = _cat([env._seen for env in envs])[flat]
-    satnav[:, 1] = speed
+    to_goal, remaining = np.empty((2, len(flat))), np.empty(len(flat))
+    worlds = [env.world for env in envs]
+    kernels.satnav_columns(flat, _cat([w.positions for w in worlds]), _cat([w.s_end for w in worlds]),
+                           _cat([w.s for w in worlds]), _cat([env._goals for env in envs]),
+                           _cat([w.speed for w in worlds]), _cat([w.v_lim for w in worlds]),
+                           _cat([env._seen for env in envs]), satnav, to_goal, remaining)
+    # numpy's arctan2, as before (its vectorised and the C library's scalar versions may round
+    # differently)
+    heading_error = wrap_angle(np.arctan2(to_goal[1], to_goal[0]) - head)
+    heading_error[remaining <= 0] = 0.0
     satnav[:, 2] = heading_error
-    satnav[:, 3] = 1.0 / np.maximum(remaining, 1.0)
     if n_extra:
         satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])
     if cfg.communication:
@@ -245,7 +241,7 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
     positions = _cat([w.positions for w in worlds])
     pos = positions[flat]
     offset, stop = np.empty(len(flat)), np.empty(len(flat))
-    _axis_offsets_and_stop_distances(
+    kernels.axis_offsets_and_stop_distances(
         flat, positions, _cat([env._lane_origin for env in envs]), _cat([env._lane_right for env in envs]),
         _cat([env._lane_half_width for env in envs]), _cat([env._stop_point for env in envs]),
         _cat([env._stop_direction for env in envs]), offset, stop)
@@ -295,20 +291,3 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
         start += len(c)
     return infos
 
-
-@njit(cache=True)
-def _axis_offsets_and_stop_distances(rows, positions, lane_origin, lane_right, lane_half_width, stop_point,
-                                     stop_direction, offset, stop):
-    """For car ``rows[k]`` of the gathered arrays: ``offset[k]``, its signed distance right of its
-    lane axis in half widths, and ``stop[k]``, how far its stop line lies ahead (m, negative once
-    past it); NaN where it has no axis or no light (those inputs are NaN). Plain products and one
-    sum per car, so the same rounding as the vector product of one car's two 2-vectors (whose sum
-    starts from +0.0: an axis offset of zero is +0.0, never -0.0)."""
-    for k in range(rows.shape[0]):
-        i = rows[k]
-        x = positions[i, 0]
-        y = positions[i, 1]
-        offset[k] = (0.0 + (x - lane_origin[i, 0]) * lane_right[i, 0]
-                     + (y - lane_origin[i, 1]) * lane_right[i, 1]) / lane_half_width[i]
-        stop[k] = ((stop_point[i, 0] - x) * stop_direction[i, 0]
-                   + (stop_point[i, 1] - y) * stop_direction[i, 1])
