@@ -8,6 +8,10 @@ from typing import Any
 import numpy as np
 
 
+# exact types (not bool, a subclass of int) whose in-range values convert to int64 unchanged
+_PLAIN_INTS = (int, np.int64, np.int32)
+
+
 class ActionError(ValueError):
     """An action dict that does not fit the live agents or the action space."""
 
@@ -29,6 +33,11 @@ def check_actions(actions: Any, agents: list[str], n_actions: int) -> np.ndarray
     missing = [a for a in agents if a not in actions]
     if missing:
         raise ActionError(f"no action for live agent(s) {missing}")
+    values = [actions[a] for a in agents]
+    # the common case, plain ints in range (what samplers and policies give), in one pass; anything
+    # else goes through the checks below, which name the culprit
+    if all(type(v) in _PLAIN_INTS and 0 <= v < n_actions for v in values):
+        return np.array(values, dtype=np.int64)
     raw = np.empty(len(agents), dtype=np.int64)
     for k, agent in enumerate(agents):
         value = actions[agent]

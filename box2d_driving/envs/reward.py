@@ -31,10 +31,13 @@ def reward_terms(*, arrived: np.ndarray, collided: np.ndarray, accel_level: np.n
     all cars or one per car; the acceleration levels are the unscaled action values (m/s^2)."""
     n = len(arrived)
     out = np.empty((len(TERMS), n))
+    decision = np.asarray(decision, dtype=np.int64)
+    if decision.ndim == 0:
+        decision = np.full(n, decision)
     _reward_terms(np.asarray(arrived, dtype=np.bool_), np.asarray(collided, dtype=np.bool_),
                   np.asarray(accel_level, dtype=np.float64), np.asarray(prev_accel_level, dtype=np.float64),
                   float(accel_range), np.asarray(remaining, dtype=np.float64), np.asarray(initial, dtype=np.float64),
-                  np.broadcast_to(np.asarray(decision, dtype=np.int64), (n,)), int(horizon), float(goal_reward),
+                  decision, int(horizon), float(goal_reward),
                   float(collision_reward), out)
     return dict(zip(TERMS, out))
 

@@ -79,3 +79,22 @@ def path_poses(points, cumlen, counts, s, xy_out, heading_out):
             xy_out[i, k, 0] = ax + u * dx
             xy_out[i, k, 1] = ay + u * dy
             heading_out[i, k] = np.arctan2(dy, dx)
+
+
+@njit(cache=True)
+def chord_velocities(xy, rows, dt, velocity, always, never):
+    """For car ``rows[j]``: ``velocity[j, k]``, the chord velocity from its pose at step ``k`` to
+    step ``k + 1`` (``(xy[k + 1] - xy[k]) / dt``, m/s); ``always[j]``, whether it is non-zero at
+    every step, and ``never[j]``, at none (a car waiting at a red light)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        moves = 0
+        for k in range(velocity.shape[1]):
+            vx = (xy[i, k + 1, 0] - xy[i, k, 0]) / dt
+            vy = (xy[i, k + 1, 1] - xy[i, k, 1]) / dt
+            velocity[j, k, 0] = vx
+            velocity[j, k, 1] = vy
+            if vx != 0.0 or vy != 0.0:
+                moves += 1
+        always[j] = moves == velocity.shape[1]
+        never[j] = moves == 0

@@ -19,7 +19,7 @@ from box2d_driving.config import DrivingConfig
 from box2d_driving.physics.contacts import (
     CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, EDGE, PEDESTRIAN, ContactRecorder,
 )
-from box2d_driving.physics.kinematics import longitudinal_profile, path_poses
+from box2d_driving.physics.kinematics import chord_velocities, longitudinal_profile, path_poses
 from box2d_driving.road.geometry import pack_paths, wrap_angle
 from box2d_driving.road.layout import Layout
 
@@ -173,8 +173,10 @@ class DrivingWorld:
         path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
         rows = np.flatnonzero(moving)
         live = rows.tolist()
-        # per moving car (a dict by car index): the others get no velocity
-        velocity = dict(zip(live, ((xy[rows, 1:] - xy[rows, :-1]) / dt).tolist()))
+        # per moving car, its velocity at each physics step (m/s); the others get none
+        velocity = np.empty((len(rows), k_steps, 2))
+        always, never = np.empty(len(rows), dtype=bool), np.empty(len(rows), dtype=bool)
+        chord_velocities(xy, rows, dt, velocity, always, never)
         # only a path of more than one segment turns: a one-segment path's angular velocity is
         # exactly 0 at every step, the value its body has, so it is never written
         turning = [i for i in live if self._turns[i]]
@@ -190,16 +192,27 @@ class DrivingWorld:
             partner_halted=np.zeros(n, dtype=bool), substep=np.zeros(n, dtype=np.int64),
         )
         bodies, standing, spin = self.car_bodies, self._standing, self._angular
+        # A car standing still (waiting at a red light) keeps the zero velocity it has: no gravity
+        # or damping acts on these bodies, so Box2D leaves it exactly as set, and a zero velocity
+        # is written only when a car comes to a stop. Cars moving at every step get theirs written
+        # without that test (``driving``), cars standing throughout are left alone; the others
+        # (``stopping``) test each step.
+        driving, stopping = [], []
+        for i, v, go, stay in zip(live, velocity.tolist(), always.tolist(), never.tolist()):
+            if go:
+                driving.append((i, bodies[i], v))
+                standing[i] = False  # as after its first write, which comes before any test of it
+            elif not (stay and standing[i]):
+                stopping.append((i, bodies[i], v))
         for k in range(k_steps):
-            for i in live:
-                v = velocity[i][k]
-                # a car standing still (waiting at a red light) keeps the zero velocity it has: no
-                # gravity or damping acts on these bodies, so Box2D leaves it exactly as set
-                if v[0] or v[1]:
-                    bodies[i].linearVelocity = v
+            for _, body, v in driving:
+                body.linearVelocity = v[k]
+            for i, body, v in stopping:
+                if v[k][0] or v[k][1]:
+                    body.linearVelocity = v[k]
                     standing[i] = False
                 elif not standing[i]:
-                    bodies[i].linearVelocity = v
+                    body.linearVelocity = v[k]
                     standing[i] = True
             for i in turning:
                 w = angular[i][k]
@@ -213,11 +226,13 @@ class DrivingWorld:
                     self.s[i] = s_out[i, k + 1]
                     if i in live:
                         live.remove(i)
+                        driving, stopping = _without(driving, i), _without(stopping, i)
                         if i in turning:
                             turning.remove(i)
             for i in arriving.get(k + 1, ()):
                 if i in live:  # not halted by a contact earlier in this decision
                     live.remove(i)
+                    driving, stopping = _without(driving, i), _without(stopping, i)
                     if i in turning:
                         turning.remove(i)
                     self.status[i] = ARRIVED
@@ -306,3 +321,8 @@ class DrivingWorld:
         if self.config.remove_collided:
             return self.status == ACTIVE
         return self.status != ARRIVED
+
+
+def _without(entries: list[tuple], car: int) -> list[tuple]:
+    """``entries`` (tuples whose first item is a car index) without those of ``car``."""
+    return [e for e in entries if e[0] != car]

@@ -57,8 +57,9 @@ COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
                                             "the listeners rely on the message", "success rises without the message",
                                             level=0.0, level_text="zero",
                                             paper="The paper ties the listeners' reliance to noise (more with "
-                                                  "noisier LiDAR), not to any one level: the trend across levels "
-                                                  "is the statement above."))
+                                                  "noisier LiDAR), not to any one level: the comparison across "
+                                                  "levels is this measure's noise-trend line (given once each level "
+                                                  "has two or more seeds)."))
 # the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
 LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
                   ("collision_rate", "collisions"))
