@@ -290,4 +290,3 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
                 info.update(extra)
         start += len(c)
     return infos
-
