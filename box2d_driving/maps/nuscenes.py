@@ -27,8 +27,9 @@ import numpy as np
 from box2d_driving.maps import geometry as geo
 from box2d_driving.maps.build import mark_conflicts, signal_groups
 from box2d_driving.maps.config import ImportConfig
+from box2d_driving.maps.parse import read_json
 from box2d_driving.maps.roadmap import (Arm, Connector, Crosswalk, Lane, MapError, RoadMap, SignalHead,
-                                        SpawnRegion, StopLine, read_json)
+                                        SpawnRegion, StopLine)
 from box2d_driving.road.geometry import Path as TrackPath
 
 LICENCE = {"licence": "nuScenes terms of use (CC BY-NC-SA 4.0)", "attribution": "nuScenes map expansion (Motional)"}

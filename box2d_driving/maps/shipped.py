@@ -5,7 +5,8 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from box2d_driving.maps.roadmap import MapError, RoadMap, load_map
+from box2d_driving.maps.parse import load_map
+from box2d_driving.maps.roadmap import MapError, RoadMap
 
 # A repository checkout (or editable install) reads assets/maps/; a wheel carries a copy of them
 # in the package (setup.py).
