@@ -219,10 +219,3 @@ class RoadMap:
         tmp.write_text(json.dumps(self.to_dict(), indent=1))
         tmp.replace(path)
         return path
-
-    @staticmethod
-    def from_dict(data: Any, where: str = "map") -> "RoadMap":
-        """A map from its JSON form (:class:`MapError` naming the problem if malformed)."""
-        from box2d_driving.maps.parse import parse_map  # parse builds these classes
-
-        return parse_map(data, where)
