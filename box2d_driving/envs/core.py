@@ -149,14 +149,14 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
         start += len(c)
     lidar_frame = readout.encode(distances, cfg.lidar_range, cfg.lidar_encoding, dropped)
 
-    pos = _cat([env.world.positions for env in envs])[flat]
-    head = _cat([env.world.headings for env in envs])[flat]
-    _update_lights_seen(envs, cars, flat, pos, head)
+    worlds = [env.world for env in envs]
+    positions = _cat([w.positions for w in worlds])
+    head = _cat([w.headings for w in worlds])[flat]
+    _update_lights_seen(envs, cars, flat, positions[flat], head)
     n_extra = len(first.satnav_extras)
     satnav = np.empty((len(flat), 4 + n_extra + int(cfg.communication)), dtype=np.float32)
     to_goal, remaining = np.empty((2, len(flat))), np.empty(len(flat))
-    worlds = [env.world for env in envs]
-    kernels.satnav_columns(flat, _cat([w.positions for w in worlds]), _cat([w.s_end for w in worlds]),
+    kernels.satnav_columns(flat, positions, _cat([w.s_end for w in worlds]),
                            _cat([w.s for w in worlds]), _cat([env._goals for env in envs]),
                            _cat([w.speed for w in worlds]), _cat([w.v_lim for w in worlds]),
                            _cat([env._seen for env in envs]), satnav, to_goal, remaining)

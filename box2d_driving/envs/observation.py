@@ -79,8 +79,9 @@ class FrameHistory:
     def push(self, cars: np.ndarray, lidar: np.ndarray, satnav: np.ndarray) -> None:
         """Append a frame for the cars listed in ``cars`` (indices, no repeats), dropping their
         oldest."""
-        _push(self.lidar, np.asarray(cars, dtype=np.int64), np.asarray(lidar, dtype=np.float32))
-        _push(self.satnav, np.asarray(cars, dtype=np.int64), np.asarray(satnav, dtype=np.float32))
+        cars = np.asarray(cars, dtype=np.int64)
+        _push(self.lidar, cars, np.asarray(lidar, dtype=np.float32))
+        _push(self.satnav, cars, np.asarray(satnav, dtype=np.float32))
 
     def observations(self, cars: np.ndarray) -> np.ndarray:
         """Flat ``(len(cars), size)`` observations."""

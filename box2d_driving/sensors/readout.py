@@ -13,6 +13,8 @@ import math
 import numpy as np
 from numba import njit
 
+from box2d_driving.config import LIDAR_ENCODINGS
+
 
 def dropout_mask(rng: np.random.Generator, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
     """``(n_cars, n_rays)`` boolean mask with exactly ``round(noise * n_rays)`` True per row,
@@ -50,8 +52,6 @@ def dropout_from_draws(draws: np.ndarray, n_cars: int, n_rays: int, noise: float
 # it has not crashed into: only a car already overlapping something sees a closer hit.
 MIN_DISTANCE = 0.1
 
-ENCODINGS = ("inverse", "proximity")
-
 
 def encode(distances: np.ndarray, max_range: float, encoding: str,
            dropped: np.ndarray | None = None) -> np.ndarray:
@@ -59,8 +59,8 @@ def encode(distances: np.ndarray, max_range: float, encoding: str,
     marked in ``dropped`` (a boolean mask of the same shape, optional) become 0.
     ``inverse``: ``1 / d`` with ``d`` at least :data:`MIN_DISTANCE` (so at most 10 per metre);
     ``proximity``: ``1 - d / range``."""
-    if encoding not in ENCODINGS:
-        raise ValueError(f"unknown LiDAR encoding {encoding!r}; expected one of {ENCODINGS}")
+    if encoding not in LIDAR_ENCODINGS:
+        raise ValueError(f"unknown LiDAR encoding {encoding!r}; expected one of {LIDAR_ENCODINGS}")
     distances = np.asarray(distances, dtype=np.float64)
     shape = distances.shape
     flat = np.ascontiguousarray(distances).reshape(-1)
