@@ -762,3 +762,57 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
     mine = page.read_text().split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
     line = next(x for x in mine.splitlines() if x.startswith("- one-sided offset, change over the last 50 %"))
     assert "num_cars 8 0.000 ± 0.000 (stopped moving)" in line and "num_cars 4 0.0" in line and "(still rising)" in line
+
+
+def _lanes_noise(path, offsets):
+    """A 150-round lanes sweep over cars {8, 4} x LiDAR noise {0, 1.0}: ``offsets`` (signed one-sided
+    offsets of seeds 0-2) per (cars, noise)."""
+    trials = []
+    for (n, noise), values in offsets.items():
+        for seed, v in enumerate(values):
+            trials.append({"trial": f"lanes_num_cars={n}_lidar_noise={noise}_seed={seed}", "behaviour": "lanes",
+                           "seed": seed, "num_cars": n, "lidar_noise": noise, "status": "done", "error": "",
+                           "report_episodes": 200, "report_first_seed": REPORT.start, "decisions": 4_800_000,
+                           "lanes.majority_share": 1.0, "lanes.time_share_majority": 0.5 + abs(v),
+                           "lanes.mean_abs_lane_position": abs(v), "lanes.one_sided_offset": v,
+                           "success_rate": 0.9})
+    sweep = {"behaviour": "lanes", "grid": {"num_cars": ["8", "4"], "lidar_noise": ["0", "1.0"]}, "seeds": 3,
+             "fixed": {"rounds": "150", "spline_updates_per_round": "2"}, "timesteps": None, "minutes": None,
+             "episodes": 200, "quick": False}
+    path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    return path
+
+
+def test_lanes_at_other_noise_levels_are_joined_by_the_noise_05_trials_and_compared_by_seed(tmp_path):
+    # the noise-0.5 sweep (lidar_noise fixed): one-sided offsets come from the histogram (0.1 per sample bin)
+    paper = _lanes(tmp_path / "lanes-paper.json", 150, (8, 4), ([0.991, 0.992, 0.993], [0.61, 0.62, 0.63]))
+    # seed by seed, 8 cars drive 0.2 closer to the axis at noise 0 than at 0.5 (a paired fall), and
+    # at noise 1.0 one seed keeps left (a negative offset: its size counts)
+    offsets = {("8", "0"): [0.05, 0.06, 0.04], ("8", "1.0"): [0.30, -0.35, 0.32],
+               ("4", "0"): [0.01, 0.02, 0.03], ("4", "1.0"): [0.02, 0.01, 0.00]}
+    noise = _lanes_noise(tmp_path / "lanes-noise01.json", offsets)
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(paper), str(noise), "--out", str(page)]) == 0
+    text = page.read_text()
+    mine = text.split("## Lanes at the paper's LiDAR noise levels")[1].split("\n## ")[0]
+    at_05 = text.split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    # the noise 0 / 1.0 trials are only in their own section; the 0.5 rows join it, named as such
+    assert "0.325" not in at_05 and "lanes-noise01.json" not in at_05
+    assert "lanes-paper.json" in mine and "paired by seed" in mine
+    rows = [line for line in mine.splitlines() if re.match(r"\| [48] \| (0|0\.5|1\.0) \| 3 \|", line)]
+    assert [r.split(" | ")[:2] for r in rows] == [["| 4", "0"], ["| 4", "0.5"], ["| 4", "1.0"],
+                                                  ["| 8", "0"], ["| 8", "0.5"], ["| 8", "1.0"]]
+    # the histogram gives every noise-0.5 trial the same offset (its bin centre)
+    centre = (LANE_BINS[(len(LANE_BINS) - 1) // 2 + 3] + LANE_BINS[(len(LANE_BINS) - 1) // 2 + 4]) / 2
+    diffs = [centre - v for v in offsets[("8", "0")]]
+    d = mean_ci(diffs)
+    line = next(x for x in mine.splitlines() if x.startswith("- num_cars=8, one-sided offset: noise 0 "))
+    assert (f"rises, paired by seed (3 seeds), high minus low noise {d.mean:+.3f} ± {(d.high - d.low) / 2:.3f}, "
+            f"p = {t_test_p(diffs, 0.0):.3f}, as in the paper.") in line
+    # from 0.5 to 1.0 the paper gives no direction: the lines say what the numbers show, then what it says
+    up = next(x for x in mine.splitlines() if x.startswith("- num_cars=8, one-sided offset: noise 0.5 "))
+    assert "paper" not in up and "noise 1.0 " + mean_ci([0.30, 0.35, 0.32]).format() in up
+    assert "- The paper: past a threshold of noise" in mine
+    # 4 against 8 cars at each noise level, the level named
+    assert "- crossings on the majority side (lidar_noise=0): num_cars=4" in mine
+    assert "- one-sided offset (lidar_noise=1.0): num_cars=4 " in mine and "(num_cars=8, lidar_noise=1.0)" in mine

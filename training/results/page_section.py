@@ -12,7 +12,10 @@ from training.results.data import Baseline, Group, Metric, PaperValue
 from training.results.figures import Figure
 from training.results.statements import Statement
 
-__all__ = ["Headline", "Section"]
+__all__ = ["IN_GRID", "Headline", "Section"]
+
+# a ``Section.match`` value: the option is one the sweep varies on its grid (not a fixed value)
+IN_GRID = "(grid)"
 
 
 @dataclass(frozen=True)
@@ -40,7 +43,8 @@ class Section:
         key: anchor and figure file stem.
         title: heading.
         behaviour: the sweep behaviour that measures it.
-        match: fixed training options a sweep must have for this section (e.g. communication on).
+        match: fixed training options a sweep must have for this section (e.g. communication on);
+            the value ``IN_GRID``: an option the sweep's grid varies.
         metrics: (metric column, label) shown in the table.
         paper: the paper's result in words.
         command: the sweep that produces it (``box2d-driving sweep ... --out runs/sweep-NAME``).
@@ -62,6 +66,10 @@ class Section:
         curve_extra: learning-curve columns (``box2d-driving curve``'s names) drawn and judged
             beside the table's plain metrics, for table metrics derived from a summary's figures
             (which a curve computes from its samples instead).
+        joins: (another section's key, an option that section's sweeps fix and this section's grid
+            varies): that section's trials join this section's table and statements as the grid
+            points at their fixed value (e.g. a sweep at LiDAR noise 0 and 1.0 joined by the same
+            settings' noise-0.5 trials, so the three levels are compared paired by seed). None: none.
     """
 
     key: str
@@ -82,6 +90,7 @@ class Section:
     compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
     paper_budget: str = ""
     curve_extra: tuple[tuple[str, str], ...] = ()
+    joins: Optional[tuple[str, str]] = None
 
     @property
     def argv(self) -> list[str]:

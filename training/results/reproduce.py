@@ -14,13 +14,14 @@ episodes is refused.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Any, Optional
 
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
-from training.results.data import Group, Metric, ResultsError, grid_product, groups_of, load_summary
-from training.results.sections import SECTIONS, PaperValue, Section, statements
+from training.results.data import Group, Metric, ResultsError, as_number, grid_product, groups_of, load_summary
+from training.results.sections import IN_GRID, SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
 from training.results.stats import Estimate
 
@@ -51,7 +52,7 @@ def _matches(section: Section, summary: dict[str, Any]) -> bool:
     """Whether ``summary`` has ``section``'s behaviour and fixed options."""
     sweep = summary["sweep"]
     # the trial budget counts too: the same settings at a larger budget may be a rule of its own
-    settings = {"timesteps": sweep.get("timesteps"), **sweep.get("fixed", {}), **{k: None for k in summary["grid"]}}
+    settings = {"timesteps": sweep.get("timesteps"), **sweep.get("fixed", {}), **{k: IN_GRID for k in summary["grid"]}}
     return sweep["behaviour"] == section.behaviour and \
         all(str(settings.get(k, "false")).lower() == v for k, v in section.match)
 
@@ -62,6 +63,34 @@ def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list
     lights sweep (4 cars fixed) is not also shown under the lights grid."""
     return [s for s in summaries if _matches(section, s)
             and not any(len(other.match) > len(section.match) and _matches(other, s) for other in SECTIONS)]
+
+
+def joined_groups(section: Section, summaries: list[dict[str, Any]], keys: list[str],
+                  metrics: list[Metric]) -> tuple[list[Group], list[str]]:
+    """The grid points ``section.joins`` adds to a summary of ``section`` with grid ``keys``: the
+    joined section's trials, their fixed value of the joined option added to their point (only
+    summaries whose grid is ``keys`` less that option); and those summaries' paths."""
+    if section.joins is None:
+        return [], []
+    key, option = section.joins
+    other = next(s for s in SECTIONS if s.key == key)
+    groups, paths = [], []
+    for summary in section_summaries(other, summaries):
+        value = summary["sweep"].get("fixed", {}).get(option)
+        if value is None or sorted([*summary["grid"], option]) != sorted(keys):
+            continue
+        paths.append(summary["path"])
+        groups += [Group({**g.point, option: str(value)}, g.seeds, g.estimates, g.figures)
+                   for g in groups_of(summary, metrics)]
+    return groups, paths
+
+
+def _grid_order(groups: list[Group], keys: list[str]) -> list[Group]:
+    """``groups`` sorted by their grid values, key by key, numbers by value."""
+    def value(v: str) -> tuple[int, float, str]:
+        number = as_number(v)
+        return (0, number, "") if math.isfinite(number) else (1, 0.0, v)
+    return sorted(groups, key=lambda g: tuple(value(str(g.point[k])) for k in keys))
 
 
 def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[Metric],
@@ -125,8 +154,9 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             continue
         for summary in found:
             metrics = [m for m, _ in section.metrics]
-            groups = groups_of(summary, metrics)
             keys = list(summary["grid"])
+            joined, joined_paths = joined_groups(section, summaries, keys, metrics)
+            groups = _grid_order(groups_of(summary, metrics) + joined, keys) if joined else groups_of(summary, metrics)
             trials = summary["trials"]
             done = sum(r.get("status") == "done" for r in trials)
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
@@ -134,7 +164,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
                       f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
                       f"{summary['sweep']['episodes']} report episodes each). {section.setting}"
-                      + budget_note(section, curves is not None), ""]
+                      + budget_note(section, curves is not None) + joined_note(section, joined_paths), ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
             parts += [_row(header), _separator(len(header))]
             for g in groups:
@@ -218,6 +248,17 @@ def budget_note(section: Section, curves: bool = False) -> str:
                         "checkpoint on selection episodes (`box2d-driving curve`).")
     return paper + (" Whether the metric had stopped moving at our budget is not measured (the sweep's checkpoints "
                     "were not kept for a learning curve).")
+
+
+def joined_note(section: Section, paths: list[str]) -> str:
+    """Where the table's rows from ``section.joins`` come from (``paths``: their summaries)."""
+    if not paths:
+        return ""
+    key, option = section.joins
+    title = next(s for s in SECTIONS if s.key == key).title
+    return (f" The rows at its other `{option}` come from \"{title}\" (summary "
+            f"{', '.join(f'`{p}`' for p in paths)}): the same settings and training seeds at that `{option}`, "
+            "so levels are compared paired by seed; their learning curves are drawn there.")
 
 
 def curve_coverage(curves: list[dict[str, Any]], trials: list[dict[str, Any]], keys: list[str]) -> str:

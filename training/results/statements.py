@@ -15,8 +15,8 @@ from training.results.stats import Estimate, mean_ci, mean_var, t95, t_test_p, w
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
-__all__ = ["Statement", "above_statement", "apart_statement", "lights_statement", "noise_trend_statement",
-           "paper_comparison", "reference_statement", "unlearnt_statement"]
+__all__ = ["Statement", "above_statement", "apart_statement", "level_change_statement", "lights_statement",
+           "noise_trend_statement", "paper_comparison", "reference_statement", "unlearnt_statement"]
 
 # a section's own statements: from its grouped trials and its baseline's measurements, the lines
 # it adds to the page
@@ -139,30 +139,73 @@ def noise_trend(groups: list[Group], metrics: list[tuple[Metric, str]], paper: i
     by_noise = sorted((g for g in groups if "lidar_noise" in g.point), key=lambda g: as_number(g.point["lidar_noise"]))
     if len(by_noise) < 2:
         return []
-    low, high = by_noise[0], by_noise[-1]
-    expected, other = ("rise", "falls") if paper == 1 else ("fall", "rises")
-    lines = []
-    for metric, label in metrics:
-        a, b = low.estimates[metric], high.estimates[metric]
-        if a.high is None or b.high is None:
-            continue
-        diffs = paired_differences(low, high, metric)
-        if len(diffs) >= 2:  # the same seeds at both levels: a paired test
-            d, p = mean_ci(diffs), t_test_p(diffs, 0.0)
-            seen = 0 if d.low <= 0.0 <= d.high else (1 if d.mean > 0 else -1)
-            how = (f"paired by seed ({len(diffs)} seeds), high minus low noise {d.mean:+.3f} ± "
-                   f"{(d.high - d.low) / 2:.3f}, p = {p:.3f}")
+    lines = [change_line(by_noise[0], by_noise[-1], "lidar_noise", metric, label, paper) for metric, label in metrics]
+    return [line for line in lines if line]
+
+
+# how a grid key's levels are named in a change's sentence ("noise 0 ..., noise 0.5 ...")
+LEVEL_NAMES = {"lidar_noise": "noise", "num_cars": "cars"}
+
+
+def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, paper: int) -> str:
+    """One line: whether ``metric`` rises or falls from ``low`` to ``high`` (two levels of ``key``),
+    paired by seed where both have the same seeds, else from the intervals. ``paper``: the
+    direction the paper reports (1 rises, -1 falls), or 0 where it gives none for these two levels
+    (then no verdict names the paper). Empty where either level has no interval."""
+    a, b = low.estimates[metric], high.estimates[metric]
+    if a.high is None or b.high is None:
+        return ""
+    expected, other = ("rise", "falls") if paper >= 0 else ("fall", "rises")
+    name = LEVEL_NAMES.get(key, key)
+    diffs = paired_differences(low, high, metric)
+    if len(diffs) >= 2:  # the same seeds at both levels: a paired test
+        d, p = mean_ci(diffs), t_test_p(diffs, 0.0)
+        seen = 0 if d.low <= 0.0 <= d.high else (1 if d.mean > 0 else -1)
+        how = (f"paired by seed ({len(diffs)} seeds), high minus low {name} {d.mean:+.3f} ± "
+               f"{(d.high - d.low) / 2:.3f}, p = {p:.3f}")
+        if paper == 0:
+            verdict = ({1: f"rises, {how}.", -1: f"falls, {how}."}[seen] if seen else
+                       f"no change shown ({how}{seeds_needed(diffs)}).")
+        else:
             verdict = (f"{expected}s, {how}, as in the paper." if seen == paper else
                        f"{other}, {how}, unlike the paper." if seen else
                        f"no {expected} shown ({how}), unlike the paper{seeds_needed(diffs)}.")
+    else:
+        seen = apart(a, b)
+        if paper == 0:
+            verdict = ({1: "rises, intervals apart.", -1: "falls, intervals apart."}[seen] if seen else
+                       "the intervals overlap: no change shown.")
         else:
-            seen = apart(a, b)
             verdict = (f"{expected}s, intervals apart, as in the paper." if seen == paper else
                        f"{other}, intervals apart, unlike the paper." if seen else
                        f"the intervals overlap: no {expected} shown, unlike the paper.")
-        lines.append(f"- {label}: noise {low.point['lidar_noise']} {a.format()}, noise "
-                     f"{high.point['lidar_noise']} {b.format()}: {verdict}")
-    return lines
+    return f"- {label}: {name} {low.point[key]} {a.format()}, {name} {high.point[key]} {b.format()}: {verdict}"
+
+
+def _slices(groups: list[Group], key: str) -> dict[tuple[tuple[str, str], ...], dict[str, Group]]:
+    """``groups`` by the values of every grid key but ``key``, then by ``key``'s value."""
+    out: dict[tuple[tuple[str, str], ...], dict[str, Group]] = defaultdict(dict)
+    for g in groups:
+        if key in g.point:
+            out[tuple((k, v) for k, v in g.point.items() if k != key)][g.point[key]] = g
+    return out
+
+
+def level_change_statement(key: str, low: str, high: str, metrics: tuple[tuple[Metric, str], ...], paper: int,
+                           paper_words: str = "") -> Statement:
+    """:func:`change_line` from ``key=low`` to ``key=high`` for each (metric, label), at every
+    setting of the other grid keys that has both levels (paired by seed where the seeds match).
+    ``paper_words``: what the paper says of these two levels, added after the lines (needed where
+    ``paper`` is 0)."""
+    def say(groups: list[Group], baseline: Baseline) -> list[str]:
+        lines = []
+        for rest, levels in _slices(groups, key).items():
+            if low in levels and high in levels:
+                where = f"{_where(dict(rest))}, " if rest else ""
+                lines += [change_line(levels[low], levels[high], key, m, f"{where}{label}", paper) for m, label in metrics]
+        lines = [line for line in lines if line]
+        return lines + [f"- {paper_words}"] if lines and paper_words else lines
+    return say
 
 
 def paired_differences(a: Group, b: Group, metric: Metric) -> list[float]:
@@ -226,19 +269,25 @@ def unlearnt_statement(groups: list[Group]) -> list[str]:
 
 def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, claim: str,
                     judged: bool = True) -> Statement:
-    """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals; ``claim``:
-    the paper's reading of that, in words. ``judged=False``: the difference alone is not the
-    paper's claim (the paper says more, stated elsewhere), so no verdict names the paper."""
+    """Whether ``metric`` is larger at ``key=many`` than at ``key=few``, from the intervals, at every
+    setting of the other grid keys (each named in its line); ``claim``: the paper's reading of
+    that, in words. ``judged=False``: the difference alone is not the paper's claim (the paper says
+    more, stated elsewhere), so no verdict names the paper."""
     def say(groups: list[Group], baseline: Baseline) -> list[str]:
-        by = {g.point.get(key): g.estimates[metric] for g in groups}
-        if few not in by or many not in by or by[few].high is None or by[many].high is None:
-            return []
-        a, b = by[few], by[many]
-        paper = (", as in the paper", ", unlike the paper") if judged else ("", "")
-        verdict = {1: f"{claim}, intervals apart{paper[0]}.",
-                   0: f"the intervals overlap: no difference shown{paper[1]}.",
-                   -1: f"the opposite of {claim}, intervals apart{paper[1]}."}[apart(a, b)]
-        return [f"- {label}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}"]
+        lines = []
+        for rest, by in _slices(groups, key).items():
+            if few not in by or many not in by:
+                continue
+            a, b = by[few].estimates[metric], by[many].estimates[metric]
+            if a.high is None or b.high is None:
+                continue
+            paper = (", as in the paper", ", unlike the paper") if judged else ("", "")
+            verdict = {1: f"{claim}, intervals apart{paper[0]}.",
+                       0: f"the intervals overlap: no difference shown{paper[1]}.",
+                       -1: f"the opposite of {claim}, intervals apart{paper[1]}."}[apart(a, b)]
+            where = f" ({_where(dict(rest))})" if rest else ""
+            lines.append(f"- {label}{where}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}")
+        return lines
     return say
 
 
