@@ -138,6 +138,22 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert rows3[good] == rows2[good]  # taken as it was: same metrics, same run folder named
     assert not list((moved / "tune" / good).glob("checkpoint_*"))  # nothing trained for it
 
+    # a larger budget: the finished trial continues from its last checkpoint instead of starting over
+    longer = tmp_path / "longer"
+    more = subprocess.run(_sweep(longer, BUDGET + 2000) + ["--extend", str(out)], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=400)
+    assert "1 of 2 trials done" in more.stdout, more.stdout[-3000:] + more.stderr[-3000:]
+    rows4 = {r["trial"]: r for r in csv.DictReader((longer / "summary.csv").open())}
+    run4 = Path(rows4[good]["run"])
+    assert rows4[good]["status"] == "done" and int(rows4[good]["decisions"]) == BUDGET + 2000
+    assert (run4 / f"config.resumed_{BUDGET:012d}.json").exists(), sorted(p.name for p in run4.iterdir())
+    # the first leg's checkpoints come along (a learning curve covers the whole run), its evaluation does not
+    kept = {p.name for p in (run4 / "checkpoints").iterdir()}
+    assert {p.name for p in (final / "checkpoints").iterdir()} <= kept
+    assert json.loads((run4 / "eval" / "metrics.json").read_text())["episodes"] == 3
+    assert (final / "eval" / "metrics.json").stat().st_mtime_ns == stamp  # the old sweep is untouched
+    assert rows4[next(n for n in rows4 if n != good)]["status"] == "error"
+
 
 def test_a_continued_sweep_says_it_keeps_the_concurrency_it_started_with(tmp_path):
     from training.sweeps.sweep import CONCURRENCY_FILE, kept_concurrency
@@ -165,6 +181,57 @@ def test_reuse_refuses_another_sweeps_summary(tmp_path):
     (tmp_path / "bad.json").write_text("[1, 2]")
     with pytest.raises(SweepError, match="not a sweep summary"):
         reusable_rows(tmp_path / "bad.json", spec)
+
+
+def test_an_extension_needs_the_same_sweep_at_a_larger_budget(tmp_path):
+    import dataclasses
+
+    from training.sweeps.spec import extension_differences
+    from training.sweeps.summary import extendable_runs
+    from training.sweeps.sweep import extended_sweep
+
+    old = SweepSpec("lights", grid={"lidar_noise": ["0", "0.5"]}, timesteps=1000, fixed={"num_cars": "4"})
+    saved = json.loads(json.dumps(dataclasses.asdict(old)))
+    assert extension_differences(saved, dataclasses.replace(old, timesteps=5000)) == []
+    assert extension_differences(saved, dataclasses.replace(old, timesteps=5000, seeds=5)) == []  # more seeds too
+    assert "budget" in extension_differences(saved, old)[0]
+    assert "never less" in extension_differences(saved, dataclasses.replace(old, timesteps=500))[0]
+    assert "never less" in extension_differences(saved, dataclasses.replace(old, timesteps=None))[0]
+    assert "fixed num_cars" in extension_differences(saved, dataclasses.replace(old, timesteps=5000,
+                                                                                fixed={"num_cars": "8"}))
+    assert "grid" in extension_differences(saved, dataclasses.replace(old, timesteps=5000, grid={"lidar_noise": ["0"]}))
+    # bilevel sweeps: their fixed rounds are the budget
+    lanes = SweepSpec("lanes", fixed={"rounds": "48", "lidar_noise": "0.5"})
+    lanes_saved = json.loads(json.dumps(dataclasses.asdict(lanes)))
+    assert extension_differences(lanes_saved, dataclasses.replace(lanes, fixed={"rounds": "150", "lidar_noise": "0.5"})) == []
+    assert "rounds" in extension_differences(lanes_saved, dataclasses.replace(lanes, fixed={"rounds": "x", "lidar_noise": "0.5"}))[0]
+
+    # the old folder's finished trials with their run on this machine
+    old_out = tmp_path / "old"
+    (old_out / "run0").mkdir(parents=True)
+    (old_out / "run0" / "state.json").write_text("{}")
+    (old_out / "sweep.json").write_text(json.dumps(saved))
+    rows = [{"trial": "a", "status": "done", "run": str(old_out / "run0")},
+            {"trial": "b", "status": "done", "run": str(old_out / "gone")},
+            {"trial": "c", "status": "error", "run": str(old_out / "run0")}]
+    (old_out / "summary.json").write_text(json.dumps({"sweep": saved, "trials": rows}))
+    assert extendable_runs(old_out, dataclasses.replace(old, timesteps=5000)) == {"a": old_out / "run0"}
+    with pytest.raises(SweepError, match=r"--extend .*cannot continue its trials \(the budget"):
+        extendable_runs(old_out, old)
+    with pytest.raises(SweepError, match="not a sweep folder"):
+        extendable_runs(tmp_path, old)
+    # a sweep folder keeps the folder it extends; a continued sweep may not switch to another
+    new_out = tmp_path / "new"
+    assert extended_sweep(new_out, old_out) == old_out.resolve() and extended_sweep(new_out, None) is None
+    new_out.mkdir()
+    (new_out / "extends.json").write_text(json.dumps({"extends": str(old_out.resolve())}))
+    assert extended_sweep(new_out, None) == old_out.resolve()
+    with pytest.raises(SweepError, match="extends"):
+        extended_sweep(new_out, tmp_path / "elsewhere")
+    (new_out / "extends.json").unlink()
+    (new_out / "tune").mkdir()
+    with pytest.raises(SweepError, match="began without --extend"):
+        extended_sweep(new_out, old_out)
 
 
 def test_without_ray_the_sweep_says_which_extra_to_install(monkeypatch, capsys, tmp_path):

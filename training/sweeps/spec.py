@@ -50,7 +50,7 @@ class SweepSpec:
         are options that do not change what is learnt (``--threads``)."""
         return [{"behaviour": self.behaviour, "point": point, "seed": seed,
                  "argv": self.trial_argv(point, seed) + list(extra_argv), "episodes": self.episodes,
-                 "name": trial_name(self.behaviour, point, seed), "reuse": None}
+                 "name": trial_name(self.behaviour, point, seed), "reuse": None, "extend": None}
                 for seed in range(self.seeds) for point in self.points()]  # a whole grid per seed first
 
     def trial_argv(self, point: dict[str, str], seed: int) -> list[str]:
@@ -71,6 +71,33 @@ def spec_differences(saved: dict, spec: "SweepSpec") -> list[str]:
     """The settings in which a saved sweep (``sweep.json``, a summary's ``sweep``) differs from ``spec``."""
     mine = json.loads(json.dumps(dataclasses.asdict(spec)))
     return [k for k in mine if saved.get(k) != mine[k]]
+
+
+# the budgets an extended sweep (``--extend``) may raise: the flat trainers' decisions and the
+# bilevel trainers' rounds
+BUDGETS = ("timesteps", "rounds")
+
+
+def extension_differences(saved: dict, spec: "SweepSpec") -> list[str]:
+    """Why ``spec`` cannot continue the trials of the saved sweep ``saved`` (``sweep.json``) to a
+    larger budget, one entry per culprit (empty: it can): every setting the same but the number of
+    seeds and a larger budget (``timesteps``, or the fixed ``rounds`` of a bilevel sweep)."""
+    mine = json.loads(json.dumps(dataclasses.asdict(spec)))
+    old_fixed, new_fixed = dict(saved.get("fixed") or {}), dict(mine["fixed"])
+    out = [k for k in mine if k not in ("seeds", "timesteps", "fixed") and saved.get(k) != mine[k]]
+    old_budget = (saved.get("timesteps"), old_fixed.pop("rounds", None))
+    new_budget = (mine["timesteps"], new_fixed.pop("rounds", None))
+    out += [f"fixed {k}" for k in sorted(set(old_fixed) | set(new_fixed)) if old_fixed.get(k) != new_fixed.get(k)]
+    for name, old, new in zip(BUDGETS, old_budget, new_budget):
+        try:
+            larger = old is not None and new is not None and int(new) > int(old)
+        except (TypeError, ValueError):
+            larger = False
+        if old != new and not larger:
+            out.append(f"{name} ({old} -> {new}: an extension trains more, never less or unbounded)")
+    if old_budget == new_budget:
+        out.append("the budget (neither timesteps nor rounds is larger)")
+    return out
 
 
 def trial_name(behaviour: str, point: dict[str, str], seed: int) -> str:

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from training.runs.run_dir import write_json_atomic
-from training.sweeps.spec import SweepError, SweepSpec, spec_differences
+from training.sweeps.spec import SweepError, SweepSpec, extension_differences, spec_differences
 
 SUMMARY_FIXED = ("trial", "behaviour", "seed", "status", "error", "decisions", "agent_steps",
                  "wall_s", "report_episodes", "report_first_seed", "run")
@@ -91,6 +91,23 @@ def reusable_rows(path: Path, spec: SweepSpec) -> dict[str, dict[str, Any]]:
         raise SweepError(f"--reuse {path}: another sweep's summary ({', '.join(diff)} differ)")
     return {r["trial"]: {**r, "grid_keys": list(spec.grid)} for r in rows
             if r.get("status") == "done" and isinstance(r.get("seed"), int) and 0 <= r["seed"] < spec.seeds}
+
+
+def extendable_runs(old_out: Path, spec: SweepSpec) -> dict[str, Path]:
+    """The finished trials of the sweep folder ``old_out`` that ``spec`` (the same sweep at a larger
+    budget) continues, by trial name: each trial's run folder (its last checkpoint: a complete run
+    folder), where it is on this machine. :class:`SweepError` if ``old_out`` is not a sweep folder
+    or ``spec`` cannot extend it (naming what differs)."""
+    try:
+        saved = json.loads((Path(old_out) / "sweep.json").read_text())
+        rows = json.loads((Path(old_out) / "summary.json").read_text())["trials"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SweepError(f"--extend {old_out}: not a sweep folder with a summary ({exc})") from None
+    diff = extension_differences(saved, spec)
+    if diff:
+        raise SweepError(f"--extend {old_out}: this sweep cannot continue its trials ({'; '.join(diff)})")
+    return {r["trial"]: Path(r["run"]) for r in rows
+            if r.get("status") == "done" and r.get("run") and (Path(r["run"]) / "state.json").exists()}
 
 
 def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], error: str = "",

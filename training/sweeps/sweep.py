@@ -34,8 +34,8 @@ from typing import Any, Optional
 from training.runs.run_dir import write_json_atomic
 from training.sweeps.spec import (SweepError, SweepSpec, check_spec, is_bilevel, parse_pairs, script_module,
                                  spec_differences)
-from training.sweeps.summary import (final_metrics, first_line, metrics_from_row, reusable_rows, summary_row,
-                                    train_metrics, write_summary)
+from training.sweeps.summary import (extendable_runs, final_metrics, first_line, metrics_from_row, reusable_rows,
+                                    summary_row, train_metrics, write_summary)
 
 __all__ = ["SweepError", "SweepSpec", "main", "run_sweep", "run_trial"]
 
@@ -73,6 +73,9 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
     if checkpoint is not None:
         with checkpoint.as_directory() as saved:
             shutil.copytree(saved, run)
+    elif trial.get("extend"):  # finished by a smaller-budget sweep (--extend): continued, not restarted
+        start = Path(trial["extend"])
+        shutil.copytree(start, run, ignore=lambda folder, names: ["eval"] if Path(folder) == start else [])
     resume = (run / "state.json").exists()
     eval_file = run / "eval" / "metrics.json"
     if eval_file.exists():  # finished before the sweep was stopped
@@ -162,6 +165,22 @@ def prepare_out(out: Path, spec: SweepSpec) -> bool:
 
 
 CONCURRENCY_FILE = "concurrency.json"  # the --max-concurrent a sweep started with
+EXTEND_FILE = "extends.json"  # the sweep folder whose trials this one continues (--extend)
+
+
+def extended_sweep(out: Path, asked: Optional[Path]) -> Optional[Path]:
+    """The sweep folder whose finished trials the sweep in ``out`` continues: the one ``--extend``
+    names, kept in ``out`` so that a continued sweep keeps it without being told again.
+    :class:`SweepError` when a continued sweep is asked to extend another folder."""
+    saved_file = out / EXTEND_FILE
+    saved = Path(json.loads(saved_file.read_text())["extends"]) if saved_file.exists() else None
+    if asked is not None:
+        asked = asked.resolve()
+        if saved is not None and saved != asked:
+            raise SweepError(f"{out} extends {saved}, not {asked}; choose another --out")
+        if saved is None and (out / "tune").exists():
+            raise SweepError(f"{out} began without --extend; choose another --out to extend {asked}")
+    return saved or asked
 
 
 def kept_concurrency(out: Path, asked: Optional[int]) -> str:
@@ -186,9 +205,12 @@ def kept_concurrency(out: Path, asked: Optional[int]) -> str:
 
 def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_trial: float = 0,
               address: Optional[str] = None, max_concurrent: Optional[int] = None,
-              reuse: Optional[Path] = None, threads: Optional[int] = None) -> list[dict[str, Any]]:
+              reuse: Optional[Path] = None, threads: Optional[int] = None,
+              extend: Optional[Path] = None) -> list[dict[str, Any]]:
     """Run (or continue) the sweep in ``out``; returns the summary rows. Trials that ``reuse`` (a
-    summary of this same sweep) lists as done are reported from it, not trained again.
+    summary of this same sweep) lists as done are reported from it, not trained again. Trials
+    that ``extend`` (a sweep folder of the same settings at a smaller budget) finished are
+    continued from their last checkpoint to this sweep's budget instead of starting over.
     ``threads``: torch threads per trial (default: the trial's CPU cores)."""
     import ray
     from ray import tune
@@ -199,7 +221,11 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
                          f"got {cpus_per_trial} and {gpus_per_trial}")
     out = Path(out).resolve()
     reused = reusable_rows(reuse, spec) if reuse is not None else {}
+    extends = extended_sweep(out, extend)
+    started = extendable_runs(extends, spec) if extends is not None else {}
     restoring = prepare_out(out, spec)
+    if extends is not None:
+        write_json_atomic(out / EXTEND_FILE, {"extends": str(extends)})
     if not ray.is_initialized():
         if address:
             ray.init(address=address)
@@ -209,6 +235,7 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     trials = {t["name"]: t for t in spec.trials(("--threads", str(threads or max(1, int(cpus_per_trial)))))}
     for name, trial in trials.items():
         trial["reuse"] = reused.get(name)
+        trial["extend"] = str(started[name]) if name in started else None
     # Ray Tune's config holds only the trial's name (a short column in the progress table); the
     # descriptions reach the trials through the object store
     trainable = tune.with_resources(tune.with_parameters(run_trial, trials=trials),
@@ -278,6 +305,10 @@ def build_parser():
     p.add_argument("--reuse", metavar="SUMMARY_JSON",
                    help="a summary.json of this same sweep (e.g. committed from another machine): "
                         "its finished trials are taken as they are instead of being trained again")
+    p.add_argument("--extend", metavar="SWEEP_FOLDER",
+                   help="a sweep folder of the same settings at a smaller budget (--timesteps, or --set "
+                        "rounds=N): its finished trials continue from their last checkpoint to this budget "
+                        "instead of starting over (their runs must be on this machine)")
     p.add_argument("--out", required=True, help="sweep folder; rerun with the same folder to continue")
     return p
 
@@ -307,7 +338,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     try:
         spec, threads = spec_from_args(args)
         rows = run_sweep(spec, Path(args.out), args.cpus_per_trial, args.gpus_per_trial, args.address,
-                         args.max_concurrent, Path(args.reuse) if args.reuse else None, threads)
+                         args.max_concurrent, Path(args.reuse) if args.reuse else None, threads,
+                         Path(args.extend) if args.extend else None)
     except SweepError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
