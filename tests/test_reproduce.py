@@ -764,9 +764,10 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
     assert "num_cars 8 0.000 ± 0.000 (stopped moving)" in line and "num_cars 4 0.0" in line and "(still rising)" in line
 
 
-def _lanes_noise(path, offsets):
+def _lanes_noise(path, offsets, fixed=None):
     """A 150-round lanes sweep over cars {8, 4} x LiDAR noise {0, 1.0}: ``offsets`` (signed one-sided
-    offsets of seeds 0-2) per (cars, noise)."""
+    offsets of seeds 0-2) per (cars, noise); ``fixed``: its fixed options (default: those of
+    :func:`_lanes` less the noise)."""
     trials = []
     for (n, noise), values in offsets.items():
         for seed, v in enumerate(values):
@@ -777,7 +778,7 @@ def _lanes_noise(path, offsets):
                            "lanes.mean_abs_lane_position": abs(v), "lanes.one_sided_offset": v,
                            "success_rate": 0.9})
     sweep = {"behaviour": "lanes", "grid": {"num_cars": ["8", "4"], "lidar_noise": ["0", "1.0"]}, "seeds": 3,
-             "fixed": {"rounds": "150", "spline_updates_per_round": "2"}, "timesteps": None, "minutes": None,
+             "fixed": fixed or {"rounds": "150"}, "timesteps": None, "minutes": None,
              "episodes": 200, "quick": False}
     path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
     return path
@@ -816,3 +817,8 @@ def test_lanes_at_other_noise_levels_are_joined_by_the_noise_05_trials_and_compa
     # 4 against 8 cars at each noise level, the level named
     assert "- crossings on the majority side (lidar_noise=0): num_cars=4" in mine
     assert "- one-sided offset (lidar_noise=1.0): num_cars=4 " in mine and "(num_cars=8, lidar_noise=1.0)" in mine
+    # trials of other settings (here more path updates per round) are not joined
+    other = _lanes_noise(tmp_path / "lanes-noise01.json", offsets, {"rounds": "150", "spline_updates_per_round": "3"})
+    assert main([str(paper), str(other), "--out", str(page)]) == 0
+    mine = page.read_text().split("## Lanes at the paper's LiDAR noise levels")[1].split("\n## ")[0]
+    assert "lanes-paper.json" not in mine and "| 8 | 0.5 |" not in mine and "| 8 | 1.0 | 3 |" in mine

@@ -65,23 +65,28 @@ def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list
             and not any(len(other.match) > len(section.match) and _matches(other, s) for other in SECTIONS)]
 
 
-def joined_groups(section: Section, summaries: list[dict[str, Any]], keys: list[str],
+def joined_groups(section: Section, summaries: list[dict[str, Any]], summary: dict[str, Any],
                   metrics: list[Metric]) -> tuple[list[Group], list[str]]:
-    """The grid points ``section.joins`` adds to a summary of ``section`` with grid ``keys``: the
-    joined section's trials, their fixed value of the joined option added to their point (only
-    summaries whose grid is ``keys`` less that option); and those summaries' paths."""
+    """The grid points ``section.joins`` adds to ``summary`` (one of ``section``'s): the joined
+    section's trials, their fixed value of the joined option added to their point. Only summaries
+    of the same settings join: the same budget and fixed options but the joined one, and a grid of
+    the same keys less that option. Also returns those summaries' paths."""
     if section.joins is None:
         return [], []
     key, option = section.joins
     other = next(s for s in SECTIONS if s.key == key)
+    mine = summary["sweep"]
     groups, paths = [], []
-    for summary in section_summaries(other, summaries):
-        value = summary["sweep"].get("fixed", {}).get(option)
-        if value is None or sorted([*summary["grid"], option]) != sorted(keys):
+    for theirs in section_summaries(other, summaries):
+        sweep = theirs["sweep"]
+        fixed = dict(sweep.get("fixed", {}))
+        value = fixed.pop(option, None)
+        if value is None or sorted([*theirs["grid"], option]) != sorted(summary["grid"]) or \
+                fixed != mine.get("fixed", {}) or sweep.get("timesteps") != mine.get("timesteps"):
             continue
-        paths.append(summary["path"])
+        paths.append(theirs["path"])
         groups += [Group({**g.point, option: str(value)}, g.seeds, g.estimates, g.figures)
-                   for g in groups_of(summary, metrics)]
+                   for g in groups_of(theirs, metrics)]
     return groups, paths
 
 
@@ -155,7 +160,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
         for summary in found:
             metrics = [m for m, _ in section.metrics]
             keys = list(summary["grid"])
-            joined, joined_paths = joined_groups(section, summaries, keys, metrics)
+            joined, joined_paths = joined_groups(section, summaries, summary, metrics)
             groups = _grid_order(groups_of(summary, metrics) + joined, keys) if joined else groups_of(summary, metrics)
             trials = summary["trials"]
             done = sum(r.get("status") == "done" for r in trials)
@@ -164,7 +169,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
                       f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
                       f"{summary['sweep']['episodes']} report episodes each). {section.setting}"
-                      + budget_note(section, curves is not None) + joined_note(section, joined_paths), ""]
+                      + budget_note(section, curves is not None) + joined_note(section, joined_paths, joined), ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
             parts += [_row(header), _separator(len(header))]
             for g in groups:
@@ -250,13 +255,14 @@ def budget_note(section: Section, curves: bool = False) -> str:
                     "were not kept for a learning curve).")
 
 
-def joined_note(section: Section, paths: list[str]) -> str:
-    """Where the table's rows from ``section.joins`` come from (``paths``: their summaries)."""
+def joined_note(section: Section, paths: list[str], joined: list[Group]) -> str:
+    """Where the table's rows from ``section.joins`` (``joined``) come from (``paths``: their summaries)."""
     if not paths:
         return ""
     key, option = section.joins
     title = next(s for s in SECTIONS if s.key == key).title
-    return (f" The rows at its other `{option}` come from \"{title}\" (summary "
+    values = ", ".join(dict.fromkeys(g.point[option] for g in joined))
+    return (f" The rows at `{option}` {values} come from \"{title}\" (summary "
             f"{', '.join(f'`{p}`' for p in paths)}): the same settings and training seeds at that `{option}`, "
             "so levels are compared paired by seed; their learning curves are drawn there.")
 
