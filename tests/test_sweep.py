@@ -143,6 +143,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     more = subprocess.run(_sweep(longer, BUDGET + 2000) + ["--extend", str(out)], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=400)
     assert "1 of 2 trials done" in more.stdout, more.stdout[-3000:] + more.stderr[-3000:]
+    assert f"--extend: 1 finished trial of {out} continue" in more.stderr
     rows4 = {r["trial"]: r for r in csv.DictReader((longer / "summary.csv").open())}
     run4 = Path(rows4[good]["run"])
     assert rows4[good]["status"] == "done" and int(rows4[good]["decisions"]) == BUDGET + 2000

@@ -226,6 +226,9 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     restoring = prepare_out(out, spec)
     if extends is not None:
         write_json_atomic(out / EXTEND_FILE, {"extends": str(extends)})
+        trials_word = "trial" if len(started) == 1 else "trials"
+        print(f"--extend: {len(started)} finished {trials_word} of {extends} continue to this budget, "
+              "the others start from scratch", file=sys.stderr)
     if not ray.is_initialized():
         if address:
             ray.init(address=address)
