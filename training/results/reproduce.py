@@ -161,7 +161,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             metrics = [m for m, _ in section.metrics]
             keys = list(summary["grid"])
             joined, joined_paths = joined_groups(section, summaries, summary, metrics)
-            groups = _grid_order(groups_of(summary, metrics) + joined, keys) if joined else groups_of(summary, metrics)
+            own = groups_of(summary, metrics)
+            groups = _grid_order(own + joined, keys) if joined else own
             trials = summary["trials"]
             done = sum(r.get("status") == "done" for r in trials)
             planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]

@@ -144,7 +144,7 @@ def noise_trend(groups: list[Group], metrics: list[tuple[Metric, str]], paper: i
 
 
 # how a grid key's levels are named in a change's sentence ("noise 0 ..., noise 0.5 ...")
-LEVEL_NAMES = {"lidar_noise": "noise", "num_cars": "cars"}
+LEVEL_NAMES = {"lidar_noise": "noise"}
 
 
 def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, paper: int) -> str:
@@ -155,31 +155,26 @@ def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, p
     a, b = low.estimates[metric], high.estimates[metric]
     if a.high is None or b.high is None:
         return ""
-    expected, other = ("rise", "falls") if paper >= 0 else ("fall", "rises")
     name = LEVEL_NAMES.get(key, key)
     diffs = paired_differences(low, high, metric)
-    if len(diffs) >= 2:  # the same seeds at both levels: a paired test
+    paired = len(diffs) >= 2  # the same seeds at both levels: a paired test
+    if paired:
         d, p = mean_ci(diffs), t_test_p(diffs, 0.0)
         seen = 0 if d.low <= 0.0 <= d.high else (1 if d.mean > 0 else -1)
         how = (f"paired by seed ({len(diffs)} seeds), high minus low {name} {d.mean:+.3f} ± "
                f"{(d.high - d.low) / 2:.3f}, p = {p:.3f}")
-        if paper == 0:
-            verdict = ({1: f"rises, {how}.", -1: f"falls, {how}."}[seen] if seen else
-                       f"no change shown ({how}{seeds_needed(diffs)}).")
-        else:
-            verdict = (f"{expected}s, {how}, as in the paper." if seen == paper else
-                       f"{other}, {how}, unlike the paper." if seen else
-                       f"no {expected} shown ({how}), unlike the paper{seeds_needed(diffs)}.")
+        moved, unmoved, more = f", {how}", f" shown ({how})", seeds_needed(diffs)
     else:
         seen = apart(a, b)
-        if paper == 0:
-            verdict = ({1: "rises, intervals apart.", -1: "falls, intervals apart."}[seen] if seen else
-                       "the intervals overlap: no change shown.")
-        else:
-            verdict = (f"{expected}s, intervals apart, as in the paper." if seen == paper else
-                       f"{other}, intervals apart, unlike the paper." if seen else
-                       f"the intervals overlap: no {expected} shown, unlike the paper.")
-    return f"- {label}: {name} {low.point[key]} {a.format()}, {name} {high.point[key]} {b.format()}: {verdict}"
+        moved, unmoved, more = ", intervals apart", " shown", ""
+    expected = ("rise" if paper > 0 else "fall") if paper else "change"
+    if seen:
+        verdict = ("rises" if seen > 0 else "falls") + moved + (
+            "" if not paper else ", as in the paper" if seen == paper else ", unlike the paper")
+    else:
+        verdict = ("" if paired else "the intervals overlap: ") + f"no {expected}{unmoved}" + (
+            ", unlike the paper" if paper else "") + more  # how many seeds would tell
+    return f"- {label}: {name} {low.point[key]} {a.format()}, {name} {high.point[key]} {b.format()}: {verdict}."
 
 
 def _slices(groups: list[Group], key: str) -> dict[tuple[tuple[str, str], ...], dict[str, Group]]:
@@ -202,7 +197,8 @@ def level_change_statement(key: str, low: str, high: str, metrics: tuple[tuple[M
         for rest, levels in _slices(groups, key).items():
             if low in levels and high in levels:
                 where = f"{_where(dict(rest))}, " if rest else ""
-                lines += [change_line(levels[low], levels[high], key, m, f"{where}{label}", paper) for m, label in metrics]
+                lines += [change_line(levels[low], levels[high], key, m, f"{where}{label}", paper)
+                          for m, label in metrics]
         lines = [line for line in lines if line]
         return lines + [f"- {paper_words}"] if lines and paper_words else lines
     return say
