@@ -5,18 +5,19 @@ after the other on Ray Tune, each in ``RUNS/sweep-NAME``. A rule whose summary i
 summaries folder (``assets/sweeps/NAME.json`` in a checkout) continues from it: its finished trials
 are taken as they are (``sweep --reuse``), so a fresh machine goes on where the committed results
 stop. After each sweep its summary is copied back into that folder; the caller then rewrites the
-page. The learning curves of a sweep (every kept checkpoint of every trial
-run here, on selection episodes) go beside its summary as ``curves/NAME.csv``, merged with the
-trials already there. A sweep that stops before all its trials finish (Ctrl-C, the machine going away) ends the
-run there: the same command continues it.
+page. Each trial lands as it finishes (:class:`~training.results.landing.TrialLander`): the
+summary is copied then, and the trial's learning curve (every kept checkpoint, on selection
+episodes) is merged into ``curves/NAME.csv`` beside it while the next trial trains, so a machine
+that goes away mid-sweep loses only the trial in training. A sweep that stops before all its
+trials finish (Ctrl-C, the machine going away) ends the run there: the same command continues it.
 """
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 from typing import Optional, Sequence
 
+from training.results.landing import TrialLander
 from training.results.sections import Section
 
 __all__ = ["ReproduceError", "run_sections"]
@@ -26,10 +27,8 @@ class ReproduceError(ValueError):
     """A rule's sweep cannot start (Ray missing, a summary that belongs to another sweep)."""
 
 
-def _copy_atomic(src: Path, dst: Path) -> None:
-    tmp = dst.with_name(dst.name + ".partial")
-    shutil.copyfile(src, tmp)
-    tmp.replace(dst)
+# seconds between two looks at a running sweep for trials finished since (each lands then)
+LAND_EVERY_S = 60.0
 
 
 def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per_trial: float = 1,
@@ -65,18 +64,17 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     for section, spec, threads, reuse in plans:
         out = Path(runs) / section.out.name
         print(f"== {section.title}: {section.command}" + (f" (continuing {reuse})" if reuse else ""), flush=True)
+        # each trial lands as it finishes (summary and learning curve), while the next one trains
+        lander = TrialLander(out, folder, section.summary_name, curves.SWEEP_CURVE_EPISODES, SELECTION.start,
+                             log=lambda line: print(line, flush=True))
+        lander.start(LAND_EVERY_S)
         try:
             rows = run_sweep(spec, out, cpus_per_trial, gpus_per_trial, address, max_concurrent, reuse, threads)
         except SweepError as exc:
             raise ReproduceError(f"{section.key}: {exc}") from None
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        for ext in ("json", "csv"):
-            _copy_atomic(out / f"summary.{ext}", Path(folder) / f"{section.summary_name}.{ext}")
-        # the learning curves: had each metric stopped moving?
-        curve = curves.sweep_curve_rows(out, curves.SWEEP_CURVE_EPISODES, SELECTION.start,
-                                        log=lambda line: print(line, flush=True))
-        if curve:
-            curves.merge_curves(Path(folder) / "curves" / f"{section.summary_name}.csv", curve)
+        finally:
+            lander.stop()
+        lander.land()  # the final summary, and the curves of trials that finished since the last pass
         counts = {s: sum(r["status"] == s for r in rows) for s in ("done", "error", "stopped", "pending")}
         print(f"== {section.title}: {counts['done']} of {len(rows)} trials done"
               + "".join(f", {n} {s}" for s, n in counts.items() if s != "done" and n)

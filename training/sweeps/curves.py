@@ -19,11 +19,12 @@ from pathlib import Path
 from typing import Any, Callable, Optional
 
 from training.common.cli_args import error
-from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, run_curve,
-                                                  write_rows)
+from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, kept_checkpoints,
+                                                  run_curve, write_rows)
 from training.sweeps.spec import SweepSpec
 
-__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "finished_trials", "main", "merge_curves", "sweep_curve_rows", "sweep_trials"]
+__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "finished_trials", "main", "merge_curves",
+           "sweep_curve_rows", "sweep_trials", "trial_curve_rows"]
 
 # selection episodes per checkpoint when ``reproduce --run`` draws a sweep's curves
 SWEEP_CURVE_EPISODES = 100
@@ -65,10 +66,33 @@ def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str],
         if not t["run"].is_dir():
             log(f"{t['trial']}: no run folder here (not started, or taken from a committed summary), skipped")
             continue
-        log(f"{t['trial']}:")
-        for row in run_curve(t["run"], episodes, seed, log=lambda line: log("  " + line)):
-            rows.append({"trial": t["trial"], "seed": t["seed"], **t["point"], **row})
+        rows += trial_curve_rows(t, episodes, seed, log)
     return rows
+
+
+def trial_curve_rows(trial: dict[str, Any], episodes: int, seed: int,
+                     log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+    """One trial's curve rows (``trial``: an entry of :func:`sweep_trials`), each headed by the
+    trial's name, seed and grid values."""
+    log(f"{trial['trial']}:")
+    return [{"trial": trial["trial"], "seed": trial["seed"], **trial["point"], **row}
+            for row in run_curve(trial["run"], episodes, seed, log=lambda line: log("  " + line))]
+
+
+def drawn_already(path: Path, trial: dict[str, Any], episodes: int, seed: int) -> bool:
+    """Whether the curves file ``path`` already holds ``trial``'s curve as its run folder here
+    would draw it: a row for every kept checkpoint, on the same episodes (a trial continued to a
+    larger budget has more checkpoints, so it is drawn again)."""
+    if not path.exists():
+        return False
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r.get("trial") == trial["trial"]]
+    try:
+        kept = {c["decisions"] for c in kept_checkpoints(trial["run"])}
+        return (bool(rows) and {int(float(r["decisions"])) for r in rows} == kept
+                and all(int(float(r["episodes"])) == episodes and int(float(r["first_seed"])) == seed for r in rows))
+    except (CurveError, KeyError, ValueError):
+        return False
 
 
 def merge_curves(path: Path, rows: list[dict[str, Any]]) -> None:

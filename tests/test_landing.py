@@ -1,0 +1,140 @@
+"""Landing a running sweep trial by trial (``reproduce --run``): summary copies and learning curves
+drawn once per finished trial, kept across machines, redrawn when a trial was continued."""
+
+import csv
+import dataclasses
+import json
+import time
+
+import pytest
+
+from training.evaluation.checkpoint_curve import CurveError
+from training.results.landing import TrialLander
+from training.sweeps import curves
+from training.sweeps.spec import SweepSpec
+from training.sweeps.summary import summary_row, write_summary
+
+EPISODES, SEED = 3, 1_000_000_000
+
+
+def _sweep(tmp_path, done=("num_cars=1",), checkpoints=(100, 200)):
+    """A sweep folder of two trials (1 and 2 cars, seed 0): ``done`` ones finished; each has a run
+    folder with checkpoints at ``checkpoints`` decisions (names only: drawing is faked)."""
+    out = tmp_path / "sweep"
+    spec = SweepSpec("lights", grid={"num_cars": ["1", "2"]}, seeds=1)
+    out.mkdir(parents=True)
+    (out / "sweep.json").write_text(json.dumps(dataclasses.asdict(spec)))
+    rows = []
+    for trial in spec.trials():
+        run = out / "tune" / trial["name"] / "run" / "checkpoints"
+        run.mkdir(parents=True)
+        for d in checkpoints:
+            (run / f"model_{d}.safetensors").write_bytes(b"")
+        finished = f"num_cars={trial['point']['num_cars']}" in done
+        rows.append(summary_row(trial, "done" if finished else "pending",
+                                {"report/success_rate": 0.5} if finished else {}))
+    write_summary(out, spec, rows)
+    return out, spec
+
+
+@pytest.fixture
+def drawn(monkeypatch):
+    """Fake curve drawing: one row per kept checkpoint; records which runs were drawn."""
+    calls = []
+
+    def fake_run_curve(run, episodes, seed, log=lambda line: None):
+        calls.append(run.parent.name)
+        return [{"decisions": c["decisions"], "agent_steps": float("nan"), "episodes": episodes,
+                 "first_seed": seed, "success_rate": 0.25} for c in curves.kept_checkpoints(run)]
+
+    monkeypatch.setattr(curves, "run_curve", fake_run_curve)
+    return calls
+
+
+def _curve_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
+    out, _ = _sweep(tmp_path)
+    folder = tmp_path / "assets"
+    lander = TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None)
+    assert lander.land() == ["lights_num_cars=1_seed=0"]
+    assert json.loads((folder / "tiny.json").read_text()) == json.loads((out / "summary.json").read_text())
+    assert (folder / "tiny.csv").read_text() == (out / "summary.csv").read_text()
+    rows = _curve_rows(folder / "curves" / "tiny.csv")
+    assert [(r["trial"], r["seed"], r["num_cars"], r["decisions"], r["episodes"]) for r in rows] == [
+        ("lights_num_cars=1_seed=0", "0", "1", "100", "3"), ("lights_num_cars=1_seed=0", "0", "1", "200", "3")]
+    assert lander.land() == [] and drawn == ["lights_num_cars=1_seed=0"]
+
+    # the second trial finishes: only it is drawn, the first one's rows stay
+    out2, spec = _sweep(tmp_path / "b", done=("num_cars=1", "num_cars=2"))
+    (out / "summary.json").write_text((out2 / "summary.json").read_text())
+    assert lander.land() == ["lights_num_cars=2_seed=0"]
+    assert {r["trial"] for r in _curve_rows(folder / "curves" / "tiny.csv")} == {
+        "lights_num_cars=1_seed=0", "lights_num_cars=2_seed=0"}
+    assert json.loads((folder / "tiny.json").read_text())["trials"][1]["status"] == "done"
+
+    # the same command again on this machine (a new lander): nothing is drawn twice
+    assert TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None).land() == []
+    # ... unless on other episodes, or the trial was continued to more checkpoints (--extend)
+    assert TrialLander(out, folder, "tiny", EPISODES + 1, SEED, log=lambda line: None).land() == [
+        "lights_num_cars=1_seed=0", "lights_num_cars=2_seed=0"]
+    (out / "tune" / "lights_num_cars=1_seed=0" / "run" / "checkpoints" / "model_300.safetensors").write_bytes(b"")
+    assert TrialLander(out, folder, "tiny", EPISODES + 1, SEED, log=lambda line: None).land() == [
+        "lights_num_cars=1_seed=0"]
+    rows = [r for r in _curve_rows(folder / "curves" / "tiny.csv") if r["trial"] == "lights_num_cars=1_seed=0"]
+    assert [r["decisions"] for r in rows] == ["100", "200", "300"]
+
+
+def test_trials_from_another_machine_keep_their_rows_and_an_empty_sweep_lands_nothing(tmp_path, drawn):
+    out, _ = _sweep(tmp_path)
+    folder = tmp_path / "assets"
+    (folder / "curves").mkdir(parents=True)
+    other = {"trial": "lights_num_cars=4_seed=0", "seed": "0", "num_cars": "4", "decisions": "100",
+             "agent_steps": "", "episodes": "3", "first_seed": str(SEED), "success_rate": "0.9"}
+    with open(folder / "curves" / "tiny.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(other))
+        writer.writeheader()
+        writer.writerow(other)
+    TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None).land()
+    trials = [r["trial"] for r in _curve_rows(folder / "curves" / "tiny.csv")]
+    assert trials[0] == "lights_num_cars=4_seed=0" and trials.count("lights_num_cars=1_seed=0") == 2
+
+    # a sweep that has not written a summary yet: nothing copied, nothing drawn
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    lander = TrialLander(empty, tmp_path / "assets2", "tiny", EPISODES, SEED, log=lambda line: None)
+    assert lander.land() == [] and not (tmp_path / "assets2").exists()
+
+
+def test_background_passes_land_trials_while_the_sweep_runs_and_log_failures(tmp_path, drawn, monkeypatch):
+    out, _ = _sweep(tmp_path)
+    folder = tmp_path / "assets"
+    lines = []
+    lander = TrialLander(out, folder, "tiny", EPISODES, SEED, log=lines.append)
+    lander.start(every_s=0.02)
+    deadline = time.monotonic() + 30
+    while not drawn and time.monotonic() < deadline:
+        time.sleep(0.02)
+    lander.stop()
+    assert drawn == ["lights_num_cars=1_seed=0"] and (folder / "curves" / "tiny.csv").exists()
+    assert lander._thread is None
+
+    # a curve that cannot be drawn: logged by the background pass (the sweep goes on), raised by
+    # the final pass in the caller's thread
+    def broken(run, episodes, seed, log=lambda line: None):
+        raise CurveError(f"no checkpoints in {run}")
+
+    monkeypatch.setattr(curves, "run_curve", broken)
+    out2, _ = _sweep(tmp_path / "b", done=("num_cars=1", "num_cars=2"))
+    lander = TrialLander(out2, tmp_path / "assets-b", "tiny", EPISODES, SEED, log=lines.append)
+    lander.start(every_s=0.02)
+    deadline = time.monotonic() + 30
+    while not any("landing tiny" in line for line in lines) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    lander.stop()
+    assert any("landing tiny: no checkpoints in" in line and "tried again at the end" in line for line in lines)
+    with pytest.raises(CurveError):
+        lander.land()

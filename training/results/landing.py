@@ -1,0 +1,101 @@
+"""Landing a sweep trial by trial while it runs (``box2d-driving reproduce --run``).
+
+A rule's sweep may run for many hours, longer than the machine it runs on may stay up. So that
+what finished is never lost with the machine, :class:`TrialLander` watches the sweep folder while
+Ray Tune trains: each time a trial finishes, the sweep's summary is copied into the summaries
+folder (``assets/sweeps/NAME.json`` and ``.csv``) and that trial's learning curve (every kept
+checkpoint on selection episodes) is drawn and merged into ``curves/NAME.csv``, while the next
+trial trains. A trial whose curve the curves file already holds, drawn from the same checkpoints
+on the same episodes, is not drawn again.
+"""
+
+from __future__ import annotations
+
+import shutil
+import threading
+from pathlib import Path
+from typing import Callable, Optional
+
+from training.evaluation.checkpoint_curve import CurveError
+
+__all__ = ["TrialLander"]
+
+
+def _copy_atomic(src: Path, dst: Path) -> None:
+    tmp = dst.with_name(dst.name + ".partial")
+    shutil.copyfile(src, tmp)
+    tmp.replace(dst)
+
+
+class TrialLander:
+    """Copies the summary of the sweep in ``out`` to ``folder/NAME.json|csv`` and merges each
+    finished trial's learning curve into ``folder/curves/NAME.csv``.
+
+    :meth:`land` does one pass (the caller's thread); :meth:`start` repeats it every
+    ``every_s`` seconds in a background thread until :meth:`stop`. Curves are drawn on
+    ``episodes`` selection episodes from ``seed``."""
+
+    def __init__(self, out: Path, folder: Path, name: str, episodes: int, seed: int,
+                 log: Callable[[str], None] = print) -> None:
+        self.out, self.folder, self.name = Path(out), Path(folder), name
+        self.episodes, self.seed, self.log = episodes, seed, log
+        self.drawn: set[str] = set()  # trials landed by this lander (or found already drawn)
+        self._stop = threading.Event()
+        self._thread: Optional[threading.Thread] = None
+
+    @property
+    def curves_path(self) -> Path:
+        return self.folder / "curves" / f"{self.name}.csv"
+
+    def copy_summary(self) -> bool:
+        """The sweep's summary into the summaries folder; False when it has none yet."""
+        if not (self.out / "summary.json").exists():
+            return False
+        self.folder.mkdir(parents=True, exist_ok=True)
+        for ext in ("json", "csv"):
+            _copy_atomic(self.out / f"summary.{ext}", self.folder / f"{self.name}.{ext}")
+        return True
+
+    def land(self) -> list[str]:
+        """One pass: the summary copied, and the curve of every trial finished (by the summary)
+        since the last pass whose run folder is here; returns the trials whose curves it drew.
+        A trial taken from a committed summary has no run folder here and keeps its rows."""
+        from training.sweeps import curves
+
+        if not self.copy_summary():
+            return []
+        done = curves.finished_trials(self.out)
+        drawn = []
+        for trial in curves.sweep_trials(self.out):
+            name = trial["trial"]
+            if name in self.drawn or name not in done or not trial["run"].is_dir():
+                continue
+            if curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
+                self.drawn.add(name)
+                continue
+            rows = curves.trial_curve_rows(trial, self.episodes, self.seed, log=self.log)
+            curves.merge_curves(self.curves_path, rows)
+            self.drawn.add(name)
+            drawn.append(name)
+        return drawn
+
+    def _watch(self, every_s: float) -> None:
+        import torch
+
+        torch.set_num_threads(1)  # the curves share the machine with the trial training beside them
+        while not self._stop.wait(every_s):
+            try:
+                self.land()
+            except (CurveError, OSError, ValueError) as exc:  # the sweep goes on; the final pass retries
+                self.log(f"landing {self.name}: {exc} (tried again at the end of the sweep)")
+
+    def start(self, every_s: float = 60.0) -> None:
+        self._thread = threading.Thread(target=self._watch, args=(every_s,), name=f"land-{self.name}", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        """Ends the background passes (after the curve being drawn, if any)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
