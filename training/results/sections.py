@@ -308,6 +308,21 @@ SECTIONS: tuple[Section, ...] = (
                                      (("lidar_noise", noise),),
                                      ("communication.speaker_consistency_bits", PEARSON, SUCCESS_LOST_UNHEARD))
                             for noise in ("0", "0.75"))),
+    Section("communication-paper-16M", "Turn signals, 12 cars, half the paper's budget (16 M decisions)",
+            "real-junction", (("communication", "true"), ("num_cars", "12"), ("timesteps", "16000000")),
+            COMMUNICATION_METRICS,
+            COMMUNICATION_CLAIM,
+            f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 3 --timesteps 16000000 "
+            "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
+            "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-16M",
+            setting="The 12-car turn-signal runs above trained 2.7 times as long: 16 M decisions per trial, half "
+                    "the paper's 32 M, from the same shipped 8-car base policy and with the same training "
+                    "seeds, with learning curves (whether the message measures had stopped moving by 16 M). "
+                    "The trials run one after the other, a whole set of noise levels per seed, so a summary "
+                    "holds the trials finished so far.",
+            figure=COMMUNICATION_FIGURE,
+            statements=COMMUNICATION_STATEMENTS,
+            paper_budget=COMMUNICATION_BUDGET),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             ((FAST_LANES_R, "Pearson(rating, lateral), size"),
              ("fast_lanes.pearson_r", "Pearson(rating, lateral), signed (below 0: fast cars on the right)"),
