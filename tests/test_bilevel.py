@@ -38,6 +38,68 @@ def test_bandit_reward_is_the_inner_episode_return_and_every_slot_is_done():
     assert [i["episode_return"] for i in infos[4:]] == pytest.approx(list(rewards[4:]))
 
 
+def _looks(n_actions):
+    """An acceleration policy that reads every observation value (so a row in the wrong order or
+    off by a bit changes the actions), choosing among the accelerations from a little braking up
+    (so some cars arrive or crash and others are still driving at the horizon)."""
+    low = n_actions // 2 - 2
+    return lambda obs: (low + np.floor(np.abs(obs).sum(axis=1) * 1e4) % (n_actions - low)).astype(np.int64)
+
+
+class _PerInstanceBandit(SplineBanditVecEnv):
+    """The reference: each instance's inner episode stepped on its own through the PettingZoo API."""
+
+    def _inner_episodes(self, actions):
+        n = self.n_cars
+        returns, lane_sum, lane_count = np.zeros(self.num_envs), np.zeros(self.num_envs), np.zeros(self.num_envs)
+        outcome = np.zeros((self.num_envs, 2), dtype=bool)
+        obs_now = []
+        for k, env in enumerate(self.envs):
+            obs, infos = env.reset(options={"use_plan": True, "spline_actions": actions[k]})
+            obs_now.append(obs)
+            self._lane_stats(k, [self._car[a] for a in infos], list(infos.values()), lane_sum, lane_count)
+        while any(env.agents for env in self.envs):
+            live = [(k, a) for k, env in enumerate(self.envs) for a in env.agents]
+            acts = self.accel_policy(np.stack([obs_now[k][a] for k, a in live]))
+            per_env = [{} for _ in self.envs]
+            for (k, a), act in zip(live, acts):
+                per_env[k][a] = int(act)
+            for k, env in enumerate(self.envs):
+                if not env.agents:
+                    continue
+                obs, rew, term, trunc, infos = env.step(per_env[k])
+                obs_now[k] = obs
+                for a, r in rew.items():
+                    returns[k * n + self._car[a]] += r
+                    if term[a] or trunc[a]:
+                        outcome[k * n + self._car[a]] = (infos[a]["arrived"], infos[a]["collided"])
+                self._lane_stats(k, [self._car[a] for a in infos], list(infos.values()), lane_sum, lane_count)
+        return returns, outcome, lane_sum, lane_count
+
+
+@pytest.mark.parametrize("env_id, overrides, n_actions", [
+    ("intersection-spline-v0", {"num_cars": 4, "lidar_noise": 0.5}, 13), ("highway-spline-v0", {"num_cars": 5}, 25)])
+def test_bandit_steps_all_instances_together_exactly_as_each_on_its_own(env_id, overrides, n_actions):
+    make = lambda: box2d_driving.make(env_id, **overrides)  # noqa: E731
+    batched = SplineBanditVecEnv([make] * 5, _looks(n_actions), normalise=False)
+    reference = _PerInstanceBandit([make] * 5, _looks(n_actions), normalise=False)
+    for bandit in (batched, reference):
+        bandit.seed(11)
+    assert np.array_equal(batched.reset(), reference.reset())
+    batched.action_space.seed(0)
+    ended = []
+    for _ in range(3):  # later steps plan from each instance's own generator, not a seed
+        act = np.stack([batched.action_space.sample() for _ in range(batched.num_envs)])
+        out_b, out_r = batched.step(act), reference.step(act)
+        assert np.array_equal(out_b[0], out_r[0]) and np.array_equal(out_b[1], out_r[1])
+        for key in ("episode_return", "arrived", "collided", "junction_lane_position"):
+            assert np.array_equal([i[key] for i in out_b[3]], [i[key] for i in out_r[3]], equal_nan=True), key
+        ended += [(i["arrived"], i["collided"]) for i in out_b[3]]
+    arrived, collided = np.array(ended).T
+    assert arrived.any() and collided.any()  # both ways of ending early ...
+    assert (arrived | collided).all() != (env_id == "highway-spline-v0")  # ... and, on the highway, the horizon
+
+
 def test_bandit_normalised_rewards_are_standardised():
     make = lambda: box2d_driving.make("highway-spline-v0", num_cars=5)  # noqa: E731
     bandit = SplineBanditVecEnv([make, make], _always(20), normalise=True)

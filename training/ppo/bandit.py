@@ -25,6 +25,7 @@ from typing import Any, Callable, Optional, Sequence
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from training.ppo.slots import checked_actions
 from training.ppo.vec_env import CarSlots
 
 AccelPolicy = Callable[[np.ndarray], np.ndarray]
@@ -66,35 +67,8 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
         self._actions = np.asarray(actions)
 
     def step_wait(self):
-        n = self.n_cars
-        shape = (len(self.envs), n) + self.action_space.shape
-        actions = self._actions.reshape(shape)
-        returns = np.zeros(self.num_envs)
-        obs_now: list[dict[str, np.ndarray]] = []
-        lane_sum = np.zeros(self.num_envs)
-        lane_count = np.zeros(self.num_envs)
-        outcome = np.zeros((self.num_envs, 2), dtype=bool)  # arrived, collided
-        for k, env in enumerate(self.envs):
-            obs, infos = env.reset(options={"use_plan": True, "spline_actions": actions[k]})
-            obs_now.append(obs)
-            self._lane_stats(k, infos, lane_sum, lane_count)
-        while any(env.agents for env in self.envs):
-            live = [(k, a) for k, env in enumerate(self.envs) for a in env.agents]
-            acts = self.accel_policy(np.stack([obs_now[k][a] for k, a in live]))
-            per_env: list[dict[str, int]] = [{} for _ in self.envs]
-            for (k, a), act in zip(live, acts):
-                per_env[k][a] = int(act)
-            for k, env in enumerate(self.envs):
-                if not env.agents:
-                    continue
-                obs, rew, term, trunc, infos = env.step(per_env[k])
-                obs_now[k] = obs
-                for a, r in rew.items():
-                    slot = k * n + self._car[a]
-                    returns[slot] += r
-                    if term[a] or trunc[a]:
-                        outcome[slot] = (infos[a]["arrived"], infos[a]["collided"])
-                self._lane_stats(k, infos, lane_sum, lane_count)
+        returns, outcome, lane_sum, lane_count = self._inner_episodes(
+            self._actions.reshape((len(self.envs), self.n_cars) + self.action_space.shape))
         rewards = returns.copy()
         if self.normalise:
             rewards = (returns - returns.mean()) / (returns.std() + 1e-8)
@@ -108,9 +82,52 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
             self._plan(k, None)
         return self._obs.copy(), rewards.astype(np.float32), np.ones(self.num_envs, dtype=bool), infos_out
 
-    def _lane_stats(self, k: int, infos: dict, lane_sum: np.ndarray, lane_count: np.ndarray) -> None:
-        for a, info in infos.items():
+    def _inner_episodes(self, actions: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Every instance's inner episode on the paths ``actions[k]`` pick, the acceleration
+        policy deciding for the live cars of all instances at once. Returns per slot the sum of
+        its rewards, (arrived, collided) at its end, and the sum and count of its lane positions
+        in the junction.
+
+        Each decision steps every instance with live cars through one env-core call
+        (:func:`~box2d_driving.envs.core.step_instances`: the numpy work of all their cars
+        together, not once per instance behind the PettingZoo dicts); what a car gets does not
+        depend on which instances are stepped with it, so the returns are those of stepping each
+        instance on its own (``tests/test_bilevel.py`` checks them bit for bit)."""
+        from box2d_driving.envs.core import step_instances
+
+        n = self.n_cars
+        returns = np.zeros(self.num_envs)
+        lane_sum = np.zeros(self.num_envs)
+        lane_count = np.zeros(self.num_envs)
+        outcome = np.zeros((self.num_envs, 2), dtype=bool)  # arrived, collided
+        obs_now: list[np.ndarray] = []  # per instance: its live cars' observations, in agent order
+        for k, env in enumerate(self.envs):
+            obs, infos = env.reset(options={"use_plan": True, "spline_actions": actions[k]})
+            obs_now.append(np.stack([obs[a] for a in env.agents]))
+            self._lane_stats(k, [self._car[a] for a in infos], list(infos.values()), lane_sum, lane_count)
+        n_actions = self.envs[0].action_space(self.agents[0]).n
+        while True:
+            live = [k for k, env in enumerate(self.envs) if env.agents]
+            if not live:
+                break
+            acts = np.asarray(self.accel_policy(np.concatenate([obs_now[k] for k in live])))
+            counts = [len(obs_now[k]) for k in live]
+            raws = [checked_actions(a, n_actions) for a in np.split(acts, np.cumsum(counts)[:-1])]
+            for k, d in zip(live, step_instances([self.envs[k] for k in live], raws)):
+                slots = k * n + d.cars
+                returns[slots] += d.rewards
+                ended = np.ones(len(d.cars), dtype=bool) if d.truncated else d.terminated
+                for j in np.flatnonzero(ended).tolist():
+                    outcome[slots[j]] = (d.infos[j]["arrived"], d.infos[j]["collided"])
+                self._lane_stats(k, d.cars.tolist(), d.infos, lane_sum, lane_count)
+                obs_now[k] = d.observations[~d.terminated]
+        return returns, outcome, lane_sum, lane_count
+
+    def _lane_stats(self, k: int, cars: Sequence[int], infos: Sequence[dict], lane_sum: np.ndarray,
+                    lane_count: np.ndarray) -> None:
+        """Adds the lane positions of instance ``k``'s ``cars`` that are in the junction."""
+        for car, info in zip(cars, infos):
             if info.get("in_junction") and info.get("lane_offset") is not None:
-                slot = k * self.n_cars + self._car[a]
+                slot = k * self.n_cars + car
                 lane_sum[slot] += info["lane_offset"]
                 lane_count[slot] += 1
