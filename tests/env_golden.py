@@ -2,10 +2,17 @@
 truncations and infos, hashed bit for bit (floats through their exact ``repr``).
 
 The env's hot path is optimised from time to time (arrays instead of per-car loops); this keeps
-every such change exact. ``tests/test_env_golden.py`` compares with ``tests/data/env_golden.json``;
-after a change that is *meant* to alter trajectories, rewrite it with::
+every such change exact. ``tests/test_env_golden.py`` compares with ``tests/data/env_golden.json``,
+which holds one set of fingerprints per platform (:func:`platform_signature`: the same code hashes
+differently where numpy's CPU dispatch differs). After a change that is *meant* to alter
+trajectories, rewrite it (this platform's fingerprints only; the others are dropped, being stale)::
 
     python -m tests.env_golden --write
+
+To add the platform of the machine at hand, run on code known to be right (a commit whose env code
+matched the recorded fingerprints on a recorded platform), keeping the others::
+
+    python -m tests.env_golden --add-platform
 """
 
 from __future__ import annotations
@@ -87,15 +94,20 @@ def fingerprint(env_id: str, overrides: dict, decisions: int = DECISIONS, seed: 
     return {part: h.hexdigest() for part, h in hashes.items()}
 
 
+def recorded() -> dict[str, dict[str, dict[str, str]]]:
+    """platform signature -> case name -> fingerprint, as written in :data:`FILE`."""
+    return json.loads(FILE.read_text())["platforms"] if FILE.exists() else {}
+
+
 def main(argv: list[str]) -> int:
-    if argv != ["--write"]:
+    if argv not in (["--write"], ["--add-platform"]):
         print(__doc__)
         return 2
+    platforms = recorded() if argv == ["--add-platform"] else {}
+    platforms[platform_signature()] = {name: fingerprint(env_id, overrides) for name, env_id, overrides in CASES}
     FILE.parent.mkdir(exist_ok=True)
-    table = {"platform": platform_signature()}
-    table.update({name: fingerprint(env_id, overrides) for name, env_id, overrides in CASES})
-    FILE.write_text(json.dumps(table, indent=1) + "\n")
-    print(f"wrote {FILE}")
+    FILE.write_text(json.dumps({"platforms": platforms}, indent=1) + "\n")
+    print(f"wrote {FILE}: {len(platforms)} platform(s)")
     return 0
 
 

@@ -3,23 +3,28 @@
 compared on a platform like the recording one (numpy's version and CPU dispatch); elsewhere the
 comparison is skipped, saying so."""
 
-import json
-
 import pytest
 
-from tests.env_golden import CASES, FILE, fingerprint, platform_signature
+from tests.env_golden import CASES, fingerprint, platform_signature, recorded
 
-GOLDEN = json.loads(FILE.read_text())
+GOLDEN = recorded()
 
 
 @pytest.mark.parametrize("name,env_id,overrides", CASES, ids=[c[0] for c in CASES])
 def test_env_steps_bit_for_bit_as_recorded(name, env_id, overrides):
-    if platform_signature() != GOLDEN["platform"]:
-        pytest.skip(f"recorded on {GOLDEN['platform']}, this is {platform_signature()}: "
-                    "rewrite with python -m tests.env_golden --write on code known to be right")
+    here = platform_signature()
+    if here not in GOLDEN:
+        pytest.skip(f"recorded on {', '.join(GOLDEN)}; this is {here}: add it with "
+                    "python -m tests.env_golden --add-platform on code known to be right")
     now = fingerprint(env_id, overrides)
-    changed = [part for part in now if now[part] != GOLDEN[name][part]]
-    assert not changed, f"{name}: {changed} differ from tests/data/env_golden.json"
+    changed = [part for part in now if now[part] != GOLDEN[here][name][part]]
+    assert not changed, f"{name}: {changed} differ from tests/data/env_golden.json ({here})"
+
+
+def test_every_recorded_platform_has_every_case():
+    assert GOLDEN, "tests/data/env_golden.json records no platform"
+    for signature, cases in GOLDEN.items():
+        assert sorted(cases) == sorted(name for name, _, _ in CASES), signature
 
 
 def test_fingerprint_sees_a_changed_trajectory():
