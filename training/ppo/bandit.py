@@ -25,6 +25,7 @@ from typing import Any, Callable, Optional, Sequence
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from box2d_driving.envs.core import step_instances
 from training.ppo.slots import checked_actions
 from training.ppo.vec_env import CarSlots
 
@@ -93,8 +94,6 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
         together, not once per instance behind the PettingZoo dicts); what a car gets does not
         depend on which instances are stepped with it, so the returns are those of stepping each
         instance on its own (``tests/test_bilevel.py`` checks them bit for bit)."""
-        from box2d_driving.envs.core import step_instances
-
         n = self.n_cars
         returns = np.zeros(self.num_envs)
         lane_sum = np.zeros(self.num_envs)

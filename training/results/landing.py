@@ -70,13 +70,11 @@ class TrialLander:
             name = trial["trial"]
             if name in self.drawn or name not in done or not trial["run"].is_dir():
                 continue
-            if curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
-                self.drawn.add(name)
-                continue
-            rows = curves.trial_curve_rows(trial, self.episodes, self.seed, log=self.log)
-            curves.merge_curves(self.curves_path, rows)
+            if not curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
+                curves.merge_curves(self.curves_path,
+                                    curves.trial_curve_rows(trial, self.episodes, self.seed, log=self.log))
+                drawn.append(name)
             self.drawn.add(name)
-            drawn.append(name)
         return drawn
 
     def _watch(self, every_s: float) -> None:
