@@ -496,6 +496,32 @@ def test_lanes_and_pedestrian_statements_read_the_intervals():
     assert "unlike the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
 
 
+def test_an_overlap_or_a_straddle_says_how_many_seeds_would_tell():
+    from training.results.statements import above_statement, apart_statement, seeds_needed, seeds_needed_apart
+
+    few = Group({"num_cars": "4"}, [0, 1, 2], {"offset": mean_ci([0.30, 0.35, 0.40])})
+    many = Group({"num_cars": "8"}, [0, 1, 2], {"offset": mean_ci([0.20, 0.60, 0.70])})
+    line = apart_statement("num_cars", "4", "8", "offset", "one-sided offset", "more with 8")([few, many], {})[0]
+    more = seeds_needed_apart([0.30, 0.35, 0.40], [0.20, 0.60, 0.70])
+    assert more.startswith("; at this difference and spread about ")
+    assert line.endswith(f"the intervals overlap: no difference shown, unlike the paper{more}.")
+    # apart: no seed count
+    many.estimates["offset"] = mean_ci([0.60, 0.62, 0.64])
+    line = apart_statement("num_cars", "4", "8", "offset", "one-sided offset", "more with 8")([few, many], {})[0]
+    assert line.endswith("more with 8, intervals apart, as in the paper.")
+
+    # seeds 0.2 / 0.6 / 0.7 against the level 0.1: distances 0.1 / 0.5 / 0.6 (mean 0.4, sd 0.265); three
+    # seeds give 4.303 * 0.265 / sqrt 3 = 0.66 > 0.4, four 3.182 * 0.265 / 2 = 0.42 > 0.4, five
+    # 2.776 * 0.265 / sqrt 5 = 0.33 < 0.4: five would tell
+    lone = Group({"num_cars": "8"}, [0, 1, 2], {"offset": mean_ci([0.20, 0.60, 0.70])})
+    say = above_statement("offset", "one-sided offset", "one side", "on the axis", level=0.1, level_text="0.1")
+    assert seeds_needed([0.1, 0.5, 0.6]) == "; at this mean and spread about 5 seeds would tell"
+    assert say([lone], {})[0].endswith(
+        "the interval straddles 0.1: neither shown; at this mean and spread about 5 seeds would tell.")
+    lone.estimates["offset"] = mean_ci([0.5, 0.6, 0.7])
+    assert say([lone], {})[0].endswith("one side, as in the paper.")
+
+
 def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
     grid = _summary(tmp_path / "lights.json", {**VIOLATIONS, ("0.5", "4"): [0.05, 0.07, 0.06]})
     trials = [{"trial": f"lights_seed={s}", "behaviour": "lights", "seed": s, "status": "done", "error": "",

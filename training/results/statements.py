@@ -278,8 +278,11 @@ def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, c
             if a.high is None or b.high is None:
                 continue
             paper = (", as in the paper", ", unlike the paper") if judged else ("", "")
+            # an overlap says how many seeds per row the observed difference would need (item: add
+            # seeds where an interval straddles the comparison, or say how many)
             verdict = {1: f"{claim}, intervals apart{paper[0]}.",
-                       0: f"the intervals overlap: no difference shown{paper[1]}.",
+                       0: f"the intervals overlap: no difference shown{paper[1]}"
+                          f"{seeds_needed_apart(a.values, b.values)}.",
                        -1: f"the opposite of {claim}, intervals apart{paper[1]}."}[apart(a, b)]
             where = f" ({_where(dict(rest))})" if rest else ""
             lines.append(f"- {label}{where}: {key}={few} {a.format()}, {key}={many} {b.format()}: {verdict}")
@@ -299,13 +302,14 @@ def above_statement(metric: Metric, label: str, above: str, below: str, level: f
             e = g.estimates[metric]
             if e.high is None:
                 continue
+            # a straddle says how many seeds the seeds' distance from the level would need
+            straddle = (f"the interval straddles {level_text}: neither shown"
+                        f"{seeds_needed([v - level for v in e.values])}.")
             if paper:
-                verdict = (f"{above}." if e.low > level else f"{below}." if e.high < level else
-                           f"the interval straddles {level_text}: neither shown.")
+                verdict = f"{above}." if e.low > level else f"{below}." if e.high < level else straddle
             else:
                 verdict = (f"{above}, as in the paper." if e.low > level else
-                           f"{below}, unlike the paper." if e.high < level else
-                           f"the interval straddles {level_text}: neither shown.")
+                           f"{below}, unlike the paper." if e.high < level else straddle)
             lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
         if paper and lines:
             lines.append(f"- {paper}")
