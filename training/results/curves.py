@@ -23,7 +23,8 @@ from training.results.data import ResultsError, as_number
 from training.results.figures import _plt
 from training.results.stats import Estimate, mean_ci
 
-__all__ = ["PLATEAU_TOLERANCE", "curves_path", "curve_figure", "late_changes", "load_curves", "plateau_lines"]
+__all__ = ["PLATEAU_TOLERANCE", "STOPPED", "TOO_NOISY", "curves_path", "curve_figure", "late_changes", "load_curves",
+           "plateau_lines", "plateau_verdict"]
 
 # a late change interval within +-2 points of a share around zero counts as stopped
 PLATEAU_TOLERANCE = 0.02
@@ -74,6 +75,19 @@ def late_changes(rows: list[dict[str, Any]], keys: list[str], metric: str) -> di
             for point, seeds in _by_point(rows, keys).items()}
 
 
+STOPPED, TOO_NOISY = "stopped moving", "too noisy to tell"
+
+
+def plateau_verdict(late: Estimate) -> Optional[str]:
+    """A grid point's late change read as :data:`STOPPED`, :data:`TOO_NOISY`, "still rising" or
+    "still falling" (the rules in this module's docstring); None for one seed (no interval)."""
+    if late.low is None or late.high is None:
+        return None
+    if late.low <= 0.0 <= late.high:
+        return STOPPED if (late.high - late.low) / 2 <= PLATEAU_TOLERANCE else TOO_NOISY
+    return "still rising" if late.mean > 0 else "still falling"
+
+
 def plateau_lines(rows: list[dict[str, Any]], keys: list[str], metrics: list[tuple[str, str]]) -> list[str]:
     """One statement per metric: at each grid point how much it moved over the last half of
     training (mean ± 95 % half-width over seeds) and whether it had stopped moving."""
@@ -85,14 +99,12 @@ def plateau_lines(rows: list[dict[str, Any]], keys: list[str], metrics: list[tup
         parts = []
         for point, e in late_changes(rows, keys, metric).items():
             where = ", ".join(f"{k} {v}" for k, v in zip(keys, point)) or "every trial"
-            if e.low is None:  # its format says "(1 seed)": no interval, no verdict
+            verdict = plateau_verdict(e)
+            if verdict is None:  # its format says "(1 seed)": no interval, no verdict
                 parts.append(f"{where} {e.format()}")
                 continue
-            if e.low <= 0.0 <= e.high:
-                verdict = ("stopped moving" if (e.high - e.low) / 2 <= PLATEAU_TOLERANCE else
-                           f"too noisy to tell: the interval is wider than ±{PLATEAU_TOLERANCE:g}")
-            else:
-                verdict = "still rising" if e.mean > 0 else "still falling"
+            if verdict == TOO_NOISY:
+                verdict += f": the interval is wider than ±{PLATEAU_TOLERANCE:g}"
             parts.append(f"{where} {e.format()} ({verdict})")
         lines.append(f"- {label}, change over the last {LATE_SHARE * 100:.0f} % of training (the last "
                      f"{LATE_SHARE * last / 1e6:.2f} M decisions; least-squares line through the checkpoints, per "

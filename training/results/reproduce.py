@@ -19,6 +19,8 @@ import sys
 from pathlib import Path
 from typing import Any, Optional
 
+from training.results.markdown import anchor, row, separator
+from training.results.claims import SectionResult, claims_table
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.data import Group, Metric, ResultsError, as_number, grid_product, groups_of, load_summary
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, trial_budget
@@ -141,6 +143,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
              "over training seeds with a 95 % t-interval (`mean ± half-width`), the per-seed values in "
              "brackets. How sweeps run: [sweeps.md](sweeps.md). `box2d-driving reproduce --run` runs every "
              "rule's sweep below in turn, continuing from the committed summaries, and rewrites this page.", ""]
+    intro = len(parts)  # the claims table goes here, once the sections it reads are written
+    found_sections: dict[str, SectionResult] = {}  # what each section found, for the claims table
     for section in SECTIONS:
         parts += [f"## {section.title}", "", f"**Paper.** {section.paper}", ""]
         gif = figures / f"{section.key}.gif"
@@ -173,14 +177,16 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                       f"{summary['sweep']['episodes']} report episodes each). {section.setting}"
                       + budget_note(section, curves is not None) + joined_note(section, joined_paths, joined), ""]
             header = [*keys, "seeds", *(label for _, label in section.metrics)]
-            parts += [_row(header), _separator(len(header))]
+            parts += [row(header), separator(len(header))]
             for g in groups:
                 cells = [g.point[k] for k in keys] + [str(len(g.seeds))]
                 cells += [_estimate_cell(g.estimates[m]) for m in metrics]
-                parts.append(_row(cells))
+                parts.append(row(cells))
             parts.append("")
             baseline = section.baseline(summary, groups) if section.baseline is not None else {}
             notes = statements(section, groups, baseline, *reference(section, summaries))
+            found_sections[section.key] = SectionResult(section.title, section.paper_budget,
+                                                        trial_budget(summary["sweep"]), groups, notes, curves, keys)
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:
@@ -204,6 +210,13 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
                   "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
+    parts[intro:intro] = [
+        "## Where the page stands on the paper's claims", "",
+        "Each claim this page tests at the paper's own settings, read from its largest run so far: *reproduced* "
+        "where that section's statements agree with the paper, *not reproduced* where one of them does not (an "
+        "effect the paper reports that we do not show, or the opposite), *not decided* where an interval straddles the comparison; and whether the claim's measure had stopped moving "
+        "by the end of training (its learning curves on selection episodes; the section says how each was "
+        "read).", "", *claims_table(found_sections), ""]
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
@@ -216,28 +229,12 @@ README_START = "<!-- results over training seeds: written by box2d-driving repro
 README_END = "<!-- end of results over training seeds -->"
 
 
-def _row(cells: list[str]) -> str:
-    """One Markdown table row; a ``|`` inside a cell (as in ``|Pearson|``) is escaped, else it would
-    split the cell."""
-    return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
-
-
-def _separator(columns: int) -> str:
-    """The row under a Markdown table's header."""
-    return "|" + "---|" * columns
-
-
-def anchor(title: str) -> str:
-    """The heading's link anchor as GitHub makes it (lower case, punctuation dropped, spaces to -)."""
-    return "".join(c for c in title.lower() if c.isalnum() or c in " -_").replace(" ", "-")
-
-
 def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md") -> str:
     """The README's results table: each rule's headline grid points as mean ± 95 % half-width over
     training seeds, with the number of seeds and a link to the rule's section of ``page``."""
     header = ["rule", "setting", "ours on report episodes: mean ± 95 % half-width over training seeds", "seeds",
               "details"]
-    lines = [_row(header), _separator(len(header))]
+    lines = [row(header), separator(len(header))]
     for section in SECTIONS:
         labels = dict(section.metrics)
         for h in section.headlines:
@@ -247,7 +244,7 @@ def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md")
                 seeds = str(len(g.seeds))
             else:
                 result, seeds = "not run yet", "0"
-            lines.append(_row([h.rule, h.setting, result, seeds, f"[{section.title}]({page}#{anchor(section.title)})"]))
+            lines.append(row([h.rule, h.setting, result, seeds, f"[{section.title}]({page}#{anchor(section.title)})"]))
     return "\n".join(lines)
 
 

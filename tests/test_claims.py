@@ -1,0 +1,87 @@
+"""The results page's claims table: each row reads its section's own statements and learning curves."""
+
+import re
+import shutil
+from pathlib import Path
+
+from training.results.claims import (CLAIMS, DIFFERS, REPRODUCED, UNDECIDED, Claim, Reading, SectionResult,
+                                     claim_row, reading_verdict)
+from training.results.data import Group
+from training.results.sections import SECTIONS
+from training.results.stats import mean_ci
+
+CLAIM = Claim("More noise, fewer violations", ("big", "small"), (Reading(r"- violations: "),), "v", "violations")
+
+
+def _curves(slopes: dict[str, list[float]]) -> list[dict]:
+    """Curve rows at 0..10 M decisions: per noise level, one seed per slope, the metric a line."""
+    return [{"lidar_noise": noise, "seed": seed, "decisions": d * 1e6, "v": 0.5 + slope * d}
+            for noise, per_seed in slopes.items() for seed, slope in enumerate(per_seed) for d in range(11)]
+
+
+def _result(lines: list[str], curves=None, seeds=(0, 1, 2), title: str = "Big run") -> SectionResult:
+    groups = [Group({"lidar_noise": n}, list(seeds), {"v": mean_ci([0.1] * len(seeds))}) for n in ("0", "1.0")]
+    return SectionResult(title, "the paper's 32 M", "16,000,000 decisions", groups, lines, curves, ["lidar_noise"])
+
+
+def test_a_statement_agrees_differs_or_decides_nothing():
+    r = Reading(r"- x: ", agrees="as in the paper")
+    assert reading_verdict("- x: 0.1 ± 0.02: fewer with noise, as in the paper.", r) == REPRODUCED
+    assert reading_verdict("- x: 0.1 ± 0.02: no fall shown (p = 0.4), unlike the paper.", r) == DIFFERS
+    assert reading_verdict("- x: 0.1 ± 0.2: the interval straddles 0.1: neither shown.", r) == UNDECIDED
+
+
+def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
+    flat = _curves({"0": [0.0, 0.0005, -0.0005], "1.0": [0.0, 0.0, 0.0]})
+    found = {"big": _result(["- violations: no fall shown, unlike the paper.", "- other: as in the paper."], flat),
+             "small": _result(["- violations: fewer with noise, as in the paper."], title="Small run")}
+    words, paper, ours, now, said = claim_row(CLAIM, found)
+    assert (words, paper) == ("More noise, fewer violations", "the paper's 32 M")
+    assert ours == "[Big run](#big-run): 16,000,000 decisions per trial, 3 seeds"
+    assert now == f"**{DIFFERS}**; violations stopped moving at all 2 grid points"
+    assert said == "violations: no fall shown, unlike the paper."
+    # the larger run's trials too few for a statement: the smaller run decides
+    found["big"] = _result(["- other: as in the paper."], seeds=(0,))
+    words, paper, ours, now, said = claim_row(CLAIM, found)
+    assert now == f"**{REPRODUCED}**; violations: no learning curves"
+    assert ours.startswith("[Small run](#small-run): ") and said == "violations: fewer with noise, as in the paper."
+    # only a run that cannot decide yet: it is shown, undecided, and says why
+    del found["small"]
+    row = claim_row(CLAIM, found)
+    assert row[3].startswith(f"**{UNDECIDED}**") and row[4] == "no statement yet (too few seeds for an interval)"
+    assert claim_row(CLAIM, {})[2] == "not run yet"
+
+
+def test_the_plateau_reading_counts_grid_points_by_verdict():
+    # noise 0: every seed still climbs 0.01 per M decisions; noise 1.0: flat
+    rising = _curves({"0": [0.01, 0.011, 0.009], "1.0": [0.0, 0.0, 0.0]})
+    now = claim_row(CLAIM, {"big": _result(["- violations: as in the paper."], rising)})[3]
+    # equal counts keep the grid's order (Counter.most_common lists ties as first met)
+    assert now == f"**{REPRODUCED}**; violations still rising at 1 of 2 grid points, stopped moving at 1"
+    one_seed = _curves({"0": [0.0], "1.0": [0.0]})
+    now = claim_row(CLAIM, {"big": _result(["- violations: as in the paper."], one_seed)})[3]
+    assert now.endswith("violations one seed (no interval) at all 2 grid points")
+
+
+def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tmp_path, monkeypatch):
+    """Guards the table against a statement's wording drifting away from its claim's pattern: on the
+    committed summaries every claim whose section has trials is decided by at least one line."""
+    from training.results.reproduce import default_summaries, load_summary, write_page
+
+    keys = {s.key for s in SECTIONS}
+    for claim in CLAIMS:
+        assert set(claim.sections) <= keys, claim.words
+        assert claim.curve and claim.readings
+    root = Path(__file__).resolve().parent.parent
+    monkeypatch.chdir(root)
+    summaries = [load_summary(p) for p in default_summaries(Path("assets/sweeps"))]
+    page, figures = tmp_path / "results.md", tmp_path / "images"
+    shutil.copytree(root / "docs" / "images" / "results", figures)
+    text = write_page(summaries, page, figures)
+    table = text.split("## Where the page stands on the paper's claims")[1].split("\n## ")[0]
+    rows = [line for line in table.splitlines() if line.startswith("| ") and not line.startswith("| the paper's")]
+    assert len(rows) == len(CLAIMS)
+    for claim, line in zip(CLAIMS, rows):
+        assert line.startswith(f"| {claim.words.replace('|', chr(92) + '|')} |")
+        assert "not run yet" not in line and "no statement yet" not in line, line
+        assert re.search(r"\*\*(reproduced|not reproduced|not decided)\*\*", line)

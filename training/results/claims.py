@@ -1,0 +1,139 @@
+"""Where the results page stands on the paper's claims: one table at the top of docs/results.md,
+a row per claim the page tests at the paper's own settings, saying "reproduced", "not reproduced" or
+"not decided" at the largest budget run so far, and whether the claim's metric had stopped moving there.
+
+Nothing here judges a number: a row reads the statements its section already printed (each says
+"as in the paper", "unlike the paper" or "neither shown" in its own words) and the section's
+learning curves through :func:`training.results.curves.plateau_verdict`, so the table can never
+disagree with the sections below it.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from dataclasses import dataclass
+from typing import Any, Optional
+
+from training.results.curves import late_changes, plateau_verdict
+from training.results.data import Group
+from training.results.markdown import anchor, row, separator
+
+__all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "reading_verdict"]
+
+# a claim is "not reproduced" both where we measure the opposite and where we show no effect the
+# paper reports (its statement says which)
+REPRODUCED, DIFFERS, UNDECIDED = "reproduced", "not reproduced", "not decided"
+
+
+@dataclass(frozen=True)
+class Reading:
+    """The statements of a section that decide a claim: every line matching ``pattern`` (a regular
+    expression matched at the line's start), which agrees with the paper when it contains
+    ``agrees`` and says nothing either way when it contains "neither shown"."""
+
+    pattern: str
+    agrees: str = "as in the paper"
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One of the paper's claims. ``sections``: the page's sections that test it, the largest
+    budget first (the first that has trials decides); ``curve``: the metric (a learning-curve
+    column) whose late change says whether the claim's measure had stopped moving."""
+
+    words: str
+    sections: tuple[str, ...]
+    readings: tuple[Reading, ...]
+    curve: str
+    curve_label: str
+
+
+@dataclass
+class SectionResult:
+    """What the page found for one section: its title, the paper's run, our per-trial budget in
+    words, its grid points, the statements printed under its table and its learning curves (None
+    where none are committed)."""
+
+    title: str
+    paper_budget: str
+    budget: str
+    groups: list[Group]
+    lines: list[str]
+    curves: Optional[list[dict[str, Any]]]
+    keys: list[str]
+
+
+CLAIMS: tuple[Claim, ...] = (
+    Claim("With more LiDAR noise, fewer cars enter on red", ("traffic-lights-paper",),
+          (Reading(r"- 4 cars, red-light violations: "),), "red_light_violation_rate", "red-light violations"),
+    Claim("With more cars, fewer cars enter on red", ("denser-traffic-paper",),
+          (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
+    Claim("Lanes with 8 cars, none with 4", ("lanes-noise", "lanes-paper"),
+          (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep to one side"),
+           Reading(r"- one-sided offset \(num_cars=4\b", "the cars drive on the axis or on both sides")),
+          "lanes.one_sided_offset", "one-sided offset"),
+    Claim("Lanes more consistent with LiDAR noise than with perfect perception", ("lanes-noise",),
+          (Reading(r"- num_cars=\d+, one-sided offset: noise 0 "),), "lanes.one_sided_offset", "one-sided offset"),
+    Claim("Turn signals: speaker consistency and |Pearson(heading change, bit)| rise with LiDAR noise",
+          ("communication-paper-16M", "communication-paper"),
+          (Reading(r"- speaker consistency \(bits\): noise "), Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
+          "communication.speaker_consistency_bits", "speaker consistency"),
+    Claim("98.45 % of following samples keep the speed-matching distance", ("right-of-way",),
+          (Reading(r"- safety_distance\.safe_share ", "lies inside our interval"),),
+          "safety_distance.safe_share", "safe-distance share"),
+    Claim("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time", ("right-of-way",),
+          (Reading(r"- right_of_way\.fifo_share ", "our mean is inside that spread"),),
+          "right_of_way.fifo_share", "FIFO share"),
+)
+
+
+def reading_verdict(line: str, reading: Reading) -> str:
+    """One statement line read for its claim: :data:`REPRODUCED`, :data:`UNDECIDED` or :data:`DIFFERS`."""
+    if reading.agrees in line:
+        return REPRODUCED
+    return UNDECIDED if "neither shown" in line else DIFFERS
+
+
+def _plateau(result: SectionResult, metric: str, label: str) -> str:
+    """Whether ``metric`` had stopped moving, over the section's grid points, in words."""
+    if result.curves is None or metric not in result.curves[0]:
+        return f"{label}: no learning curves"
+    verdicts = [plateau_verdict(e) for e in late_changes(result.curves, result.keys, metric).values()]
+    counts = Counter(v or "one seed (no interval)" for v in verdicts)
+    if len(counts) == 1:
+        (verdict, n), = counts.items()
+        return f"{label} {verdict} at {'its grid point' if n == 1 else f'all {n} grid points'}"
+    (first, n), *rest = counts.most_common()
+    return f"{label} {first} at {n} of {len(verdicts)} grid points, " + ", ".join(f"{v} at {k}" for v, k in rest)
+
+
+def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Reading]]:
+    return [(line, r) for r in claim.readings for line in result.lines if re.match(r.pattern, line)]
+
+
+def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
+    """The table's cells for ``claim``, from the sections found on the page (by key): the first of
+    its sections (largest budget first) whose statements decide it, else the first with trials (a
+    larger run whose trials are still too few for an interval)."""
+    tried = [k for k in claim.sections if k in found]
+    if not tried:
+        return [claim.words, "", "not run yet", "", ""]
+    key = next((k for k in tried if _deciding_lines(claim, found[k])), tried[0])
+    result = found[key]
+    lines = _deciding_lines(claim, result)
+    verdicts = {reading_verdict(line, r) for line, r in lines}
+    verdict = (DIFFERS if DIFFERS in verdicts else UNDECIDED if UNDECIDED in verdicts or not verdicts
+               else REPRODUCED)
+    seeds = sorted({len(g.seeds) for g in result.groups})
+    seeds_text = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]}"
+    ours = f"[{result.title}](#{anchor(result.title)}): {result.budget} per trial, {seeds_text} seeds"
+    now = f"**{verdict}**; {_plateau(result, claim.curve, claim.curve_label)}"
+    said = "<br>".join(line[2:] for line, _ in lines) or "no statement yet (too few seeds for an interval)"
+    return [claim.words, result.paper_budget, ours, now, said]
+
+
+def claims_table(found: dict[str, SectionResult]) -> list[str]:
+    """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry."""
+    header = ["the paper's claim", "the paper's run", "our largest run so far", "now", "what decides it"]
+    return [row(header), separator(len(header)), *(row(claim_row(c, found)) for c in CLAIMS)]
