@@ -33,6 +33,21 @@ def test_every_docs_page_named_in_code_or_docs_exists():
     assert named and not missing, f"named but absent under docs/: {missing}"
 
 
+def test_the_readmes_links_into_the_docs_land_on_a_heading():
+    """The docs site checks its own anchors (strict build); the README's links into docs/ pages are
+    checked here, by the heading anchors GitHub makes (lower case, punctuation dropped)."""
+    from training.results.markdown import anchor
+
+    links = re.findall(r"\]\((docs/[\w/-]+\.md)#([\w-]+)\)", (ROOT / "README.md").read_text(encoding="utf-8"))
+    assert links
+    broken = []
+    for page, target in links:
+        headings = re.findall(r"^#+ (.+)$", (ROOT / page).read_text(encoding="utf-8"), flags=re.M)
+        if target not in {anchor(h.strip()) for h in headings}:
+            broken.append(f"{page}#{target}")
+    assert not broken, f"README links to no heading: {broken}"
+
+
 def test_the_docs_site_builds_in_strict_mode(tmp_path):
     """Warnings fail the build: a broken internal link or anchor, a page left out of the
     navigation, an API reference that does not resolve."""
