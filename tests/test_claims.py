@@ -21,7 +21,8 @@ def _curves(slopes: dict[str, list[float]]) -> list[dict]:
 
 def _result(lines: list[str], curves=None, seeds=(0, 1, 2), title: str = "Big run") -> SectionResult:
     groups = [Group({"lidar_noise": n}, list(seeds), {"v": mean_ci([0.1] * len(seeds))}) for n in ("0", "1.0")]
-    return SectionResult(title, "the paper's 32 M", "16,000,000 decisions", groups, lines, curves, ["lidar_noise"])
+    return SectionResult(title, "the paper's 32 M", "16,000,000 decisions", groups, lines, curves, ["lidar_noise"],
+                         (16_000_512,) * len(seeds))
 
 
 def test_a_statement_agrees_differs_or_decides_nothing():
@@ -37,7 +38,14 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
              "small": _result(["- violations: fewer with noise, as in the paper."], title="Small run")}
     words, paper, ours, now, said = claim_row(CLAIM, found)
     assert (words, paper) == ("More noise, fewer violations", "the paper's 32 M")
-    assert ours == "[Big run](#big-run): 16,000,000 decisions per trial, 3 seeds"
+    assert ours == "[Big run](#big-run): 16.0 M decisions per trial, 3 seeds"
+    # a budget in rounds says both; trials not yet finished: the budget asked for
+    rounds = SectionResult("R", "", "150 bilevel rounds", found["big"].groups, [], None, [], (4_800_000, 4_832_000))
+    assert claim_row(CLAIM, {"big": rounds})[2] == "[R](#r): 4.8 M decisions per trial (150 bilevel rounds), 3 seeds"
+    rounds.ran = (4_800_000, 5_900_000)
+    assert claim_row(CLAIM, {"big": rounds})[2].startswith("[R](#r): 4.8-5.9 M decisions per trial")
+    rounds.ran = ()
+    assert claim_row(CLAIM, {"big": rounds})[2] == "[R](#r): 150 bilevel rounds per trial, 3 seeds"
     assert now == f"**{DIFFERS}**; violations stopped moving at all 2 grid points"
     assert said == "violations: no fall shown, unlike the paper."
     # the larger run's trials too few for a statement: the smaller run decides

@@ -52,8 +52,8 @@ class Claim:
 @dataclass
 class SectionResult:
     """What the page found for one section: its title, the paper's run, our per-trial budget in
-    words, its grid points, the statements printed under its table and its learning curves (None
-    where none are committed)."""
+    words, its grid points, the statements printed under its table, its learning curves (None
+    where none are committed), the grid's keys and the decisions its finished trials ran."""
 
     title: str
     paper_budget: str
@@ -62,6 +62,17 @@ class SectionResult:
     lines: list[str]
     curves: Optional[list[dict[str, Any]]]
     keys: list[str]
+    ran: tuple[int, ...] = ()
+
+
+def _budget(result: SectionResult) -> str:
+    """Decisions per trial as run (millions), with the budget asked for where it was not decisions."""
+    if not result.ran:
+        return f"{result.budget} per trial"
+    low, high = min(result.ran) / 1e6, max(result.ran) / 1e6
+    ran = f"{low:.1f} M" if f"{low:.1f}" == f"{high:.1f}" else f"{low:.1f}-{high:.1f} M"
+    asked = "" if "decisions" in result.budget else f" ({result.budget})"
+    return f"{ran} decisions per trial{asked}"
 
 
 CLAIMS: tuple[Claim, ...] = (
@@ -127,7 +138,7 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
                else REPRODUCED)
     seeds = sorted({len(g.seeds) for g in result.groups})
     seeds_text = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]}"
-    ours = f"[{result.title}](#{anchor(result.title)}): {result.budget} per trial, {seeds_text} seeds"
+    ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text} seeds"
     now = f"**{verdict}**; {_plateau(result, claim.curve, claim.curve_label)}"
     said = "<br>".join(line[2:] for line, _ in lines) or "no statement yet (too few seeds for an interval)"
     return [claim.words, result.paper_budget, ours, now, said]

@@ -185,8 +185,11 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             parts.append("")
             baseline = section.baseline(summary, groups) if section.baseline is not None else {}
             notes = statements(section, groups, baseline, *reference(section, summaries))
+            ran = tuple(int(r["decisions"]) for r in trials
+                        if r.get("status") == "done" and isinstance(r.get("decisions"), (int, float)))
             found_sections[section.key] = SectionResult(section.title, section.paper_budget,
-                                                        trial_budget(summary["sweep"]), groups, notes, curves, keys)
+                                                        trial_budget(summary["sweep"]), groups, notes, curves, keys,
+                                                        ran)
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:
