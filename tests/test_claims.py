@@ -4,7 +4,7 @@ import re
 import shutil
 from pathlib import Path
 
-from training.results.claims import (CLAIMS, DIFFERS, REPRODUCED, UNDECIDED, Claim, Reading, SectionResult,
+from training.results.claims import (CLAIMS, NOT_REPRODUCED, REPRODUCED, UNDECIDED, Claim, Reading, SectionResult,
                                      claim_row, reading_verdict)
 from training.results.data import Group
 from training.results.sections import SECTIONS
@@ -28,7 +28,7 @@ def _result(lines: list[str], curves=None, seeds=(0, 1, 2), title: str = "Big ru
 def test_a_statement_agrees_differs_or_decides_nothing():
     r = Reading(r"- x: ", agrees="as in the paper")
     assert reading_verdict("- x: 0.1 ± 0.02: fewer with noise, as in the paper.", r) == REPRODUCED
-    assert reading_verdict("- x: 0.1 ± 0.02: no fall shown (p = 0.4), unlike the paper.", r) == DIFFERS
+    assert reading_verdict("- x: 0.1 ± 0.02: no fall shown (p = 0.4), unlike the paper.", r) == NOT_REPRODUCED
     assert reading_verdict("- x: 0.1 ± 0.2: the interval straddles 0.1: neither shown.", r) == UNDECIDED
 
 
@@ -46,7 +46,7 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     assert claim_row(CLAIM, {"big": rounds})[2].startswith("[R](#r): 4.8-5.9 M decisions per trial")
     rounds.ran = ()
     assert claim_row(CLAIM, {"big": rounds})[2] == "[R](#r): 150 bilevel rounds per trial, 3 seeds"
-    assert now == f"**{DIFFERS}**; violations stopped moving at all 2 grid points"
+    assert now == f"**{NOT_REPRODUCED}**; violations stopped moving at all 2 grid points"
     assert said == "violations: no fall shown, unlike the paper."
     # the larger run's trials too few for a statement: the smaller run decides
     found["big"] = _result(["- other: as in the paper."], seeds=(0,))

@@ -23,7 +23,7 @@ __all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_t
 
 # a claim is "not reproduced" both where we measure the opposite and where we show no effect the
 # paper reports (its statement says which)
-REPRODUCED, DIFFERS, UNDECIDED = "reproduced", "not reproduced", "not decided"
+REPRODUCED, NOT_REPRODUCED, UNDECIDED = "reproduced", "not reproduced", "not decided"
 
 
 @dataclass(frozen=True)
@@ -100,10 +100,10 @@ CLAIMS: tuple[Claim, ...] = (
 
 
 def reading_verdict(line: str, reading: Reading) -> str:
-    """One statement line read for its claim: :data:`REPRODUCED`, :data:`UNDECIDED` or :data:`DIFFERS`."""
+    """One statement line read for its claim: :data:`REPRODUCED`, :data:`UNDECIDED` or :data:`NOT_REPRODUCED`."""
     if reading.agrees in line:
         return REPRODUCED
-    return UNDECIDED if "neither shown" in line else DIFFERS
+    return UNDECIDED if "neither shown" in line else NOT_REPRODUCED
 
 
 def _plateau(result: SectionResult, metric: str, label: str) -> str:
@@ -134,7 +134,7 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     result = found[key]
     lines = _deciding_lines(claim, result)
     verdicts = {reading_verdict(line, r) for line, r in lines}
-    verdict = (DIFFERS if DIFFERS in verdicts else UNDECIDED if UNDECIDED in verdicts or not verdicts
+    verdict = (NOT_REPRODUCED if NOT_REPRODUCED in verdicts else UNDECIDED if UNDECIDED in verdicts or not verdicts
                else REPRODUCED)
     seeds = sorted({len(g.seeds) for g in result.groups})
     seeds_text = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]}"
