@@ -131,7 +131,8 @@ def _estimate_cell(e: Estimate) -> str:
 
 
 def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: bool = False) -> str:
-    """Write the page to ``out`` and its figures into ``figures``; returns the page text. With
+    """Write the page to ``out`` (a table of where it stands on the paper's claims, then a section
+    per rule) and its figures into ``figures``; returns the page text. With
     ``gifs``, (re)draw each section's animation of its shipped policy first (needs the checkpoints;
     without, existing animations are linked)."""
     figures.mkdir(parents=True, exist_ok=True)
@@ -217,8 +218,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
         "## Where the page stands on the paper's claims", "",
         "Each claim this page tests at the paper's own settings, read from its largest run so far: *reproduced* "
         "where that section's statements agree with the paper, *not reproduced* where one of them does not (an "
-        "effect the paper reports that we do not show, or the opposite), *not decided* where an interval straddles the comparison; and whether the claim's measure had stopped moving "
-        "by the end of training (its learning curves on selection episodes; the section says how each was "
+        "effect the paper reports that we do not show, or the opposite), *not decided* where an interval "
+        "straddles the comparison; and whether the claim's measure had stopped moving by the end of training (its learning curves on selection episodes; the section says how each was "
         "read).", "", *claims_table(found_sections), ""]
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
