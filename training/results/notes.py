@@ -70,11 +70,16 @@ def curve_coverage(curves: list[dict[str, Any]], trials: list[dict[str, Any]], k
             "ran where their checkpoints were not kept")
 
 
+def ran_decisions(trials: list[dict[str, Any]]) -> list[int]:
+    """The decisions each finished trial trained (trials without a number left out)."""
+    return [int(r["decisions"]) for r in trials
+            if r.get("status") == "done" and isinstance(r.get("decisions"), (int, float))]
+
+
 def ran_budget(trials: list[dict[str, Any]]) -> str:
     """What the finished trials really trained, in decisions: a trial stops at the end of the
     rollout that passes its budget, so it runs a little past what was asked."""
-    ran = sorted({int(r["decisions"]) for r in trials
-                  if r.get("status") == "done" and isinstance(r.get("decisions"), (int, float))})
+    ran = sorted(set(ran_decisions(trials)))
     if not ran:
         return ""
     ran_text = f"{ran[0]:,}" if len(ran) == 1 else f"{ran[0]:,} to {ran[-1]:,}"

@@ -23,7 +23,7 @@ from training.results.markdown import anchor, row, separator
 from training.results.claims import SectionResult, claims_table
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.data import Group, Metric, ResultsError, as_number, grid_product, groups_of, load_summary
-from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, trial_budget
+from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
 from training.results.sections import IN_GRID, SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
 from training.results.stats import Estimate
@@ -186,11 +186,9 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             parts.append("")
             baseline = section.baseline(summary, groups) if section.baseline is not None else {}
             notes = statements(section, groups, baseline, *reference(section, summaries))
-            ran = tuple(int(r["decisions"]) for r in trials
-                        if r.get("status") == "done" and isinstance(r.get("decisions"), (int, float)))
             found_sections[section.key] = SectionResult(section.title, section.paper_budget,
                                                         trial_budget(summary["sweep"]), groups, notes, curves, keys,
-                                                        ran)
+                                                        tuple(ran_decisions(trials)))
             if notes:
                 parts += notes + [""]
             if section.figure is not None and groups:
@@ -219,8 +217,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
         "Each claim this page tests at the paper's own settings, read from its largest run so far: *reproduced* "
         "where that section's statements agree with the paper, *not reproduced* where one of them does not (an "
         "effect the paper reports that we do not show, or the opposite), *not decided* where an interval "
-        "straddles the comparison; and whether the claim's measure had stopped moving by the end of training (its learning curves on selection episodes; the section says how each was "
-        "read).", "", *claims_table(found_sections), ""]
+        "straddles the comparison; and whether the claim's measure had stopped moving by the end of training "
+        "(its learning curves on selection episodes; the section says how each was read).", "", *claims_table(found_sections), ""]
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
