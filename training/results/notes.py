@@ -9,7 +9,7 @@ from typing import Any
 from training.results.data import Group
 from training.results.sections import SECTIONS, Section
 
-__all__ = ["budget_note", "curve_coverage", "joined_note", "ran_budget", "trial_budget"]
+__all__ = ["budget_note", "curve_coverage", "joined_note", "ran_budget", "ran_decisions", "trial_budget"]
 
 
 def trial_budget(sweep: dict[str, Any]) -> str:
