@@ -229,3 +229,24 @@ def test_bilevel_scripts_train_and_evaluate(tmp_path, script, report):
     assert key in metrics
     for name in (report, "episodes.mp4", "learning_curves.png"):
         assert (ev / name).stat().st_size > 0, name
+
+
+def test_lanes_script_takes_the_papers_joint_path_choice_and_refuses_a_typo(tmp_path):
+    from training.behaviours.lanes import Args, main
+    from training.behaviours.scripts import config_from
+    from training.evaluation import evaluate
+
+    assert "spline_action" not in config_from("intersection-spline-v0", Args(), 0).env_overrides
+    assert config_from("intersection-spline-v0", Args(spline_action="joint"), 0).env_overrides["spline_action"] == "joint"
+    tiny = ["--rounds", "1", "--spline-samples", "32", "--n-envs", "2", "--batch-decisions", "80", "--num-cars", "4",
+            "--threads", "1", "--epochs", "1"]
+    assert main(["--out", str(tmp_path / "typo"), "--spline-action", "jiont", *tiny]) == 2
+    assert not (tmp_path / "typo").exists()
+    out = tmp_path / "run"
+    assert main(["--out", str(out), "--spline-action", "joint", *tiny]) == 0
+    policy = load_policy(out)
+    assert policy.make_env().spline_action_space == box2d_driving.make(
+        "intersection-spline-v0", num_cars=4, spline_action="joint").spline_action_space
+    ev = tmp_path / "ev"
+    assert evaluate.main(["--checkpoint", str(out), "--episodes", "2", "--out", str(ev)]) == 0
+    assert json.loads((ev / "metrics.json").read_text())["trained_on"]["spline_action"] == "joint"

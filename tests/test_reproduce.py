@@ -790,6 +790,22 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
     assert "num_cars 8 0.000 ± 0.000 (stopped moving)" in line and "num_cars 4 0.0" in line and "(still rising)" in line
 
 
+def test_lanes_with_the_papers_joint_path_choice_have_their_own_section(tmp_path):
+    paper = _lanes(tmp_path / "lanes-paper.json", 150, (8, 4), ([0.991, 0.992, 0.993], [0.97, 0.98, 0.99]))
+    joint = _lanes(tmp_path / "lanes-joint.json", 150, (8, 4), ([0.81, 0.82, 0.83], [0.51, 0.52, 0.53]))
+    data = json.loads(joint.read_text())
+    data["sweep"]["fixed"]["spline_action"] = "joint"
+    joint.write_text(json.dumps(data))
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(paper), str(joint), "--out", str(page)]) == 0
+    text = page.read_text()
+    mine = text.split("## Lanes with the paper's single 216-way path choice")[1].split("\n## ")[0]
+    theirs = text.split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    assert "| 4 | 3 | 0.520" in mine and "0.520" not in theirs  # each sweep in its own section only
+    assert "| 4 | 3 | 0.980" in theirs and "0.980" not in mine
+    assert "crossings on the majority side: num_cars=4 0.520" in mine and "The paper: lanes with 8 cars" in mine
+
+
 def _lanes_noise(path, offsets, fixed=None):
     """A 150-round lanes sweep over cars {8, 4} x LiDAR noise {0, 1.0}: ``offsets`` (signed one-sided
     offsets of seeds 0-2) per (cars, noise); ``fixed``: its fixed options (default: those of

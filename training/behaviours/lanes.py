@@ -28,11 +28,19 @@ ENV_ID = "intersection-spline-v0"
 
 @dataclass
 class Args(BilevelArgs):
-    """Train cars to choose their paths and drive them on intersection-spline-v0."""
+    """Train cars to choose their paths and drive them on intersection-spline-v0.
+
+    spline_action: how the path policy picks its 216 paths: per_waypoint (one 6-way choice per waypoint, the default) or joint (one 216-way choice, as the paper's code)
+    """
 
     num_cars: int = 8
     lidar_noise: float = 0.5
     out: str = "runs/lanes"
+    spline_action: str = "per_waypoint"
+
+    def env_overrides(self) -> dict:
+        # runs with the default keep their recorded overrides
+        return {} if self.spline_action == "per_waypoint" else {"spline_action": self.spline_action}
 
 
 def main(argv: Optional[list[str]] = None) -> int:

@@ -247,6 +247,23 @@ SECTIONS: tuple[Section, ...] = (
                                      "(4.8 M decisions)", (("num_cars", "8"), ("lidar_noise", noise)),
                                      ("lanes.majority_share", ONE_SIDED, "success_rate"))
                             for noise in ("0", "1.0"))),
+    Section("lanes-joint", "Lanes with the paper's single 216-way path choice", "lanes",
+            (("rounds", "150"), ("spline_action", "joint")),
+            LANES_METRICS,
+            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
+            "(the paper's runs: 4 and 8 cars).",
+            f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
+            "spline_updates_per_round=2 spline_action=joint init_from=assets/policies/traffic_lights_4cars_noise05 "
+            "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
+            setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, 150 bilevel rounds, "
+                    "4.8 M decisions) with one change: the path policy picks among the 216 paths with one "
+                    "216-way softmax, as the paper's code does, instead of one 6-way choice per waypoint (our "
+                    "default, which finds a side within a few rounds). The same training seeds; the trials "
+                    "run one after the other, both car counts per seed, so a summary holds the trials "
+                    "finished so far. " + ONE_SIDED_WORDS,
+            figure=LANES_FIGURE,
+            statements=lanes_statements("4", paper_counts=True), curve_extra=LANES_CURVE_EXTRA,
+            paper_budget=LANES_BUDGET),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),
