@@ -75,14 +75,21 @@ def _budget(result: SectionResult) -> str:
     return f"{ran} decisions per trial{asked}"
 
 
+# "lanes with 8 cars, none with 4": whether each car count keeps to one side (both lanes sections)
+LANES_READINGS = (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep to one side"),
+                  Reading(r"- one-sided offset \(num_cars=4\b", "the cars drive on the axis or on both sides"))
+
 CLAIMS: tuple[Claim, ...] = (
     Claim("With more LiDAR noise, fewer cars enter on red", ("traffic-lights-paper",),
           (Reading(r"- 4 cars, red-light violations: "),), "red_light_violation_rate", "red-light violations"),
     Claim("With more cars, fewer cars enter on red", ("denser-traffic-paper",),
           (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
     Claim("Lanes with 8 cars, none with 4", ("lanes-noise", "lanes-paper"),
-          (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep to one side"),
-           Reading(r"- one-sided offset \(num_cars=4\b", "the cars drive on the axis or on both sides")),
+          LANES_READINGS,
+          "lanes.one_sided_offset", "one-sided offset"),
+    Claim("Lanes with 8 cars, none with 4, the path picked as in the paper's code (one 216-way softmax)",
+          ("lanes-joint",),
+          LANES_READINGS,
           "lanes.one_sided_offset", "one-sided offset"),
     Claim("Lanes more consistent with LiDAR noise than with perfect perception", ("lanes-noise",),
           (Reading(r"- num_cars=\d+, one-sided offset: noise 0 "),), "lanes.one_sided_offset", "one-sided offset"),
