@@ -145,7 +145,7 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
                else REPRODUCED)
     seeds = sorted({len(g.seeds) for g in result.groups})
     seeds_text = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]}"
-    ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text} seeds"
+    ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text} seed{'' if seeds == [1] else 's'}"
     now = f"**{verdict}**; {_plateau(result, claim.curve, claim.curve_label)}"
     said = "<br>".join(line[2:] for line, _ in lines) or "no statement yet (too few seeds for an interval)"
     return [claim.words, result.paper_budget, ours, now, said]
