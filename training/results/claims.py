@@ -144,8 +144,8 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     verdict = (NOT_REPRODUCED if NOT_REPRODUCED in verdicts else UNDECIDED if UNDECIDED in verdicts or not verdicts
                else REPRODUCED)
     seeds = sorted({len(g.seeds) for g in result.groups})
-    seeds_text = f"{seeds[0]}" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]}"
-    ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text} seed{'' if seeds == [1] else 's'}"
+    seeds_text = "1 seed" if seeds == [1] else f"{seeds[0]} seeds" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]} seeds"
+    ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text}"
     now = f"**{verdict}**; {_plateau(result, claim.curve, claim.curve_label)}"
     said = "<br>".join(line[2:] for line, _ in lines) or "no statement yet (too few seeds for an interval)"
     return [claim.words, result.paper_budget, ours, now, said]
