@@ -21,6 +21,7 @@ from typing import Optional
 if __package__ in (None, ""):  # run as a script: make the repository importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
+from box2d_driving.envs.intersection_spline import IntersectionSplineConfig  # noqa: E402
 from training.behaviours.scripts import BilevelArgs, run_bilevel_script  # noqa: E402
 
 ENV_ID = "intersection-spline-v0"
@@ -36,11 +37,12 @@ class Args(BilevelArgs):
     num_cars: int = 8
     lidar_noise: float = 0.5
     out: str = "runs/lanes"
-    spline_action: str = "per_waypoint"
+    spline_action: str = IntersectionSplineConfig.spline_action
 
     def env_overrides(self) -> dict:
-        # runs with the default keep their recorded overrides
-        return {} if self.spline_action == "per_waypoint" else {"spline_action": self.spline_action}
+        # runs with the scenario's default keep their recorded overrides
+        default = IntersectionSplineConfig.spline_action
+        return {} if self.spline_action == default else {"spline_action": self.spline_action}
 
 
 def main(argv: Optional[list[str]] = None) -> int:

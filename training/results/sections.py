@@ -85,6 +85,9 @@ LANES_CURVE_EXTRA = (("lanes.one_sided_offset", "one-sided offset"),)
 # the measures compared between noise levels (the paper: sharper peaks on one side with noise, then
 # poor convergence past a threshold)
 LANES_NOISE_METRICS = ((ONE_SIDED, "one-sided offset"), ("lanes.time_share_majority", "time on the majority side"))
+# the claim both paper-car-count lanes sections test (our path choice and the paper's)
+LANES_PAPER_CLAIM = ("With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
+                     "(the paper's runs: 4 and 8 cars).")
 LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
                 "spline episodes per epoch")
 
@@ -204,8 +207,7 @@ SECTIONS: tuple[Section, ...] = (
                                 ("lanes.majority_share", ONE_SIDED)))),
     Section("lanes-paper", "Lanes, at the paper's smallest budget", "lanes", (("rounds", "150"),),
             LANES_METRICS,
-            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
-            "(the paper's runs: 4 and 8 cars).",
+            LANES_PAPER_CLAIM,
             f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--out runs/sweep-lanes-paper",
@@ -250,8 +252,7 @@ SECTIONS: tuple[Section, ...] = (
     Section("lanes-joint", "Lanes with the paper's single 216-way path choice", "lanes",
             (("rounds", "150"), ("spline_action", "joint")),
             LANES_METRICS,
-            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
-            "(the paper's runs: 4 and 8 cars).",
+            LANES_PAPER_CLAIM,
             f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
             "spline_updates_per_round=2 spline_action=joint init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
