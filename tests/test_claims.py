@@ -58,6 +58,10 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     row = claim_row(CLAIM, found)
     assert row[3].startswith(f"**{UNDECIDED}**") and row[4] == "no statement yet (too few seeds for an interval)"
     assert claim_row(CLAIM, {})[2] == "not run yet"
+    # no trials in any of its sections: the paper's run and the section that will test it, undecided
+    words, paper, ours, now, said = claim_row(CLAIM, {}, {"big": ("Big run", "8 cars, 32 M"), "small": ("S", "x")})
+    assert (paper, ours, said) == ("8 cars, 32 M", "[Big run](#big-run): not run yet", "no trials yet")
+    assert now.startswith(f"**{UNDECIDED}**")
 
 
 def test_the_plateau_reading_counts_grid_points_by_verdict():
@@ -98,7 +102,7 @@ def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tm
     for claim, line in zip(CLAIMS, rows):
         assert line.startswith(f"| {claim.words.replace('|', chr(92) + '|')} |")
         if not ran & set(claim.sections):  # its sweep has no committed trials yet
-            assert "| not run yet |" in line, line
+            assert ": not run yet |" in line and "| no trials yet |" in line, line
             continue
         if set(claim.sections) & ran <= single:  # a sweep under way, one seed a point so far
             assert "no statement yet (too few seeds for an interval)" in line, line
