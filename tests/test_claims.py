@@ -7,7 +7,7 @@ from pathlib import Path
 from training.results.claims import (CLAIMS, NOT_REPRODUCED, REPRODUCED, UNDECIDED, Claim, Reading, SectionResult,
                                      claim_row, reading_verdict)
 from training.results.data import Group
-from training.results.sections import SECTIONS
+from training.results.sections import LANES_BUDGET, SECTIONS
 from training.results.stats import mean_ci
 
 CLAIM = Claim("More noise, fewer violations", ("big", "small"), (Reading(r"- violations: "),), "v", "violations")
@@ -59,8 +59,10 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     assert row[3].startswith(f"**{UNDECIDED}**") and row[4] == "no statement yet (too few seeds for an interval)"
     assert claim_row(CLAIM, {})[2] == "not run yet"
     # no trials in any of its sections: the paper's run and the section that will test it, undecided
-    words, paper, ours, now, said = claim_row(CLAIM, {}, {"big": ("Big run", "8 cars, 32 M"), "small": ("S", "x")})
-    assert (paper, ours, said) == ("8 cars, 32 M", "[Big run](#big-run): not run yet", "no trials yet")
+    planned = Claim("Lanes", ("lanes-joint", "lanes-paper"), (Reading(r"- x"),), "v", "violations")
+    words, paper, ours, now, said = claim_row(planned, {})
+    assert (paper, ours, said) == (LANES_BUDGET, "[Lanes with the paper's single 216-way path choice]"
+                                   "(#lanes-with-the-papers-single-216-way-path-choice): not run yet", "no trials yet")
     assert now.startswith(f"**{UNDECIDED}**")
 
 

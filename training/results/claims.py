@@ -18,6 +18,7 @@ from typing import Any, Optional
 from training.results.curves import late_changes, plateau_verdict
 from training.results.data import Group
 from training.results.markdown import anchor, row, separator
+from training.results.sections import SECTIONS
 
 __all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "reading_verdict"]
 
@@ -130,18 +131,17 @@ def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Read
     return [(line, r) for r in claim.readings for line in result.lines if re.match(r.pattern, line)]
 
 
-def claim_row(claim: Claim, found: dict[str, SectionResult],
-              planned: Optional[dict[str, tuple[str, str]]] = None) -> list[str]:
+def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     """The table's cells for ``claim``, from the sections found on the page (by key): the first of
     its sections (largest budget first) whose statements decide it, else the first with trials (a
-    larger run whose trials are still too few for an interval). ``planned``: every section's title
-    and the paper's run (by key), so that a claim none of whose sections has trials yet still names
-    the paper's run and the section that will test it."""
+    larger run whose trials are still too few for an interval). A claim none of whose sections has
+    trials yet names the paper's run and the page section (:data:`SECTIONS`) that will test it."""
     tried = [k for k in claim.sections if k in found]
     if not tried:
-        title, paper = (planned or {}).get(claim.sections[0], ("", ""))
-        where = f"[{title}](#{anchor(title)}): not run yet" if title else "not run yet"
-        return [claim.words, paper, where, f"**{UNDECIDED}**; not run yet", "no trials yet"]
+        planned = next((s for s in SECTIONS if s.key == claim.sections[0]), None)
+        paper, where = (("", "") if planned is None
+                        else (planned.paper_budget, f"[{planned.title}](#{anchor(planned.title)}): "))
+        return [claim.words, paper, f"{where}not run yet", f"**{UNDECIDED}**; not run yet", "no trials yet"]
     key = next((k for k in tried if _deciding_lines(claim, found[k])), tried[0])
     result = found[key]
     lines = _deciding_lines(claim, result)
@@ -156,8 +156,7 @@ def claim_row(claim: Claim, found: dict[str, SectionResult],
     return [claim.words, result.paper_budget, ours, now, said]
 
 
-def claims_table(found: dict[str, SectionResult], planned: Optional[dict[str, tuple[str, str]]] = None) -> list[str]:
-    """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry; ``planned`` as
-    in :func:`claim_row`."""
+def claims_table(found: dict[str, SectionResult]) -> list[str]:
+    """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry."""
     header = ["the paper's claim", "the paper's run", "our largest run so far", "now", "what decides it"]
-    return [row(header), separator(len(header)), *(row(claim_row(c, found, planned)) for c in CLAIMS)]
+    return [row(header), separator(len(header)), *(row(claim_row(c, found)) for c in CLAIMS)]

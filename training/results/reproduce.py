@@ -219,7 +219,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
         "effect the paper reports that we do not show, or the opposite), *not decided* where an interval "
         "straddles the comparison; and whether the claim's measure had stopped moving by the end of training "
         "(its learning curves on selection episodes; the section says how each was read).", "",
-        *claims_table(found_sections, {s.key: (s.title, s.paper_budget) for s in SECTIONS}), ""]
+        *claims_table(found_sections), ""]
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
