@@ -68,3 +68,46 @@ def test_the_own_scenario_tutorial_runs_as_written():
     namespace: dict = {}
     for block in blocks:  # the scenario, then PettingZoo's API test on it
         exec(compile(block, "own-scenario.md", "exec"), namespace)
+
+
+# Sizes a test may shrink a tutorial's command to (smaller, never different): the tiny training
+# settings of tests/test_training.py, two evaluation episodes, one small rendered episode.
+_SMALLER = {"train": ["--timesteps", "160", "--n-envs", "2", "--batch-decisions", "80", "--num-cars", "2",
+                      "--threads", "1", "--epochs", "1"],
+            "evaluate": ["--episodes", "2"],
+            "render": ["--episodes", "1", "--set", "render_size=(96, 96)"]}
+
+
+def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, monkeypatch):
+    import shlex
+
+    from box2d_driving.cli import main as cli
+
+    text = (ROOT / "docs" / "tutorials" / "train-a-rule.md").read_text()
+    lines = [line.split(" # ")[0].strip() for block in re.findall(r"```bash\n(.*?)```", text, re.S)
+             for line in block.splitlines() if line.startswith("box2d-driving ")]
+    commands = [shlex.split(line)[1:] for line in lines]
+    assert [c[0] for c in commands] == ["train", "evaluate", "render", "play"]
+    monkeypatch.chdir(tmp_path)  # the tutorial's relative paths (runs/lights, lights.mp4) land here
+    for argv in commands[:-1]:  # play needs a person at the keyboard
+        assert cli(argv + _SMALLER[argv[0]]) == 0, argv
+    assert (tmp_path / "runs" / "lights" / "model.safetensors").exists()
+    # what the tutorial says evaluation writes
+    for name in ("metrics.json", "learning_curves.png", "acceleration_by_light.png", "junction_light.png",
+                 "collisions.png"):
+        assert (tmp_path / "runs" / "lights" / "eval" / name).exists(), name
+    assert (tmp_path / "lights.mp4").stat().st_size > 0
+    from box2d_driving.policies import load_trained  # "the policy runs without torch as well"
+
+    assert load_trained("runs/lights") is not None
+
+
+def test_the_single_agent_tutorial_runs_as_written():
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "tutorials" / "single-agent.md").read_text(), re.S)
+    namespace: dict = {}
+    exec(compile(blocks[0], "single-agent.md", "exec"), namespace)  # make, reset, step as written
+    # the SB3 block at a smaller size: one short rollout of the same PPO on the same env
+    assert "model.learn(50_000)" in blocks[1] and 'PPO("MlpPolicy", env, seed=0)' in blocks[1]
+    smaller = blocks[1].replace("50_000", "64").replace("seed=0)", "seed=0, n_steps=64, batch_size=32)")
+    exec(compile(smaller, "single-agent.md", "exec"), namespace)
+    assert namespace["model"].num_timesteps >= 64
