@@ -111,3 +111,28 @@ def test_the_single_agent_tutorial_runs_as_written():
     smaller = blocks[1].replace("50_000", "64").replace("seed=0)", "seed=0, n_steps=64, batch_size=32)")
     exec(compile(smaller, "single-agent.md", "exec"), namespace)
     assert namespace["model"].num_timesteps >= 64
+
+
+def test_the_ray_cluster_tutorials_commands_are_valid_sweeps_and_its_reader_runs(tmp_path, monkeypatch, capsys):
+    import shlex
+    import shutil
+
+    from training.sweeps.spec import check_spec
+    from training.sweeps.sweep import build_parser, spec_from_args
+
+    text = (ROOT / "docs" / "tutorials" / "ray-cluster.md").read_text()
+    sweeps = [shlex.split(line.replace("\\\n", " ")) for block in re.findall(r"```bash\n(.*?)```", text, re.S)
+              for line in re.split(r"(?<!\\)\n", block) if line.startswith("box2d-driving sweep")]
+    assert len(sweeps) == 2
+    for argv in sweeps:  # what Ray would be handed: the options parse and every trial's config is valid
+        spec, _ = spec_from_args(build_parser().parse_args(argv[2:]))
+        check_spec(spec)
+    # the reader, as written, on a real sweep summary put where the tutorial's sweep writes its own
+    (tmp_path / "runs" / "sweep-lights").mkdir(parents=True)
+    shutil.copy(ROOT / "assets" / "sweeps" / "lights.csv", tmp_path / "runs" / "sweep-lights" / "summary.csv")
+    monkeypatch.chdir(tmp_path)
+    reader = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(reader) == 1
+    exec(compile(reader[0], "ray-cluster.md", "exec"), {})
+    printed = capsys.readouterr().out.splitlines()
+    assert printed and all(re.fullmatch(r"\S+ \d\.\d{3} ± \d\.\d{3}", line) for line in printed), printed
