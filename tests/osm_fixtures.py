@@ -12,10 +12,12 @@ from box2d_driving.maps.osm_data import LocalFrame
 LAT0, LON0 = 60.0, 25.0
 
 
-def write_osm(path: Path, nodes: dict[int, tuple[float, float, dict]], ways: dict[int, tuple[list[int], dict]]) -> Path:
-    """``nodes``: id -> (x, y, tags) in metres east/north of (LAT0, LON0); ``ways``: id -> (refs, tags).
-    A way may reference a node that is not in ``nodes`` (as at an extract's edge)."""
-    frame = LocalFrame(LAT0, LON0)
+def write_osm(path: Path, nodes: dict[int, tuple[float, float, dict]], ways: dict[int, tuple[list[int], dict]],
+              origin: tuple[float, float] = (LAT0, LON0)) -> Path:
+    """``nodes``: id -> (x, y, tags) in metres east/north of ``origin`` (lat, lon; degrees);
+    ``ways``: id -> (refs, tags). A way may reference a node that is not in ``nodes`` (as at an
+    extract's edge)."""
+    frame = LocalFrame(*origin)
     lines = ['<?xml version="1.0" encoding="UTF-8"?>', '<osm version="0.6" generator="test">']
     for nid, (x, y, tags) in sorted(nodes.items()):
         lat, lon = frame.unproject(np.array([x, y]))
@@ -30,8 +32,8 @@ def write_osm(path: Path, nodes: dict[int, tuple[float, float, dict]], ways: dic
     return path
 
 
-def four_way(path: Path, east_cut: bool = False) -> Path:
-    """A four-way junction at node 1:
+def four_way(path: Path, east_cut: bool = False, origin: tuple[float, float] = (LAT0, LON0)) -> Path:
+    """A four-way junction at node 1 (at ``origin``, lat and lon in degrees):
 
     * east: two-way primary, ``lanes=2``, split into ways 10 (0-20 m) and 11 (20-60 m); with
       ``east_cut`` way 11 ends at node 99, missing from the file (an extract's edge);
@@ -56,7 +58,7 @@ def four_way(path: Path, east_cut: bool = False) -> Path:
     }
     if east_cut:
         del nodes[3]
-    return write_osm(path, nodes, ways)
+    return write_osm(path, nodes, ways, origin)
 
 
 def divided(path: Path) -> Path:

@@ -136,3 +136,30 @@ def test_the_ray_cluster_tutorials_commands_are_valid_sweeps_and_its_reader_runs
     exec(compile(reader[0], "ray-cluster.md", "exec"), {})
     printed = capsys.readouterr().out.splitlines()
     assert printed and all(re.fullmatch(r"\S+ \d\.\d{3} ± \d\.\d{3}", line) for line in printed), printed
+
+
+def test_the_osm_tutorial_runs_as_written_on_a_small_extract(tmp_path, monkeypatch):
+    import shlex
+
+    from box2d_driving.cli import main as cli
+    from osm_fixtures import four_way
+
+    text = (ROOT / "docs" / "tutorials" / "osm-junction.md").read_text()
+    commands = [shlex.split(line)[1:] for block in re.findall(r"```bash\n(.*?)```", text, re.S)
+                for line in block.splitlines() if line.startswith("box2d-driving ")]
+    assert [c[0] for c in commands] == ["import-osm", "train"]
+    importer, train = commands
+    # the extract: a hand-built four-way junction placed at the tutorial's latitude/longitude, as
+    # OSM XML (the tutorial: "any .osm.pbf or .osm XML file works")
+    lat, lon = (float(v) for v in importer[importer.index("--latlon") + 1].split(","))
+    monkeypatch.chdir(tmp_path)
+    four_way(tmp_path / "city.osm", origin=(lat, lon))
+    assert cli([importer[0], "city.osm", *importer[2:]]) == 0
+    assert (tmp_path / "my_junction.json").exists() and (tmp_path / "my_junction.png").stat().st_size > 0
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) == 1
+    namespace: dict = {}
+    exec(compile(blocks[0], "osm-junction.md", "exec"), namespace)  # drive on it
+    assert len(namespace["observations"]) == 8
+    assert cli(train + _SMALLER["train"]) == 0
+    assert (tmp_path / "runs" / "mine" / "model.safetensors").exists()
