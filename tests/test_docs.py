@@ -78,15 +78,22 @@ _SMALLER = {"train": ["--timesteps", "160", "--n-envs", "2", "--batch-decisions"
             "render": ["--episodes", "1", "--set", "render_size=(96, 96)"]}
 
 
-def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, monkeypatch):
+def _tutorial(name: str) -> tuple[list[list[str]], list[str]]:
+    """A tutorial's ``box2d-driving`` command lines (bash blocks; continuation lines
+    joined, trailing comments dropped) as argv lists without the program name, and its Python
+    blocks."""
     import shlex
 
+    text = (ROOT / "docs" / "tutorials" / name).read_text()
+    commands = [shlex.split(line.split(" # ")[0])[1:] for block in re.findall(r"```bash\n(.*?)```", text, re.S)
+                for line in block.replace("\\\n", " ").splitlines() if line.startswith("box2d-driving ")]
+    return commands, re.findall(r"```python\n(.*?)```", text, re.S)
+
+
+def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, monkeypatch):
     from box2d_driving.cli import main as cli
 
-    text = (ROOT / "docs" / "tutorials" / "train-a-rule.md").read_text()
-    lines = [line.split(" # ")[0].strip() for block in re.findall(r"```bash\n(.*?)```", text, re.S)
-             for line in block.splitlines() if line.startswith("box2d-driving ")]
-    commands = [shlex.split(line)[1:] for line in lines]
+    commands, _ = _tutorial("train-a-rule.md")
     assert [c[0] for c in commands] == ["train", "evaluate", "render", "play"]
     monkeypatch.chdir(tmp_path)  # the tutorial's relative paths (runs/lights, lights.mp4) land here
     for argv in commands[:-1]:  # play needs a person at the keyboard
@@ -103,7 +110,7 @@ def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, m
 
 
 def test_the_single_agent_tutorial_runs_as_written():
-    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "tutorials" / "single-agent.md").read_text(), re.S)
+    _, blocks = _tutorial("single-agent.md")
     namespace: dict = {}
     exec(compile(blocks[0], "single-agent.md", "exec"), namespace)  # make, reset, step as written
     # the SB3 block at a smaller size: one short rollout of the same PPO on the same env
@@ -114,24 +121,20 @@ def test_the_single_agent_tutorial_runs_as_written():
 
 
 def test_the_ray_cluster_tutorials_commands_are_valid_sweeps_and_its_reader_runs(tmp_path, monkeypatch, capsys):
-    import shlex
     import shutil
 
     from training.sweeps.spec import check_spec
     from training.sweeps.sweep import build_parser, spec_from_args
 
-    text = (ROOT / "docs" / "tutorials" / "ray-cluster.md").read_text()
-    sweeps = [shlex.split(line.replace("\\\n", " ")) for block in re.findall(r"```bash\n(.*?)```", text, re.S)
-              for line in re.split(r"(?<!\\)\n", block) if line.startswith("box2d-driving sweep")]
-    assert len(sweeps) == 2
-    for argv in sweeps:  # what Ray would be handed: the options parse and every trial's config is valid
-        spec, _ = spec_from_args(build_parser().parse_args(argv[2:]))
+    commands, reader = _tutorial("ray-cluster.md")
+    assert [c[0] for c in commands] == ["sweep", "sweep"]
+    for argv in commands:  # what Ray would be handed: the options parse and every trial's config is valid
+        spec, _ = spec_from_args(build_parser().parse_args(argv[1:]))
         check_spec(spec)
     # the reader, as written, on a real sweep summary put where the tutorial's sweep writes its own
     (tmp_path / "runs" / "sweep-lights").mkdir(parents=True)
     shutil.copy(ROOT / "assets" / "sweeps" / "lights.csv", tmp_path / "runs" / "sweep-lights" / "summary.csv")
     monkeypatch.chdir(tmp_path)
-    reader = re.findall(r"```python\n(.*?)```", text, re.S)
     assert len(reader) == 1
     exec(compile(reader[0], "ray-cluster.md", "exec"), {})
     printed = capsys.readouterr().out.splitlines()
@@ -139,14 +142,10 @@ def test_the_ray_cluster_tutorials_commands_are_valid_sweeps_and_its_reader_runs
 
 
 def test_the_osm_tutorial_runs_as_written_on_a_small_extract(tmp_path, monkeypatch):
-    import shlex
-
     from box2d_driving.cli import main as cli
     from osm_fixtures import four_way
 
-    text = (ROOT / "docs" / "tutorials" / "osm-junction.md").read_text()
-    commands = [shlex.split(line)[1:] for block in re.findall(r"```bash\n(.*?)```", text, re.S)
-                for line in block.splitlines() if line.startswith("box2d-driving ")]
+    commands, blocks = _tutorial("osm-junction.md")
     assert [c[0] for c in commands] == ["import-osm", "train"]
     importer, train = commands
     # the extract: a hand-built four-way junction placed at the tutorial's latitude/longitude, as
@@ -156,7 +155,6 @@ def test_the_osm_tutorial_runs_as_written_on_a_small_extract(tmp_path, monkeypat
     four_way(tmp_path / "city.osm", origin=(lat, lon))
     assert cli([importer[0], "city.osm", *importer[2:]]) == 0
     assert (tmp_path / "my_junction.json").exists() and (tmp_path / "my_junction.png").stat().st_size > 0
-    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
     assert len(blocks) == 1
     namespace: dict = {}
     exec(compile(blocks[0], "osm-junction.md", "exec"), namespace)  # drive on it
