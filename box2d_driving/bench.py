@@ -13,7 +13,6 @@ command).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -25,6 +24,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 import box2d_driving
+from box2d_driving.cli_parser import OneLineParser
 from box2d_driving.envs import core
 
 # 32 cars need 8 slots per approach, and so longer roads than the default 16-car junction.
@@ -148,7 +148,13 @@ def main(argv: list[str] | None = None) -> int:
             print(f"box2d-driving bench --train: error: {exc}", file=sys.stderr)
             return 2
         return bench_train([a for a in argv if a != "--train"])
-    parser = argparse.ArgumentParser(prog="box2d-driving bench", description=__doc__.split("\n\n")[0])
+    parser = OneLineParser(prog="box2d-driving bench", description=__doc__.split("\n\n")[0])
+    # the other modes are picked above, before parsing; listed here so that --help shows them
+    parser.add_argument("--train", action="store_true",
+                        help="training throughput with PPO updates instead (needs the train extra; "
+                             "`bench --train --help` for its options)")
+    parser.add_argument("--memory", action="store_true",
+                        help="memory growth over env resets instead (`bench --memory --help` for its options)")
     parser.add_argument("--seconds", type=float, default=5.0, help="timed seconds per car count")
     parser.add_argument("--cars", type=int, nargs="+", default=[4, 8, 16, 32])
     parser.add_argument("--seed", type=int, default=0)

@@ -18,14 +18,7 @@ from pathlib import Path
 
 import box2d_driving
 from box2d_driving import plugins
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """argparse whose usage errors are one line (``PROG: error: ...``, status 2; no usage dump, no
-    traceback). Every command's parser, the training scripts' included, is one."""
-
-    def error(self, message: str):  # one line, no usage dump
-        self.exit(2, f"{self.prog}: error: {message}\n")
+from box2d_driving.cli_parser import OneLineParser
 
 
 def _parse_overrides(pairs: list[str]) -> dict:

@@ -21,6 +21,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 import box2d_driving
+from box2d_driving.cli_parser import OneLineParser
 
 
 @dataclass
@@ -69,9 +70,7 @@ def reset_growth(env_id: str, resets: int = 1000, steps: int = 3, warmup: int = 
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    import argparse
-
-    p = argparse.ArgumentParser(prog="box2d-driving bench --memory", description=__doc__.split("\n\n")[0])
+    p = OneLineParser(prog="box2d-driving bench --memory", description=__doc__.split("\n\n")[0])
     p.add_argument("--resets", type=int, default=1000, help="measured resets per env (default 1000)")
     p.add_argument("--steps", type=int, default=3, help="random decisions after each reset (default 3)")
     p.add_argument("--envs", nargs="+", default=None, help="env ids (default: every registered env)")

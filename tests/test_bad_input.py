@@ -123,6 +123,9 @@ def test_sweep_flags_are_checked_before_anything_is_written(tmp_path, capsys):
     ["convert-checkpoint", "no_such_run"],
     ["play", "nope-v0"],
     ["list", "--bogus"],
+    ["bench", "--bogus"],
+    ["bench", "--train", "--bogus"],
+    ["bench", "--memory", "--resets", "x"],
 ])
 def test_every_command_reports_a_bad_input_in_one_line_with_status_2(tmp_path, monkeypatch, capsys, argv):
     monkeypatch.chdir(tmp_path)
@@ -133,5 +136,6 @@ def test_every_command_reports_a_bad_input_in_one_line_with_status_2(tmp_path, m
     assert status == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err and err[-1].startswith(f"box2d-driving {argv[0]}") and ": error: " in err[-1], err
+    assert not any(line.startswith("usage:") for line in err), err  # the error line alone, no usage dump
     assert not any("Traceback" in line for line in err)
     assert not list(tmp_path.iterdir())  # nothing written

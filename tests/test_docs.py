@@ -11,7 +11,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _user_facing() -> list[Path]:
-    files = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "assets").rglob("README.md"))]
+    files = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")), *sorted((ROOT / "assets").rglob("README.md"))]
     return files + sorted((ROOT / "box2d_driving").rglob("*.py")) + sorted((ROOT / "training").rglob("*.py"))
 
 
@@ -161,3 +161,50 @@ def test_the_osm_tutorial_runs_as_written_on_a_small_extract(tmp_path, monkeypat
     assert len(namespace["observations"]) == 8
     assert cli(train + _SMALLER["train"]) == 0
     assert (tmp_path / "runs" / "mine" / "model.safetensors").exists()
+
+
+def _documented_commands() -> list[tuple[str, list[str]]]:
+    """Every ``box2d-driving ...`` command the user-facing text shows (code blocks and inline
+    code), as (where, words after the program name); synopsis brackets and bars become spaces."""
+    found = []
+    for path in _user_facing():
+        if path.suffix != ".md":
+            continue
+        text = path.read_text()
+        lines = [line.split(" # ")[0] for block in re.findall(r"```[a-z]*\n(.*?)```", text, re.S)
+                 for line in block.replace("\\\n", " ").splitlines()]
+        lines += re.findall(r"`(box2d-driving [^`]*)`", text)
+        for line in lines:
+            line = line.strip()
+            if line.startswith("box2d-driving "):
+                words = re.sub(r"[\[\]|]", " ", line).split()[1:]
+                found.append((f"{path.relative_to(ROOT)}: {line[:80]}", words))
+    return found
+
+
+def test_every_documented_command_uses_only_options_its_command_has(capsys):
+    from box2d_driving import plugins
+    from box2d_driving.cli import build_parser
+    from box2d_driving.cli import main as cli
+
+    commands, behaviours = build_parser().commands, plugins.behaviours()
+    known: dict[tuple[str, ...], set[str]] = {}
+    unknown, checked = [], 0
+    for where, words in _documented_commands():
+        if not words or words[0] not in commands:
+            continue  # a placeholder such as `box2d-driving COMMAND`
+        key = tuple(words[:1])
+        if words[0] == "train":
+            if len(words) < 2 or words[1] not in behaviours:
+                continue  # `train BEHAVIOUR ...`
+            key = tuple(words[:2])
+        elif words[0] == "bench":  # its modes have parsers of their own
+            key += tuple(w for w in words if w in ("--train", "--memory"))[:1]
+        if key not in known:
+            with pytest.raises(SystemExit):
+                cli([*key, "--help"])
+            known[key] = set(re.findall(r"--[a-z][a-z0-9-]*", capsys.readouterr().out))
+            assert "--help" in known[key], key
+        checked += 1
+        unknown += [f"{where} -> {w}" for w in words if w.startswith("--") and w.split("=")[0] not in known[key]]
+    assert checked > 100 and not unknown, "\n".join(unknown)

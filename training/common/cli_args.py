@@ -8,7 +8,7 @@ import sys
 import typing
 from typing import Any, Optional, Sequence, TypeVar
 
-from box2d_driving.cli import OneLineParser
+from box2d_driving.cli_parser import OneLineParser
 
 __all__ = ["OneLineParser", "error", "parse", "prog_name"]
 

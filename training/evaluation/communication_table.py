@@ -10,7 +10,6 @@ several times (one evaluation per training seed); then a table of means +- std p
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -21,6 +20,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
 from box2d_driving.metrics.communication import rank_trend  # noqa: E402
+from training.common.cli_args import OneLineParser, prog_name  # noqa: E402
 from training.evaluation import plots  # noqa: E402
 
 KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
@@ -55,7 +55,7 @@ def _all_have(rows: list, value) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = OneLineParser(prog=prog_name(), description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="+", help="NOISE=EVAL_FOLDER (with metrics.json)")
     parser.add_argument("--out", required=True, help="plot PNG to write")
     args = parser.parse_args(argv)

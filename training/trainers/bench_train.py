@@ -45,6 +45,7 @@ import torch as th
 from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
 
+from training.common.cli_args import OneLineParser
 from training.trainers.trainer import TrainConfig, build_model, make_vec_env, resolve_device, set_minibatching, torch_threads
 
 
@@ -217,7 +218,7 @@ def format_table(rows: list[TrainBenchRow]) -> str:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    p = argparse.ArgumentParser(prog="box2d-driving bench --train", description=__doc__.split("\n\n")[0])
+    p = OneLineParser(prog="box2d-driving bench --train", description=__doc__.split("\n\n")[0])
     p.add_argument("--cars", type=int, default=4, help="cars per instance (default 4)")
     p.add_argument("--lidar-noise", type=float, default=0.5, help="LiDAR noise (default 0.5)")
     p.add_argument("--n-envs", type=int, default=16, help="env instances (default 16)")
