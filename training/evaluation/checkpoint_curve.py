@@ -214,6 +214,13 @@ def main(argv: Optional[list[str]] = None) -> int:
     :mod:`training.sweeps.curves`)."""
     args = build_parser("run folder with checkpoints/model_<decisions>.safetensors").parse_args(argv)
     out = checked_out(args, "curve.csv", args.run / "checkpoint_curve")
+    return draw_into(out, lambda folder: curve_of_run(args.run, folder, args.episodes, args.seed))
+
+
+def draw_into(out: Optional[Path], draw: Callable[[Path], None]) -> int:
+    """A curve command's last step: ``draw`` into the folder ``out`` (made here), one torch thread
+    (the rollouts are small); the exit status, a :class:`CurveError` printed as one line. ``out``
+    None: :func:`checked_out` refused it and said why."""
     if out is None:
         return 2
     import torch
@@ -221,7 +228,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     torch.set_num_threads(1)
     out.mkdir(parents=True, exist_ok=True)
     try:
-        curve_of_run(args.run, out, args.episodes, args.seed)
+        draw(out)
     except CurveError as exc:
         return error(str(exc))
     return 0

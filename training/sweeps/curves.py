@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any, Callable, Optional
 
 from training.common.cli_args import error
-from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, kept_checkpoints,
-                                                  run_curve, write_rows)
+from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, draw_into,
+                                                  kept_checkpoints, run_curve, write_rows)
 from training.sweeps.spec import SweepSpec
 
 __all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "finished_trials", "main", "merge_curves",
@@ -129,20 +129,10 @@ def main(argv: Optional[list[str]] = None) -> int:
         return error(f"--finished: {args.run} is not a sweep folder (no sweep.json)")
     out = checked_out(args, "curves.csv" if is_sweep else "curve.csv",
                       args.run if is_sweep else args.run / "checkpoint_curve")
-    if out is None:
-        return 2
-    import torch
-
-    torch.set_num_threads(1)
-    out.mkdir(parents=True, exist_ok=True)
-    try:
-        if is_sweep:
-            curve_of_sweep(args.run, out, args.episodes, args.seed, finished_only=args.finished)
-        else:
-            curve_of_run(args.run, out, args.episodes, args.seed)
-    except CurveError as exc:
-        return error(str(exc))
-    return 0
+    if is_sweep:
+        return draw_into(out, lambda folder: curve_of_sweep(args.run, folder, args.episodes, args.seed,
+                                                            finished_only=args.finished))
+    return draw_into(out, lambda folder: curve_of_run(args.run, folder, args.episodes, args.seed))
 
 
 if __name__ == "__main__":
