@@ -63,7 +63,7 @@ def test_the_docs_site_builds_in_strict_mode(tmp_path):
 
 
 def test_the_own_scenario_tutorial_runs_as_written():
-    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "tutorials" / "own-scenario.md").read_text(), re.S)
+    _, blocks = _tutorial("own-scenario.md")
     assert len(blocks) == 2
     namespace: dict = {}
     for block in blocks:  # the scenario, then PettingZoo's API test on it
@@ -78,16 +78,20 @@ _SMALLER = {"train": ["--timesteps", "160", "--n-envs", "2", "--batch-decisions"
             "render": ["--episodes", "1", "--set", "render_size=(96, 96)"]}
 
 
+def _examples(text: str) -> tuple[list[str], list[str]]:
+    """A page's ``box2d-driving`` command lines in its code blocks (continuation lines joined,
+    trailing comments dropped), and its Python blocks."""
+    lines = [line.split(" # ")[0].strip() for block in re.findall(r"```[a-z]*\n(.*?)```", text, re.S)
+             for line in block.replace("\\\n", " ").splitlines()]
+    return [line for line in lines if line.startswith("box2d-driving ")], re.findall(r"```python\n(.*?)```", text, re.S)
+
+
 def _tutorial(name: str) -> tuple[list[list[str]], list[str]]:
-    """A tutorial's ``box2d-driving`` command lines (bash blocks; continuation lines
-    joined, trailing comments dropped) as argv lists without the program name, and its Python
-    blocks."""
+    """A tutorial's command lines as argv lists without the program name, and its Python blocks."""
     import shlex
 
-    text = (ROOT / "docs" / "tutorials" / name).read_text()
-    commands = [shlex.split(line.split(" # ")[0])[1:] for block in re.findall(r"```bash\n(.*?)```", text, re.S)
-                for line in block.replace("\\\n", " ").splitlines() if line.startswith("box2d-driving ")]
-    return commands, re.findall(r"```python\n(.*?)```", text, re.S)
+    lines, blocks = _examples((ROOT / "docs" / "tutorials" / name).read_text())
+    return [shlex.split(line)[1:] for line in lines], blocks
 
 
 def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, monkeypatch):
@@ -171,14 +175,10 @@ def _documented_commands() -> list[tuple[str, list[str]]]:
         if path.suffix != ".md":
             continue
         text = path.read_text()
-        lines = [line.split(" # ")[0] for block in re.findall(r"```[a-z]*\n(.*?)```", text, re.S)
-                 for line in block.replace("\\\n", " ").splitlines()]
-        lines += re.findall(r"`(box2d-driving [^`]*)`", text)
+        lines = _examples(text)[0] + [span.strip() for span in re.findall(r"`(box2d-driving [^`]*)`", text)]
         for line in lines:
-            line = line.strip()
-            if line.startswith("box2d-driving "):
-                words = re.sub(r"[\[\]|]", " ", line).split()[1:]
-                found.append((f"{path.relative_to(ROOT)}: {line[:80]}", words))
+            words = re.sub(r"[\[\]|]", " ", line).split()[1:]
+            found.append((f"{path.relative_to(ROOT)}: {line[:80]}", words))
     return found
 
 
@@ -222,7 +222,7 @@ def test_every_python_example_on_the_pages_runs(tmp_path, monkeypatch):
     for path in _user_facing():
         if path.suffix != ".md" or "tutorials" in path.parts:
             continue
-        for n, block in enumerate(re.findall(r"```python\n(.*?)```", path.read_text(), re.S)):
+        for n, block in enumerate(_examples(path.read_text())[1]):
             if any(needs in block for needs in _NEEDS_AN_EARLIER_STEP):
                 continue
             exec(compile(block, f"{path.relative_to(ROOT)} (example {n + 1})", "exec"), {})
