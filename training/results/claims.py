@@ -18,7 +18,7 @@ from typing import Any, Optional
 from training.results.curves import late_changes, plateau_verdict
 from training.results.data import Group
 from training.results.markdown import anchor, row, separator
-from training.results.sections import SECTIONS
+from training.results.sections import section
 
 __all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "reading_verdict"]
 
@@ -138,9 +138,11 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     trials yet names the paper's run and the page section (:data:`SECTIONS`) that will test it."""
     tried = [k for k in claim.sections if k in found]
     if not tried:
-        planned = next((s for s in SECTIONS if s.key == claim.sections[0]), None)
-        paper, where = (("", "") if planned is None
-                        else (planned.paper_budget, f"[{planned.title}](#{anchor(planned.title)}): "))
+        try:
+            planned = section(claim.sections[0])
+            paper, where = planned.paper_budget, f"[{planned.title}](#{anchor(planned.title)}): "
+        except KeyError:  # a claim whose section is not on the page
+            paper, where = "", ""
         return [claim.words, paper, f"{where}not run yet", f"**{UNDECIDED}**; not run yet", "no trials yet"]
     key = next((k for k in tried if _deciding_lines(claim, found[k])), tried[0])
     result = found[key]
