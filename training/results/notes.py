@@ -7,7 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from training.results.data import Group
-from training.results.sections import SECTIONS, Section
+from training.results.sections import Section, section as section_by_key
 
 __all__ = ["budget_note", "curve_coverage", "joined_note", "ran_budget", "ran_decisions", "trial_budget"]
 
@@ -47,7 +47,7 @@ def joined_note(section: Section, paths: list[str], joined: list[Group]) -> str:
     if not paths:
         return ""
     key, option = section.joins
-    title = next(s for s in SECTIONS if s.key == key).title
+    title = section_by_key(key).title
     values = ", ".join(dict.fromkeys(g.point[option] for g in joined))
     return (f" The rows at `{option}` {values} come from \"{title}\" (summary "
             f"{', '.join(f'`{p}`' for p in paths)}): the same settings and training seeds at that `{option}`, "

@@ -24,7 +24,7 @@ from training.results.claims import SectionResult, claims_table
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.data import Group, Metric, ResultsError, as_number, grid_product, groups_of, load_summary
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
-from training.results.sections import IN_GRID, SECTIONS, PaperValue, Section, statements
+from training.results.sections import IN_GRID, SECTIONS, PaperValue, Section, section as section_by_key, statements
 from training.common.seeds import REPORT
 from training.results.stats import Estimate
 
@@ -77,7 +77,7 @@ def joined_groups(section: Section, summaries: list[dict[str, Any]], summary: di
     if section.joins is None:
         return [], []
     key, option = section.joins
-    other = next(s for s in SECTIONS if s.key == key)
+    other = section_by_key(key)
     mine = summary["sweep"]
     groups, paths = [], []
     for theirs in section_summaries(other, summaries):
@@ -116,7 +116,7 @@ def reference(section: Section, summaries: list[dict[str, Any]]) -> tuple[Option
     if section.compare_with is None:
         return None, ""
     key, point = section.compare_with
-    other = next(s for s in SECTIONS if s.key == key)
+    other = section_by_key(key)
     label = f"the row {', '.join(f'{k}={v}' for k, v in point)} of {other.title}"
     return group_at(other, summaries, [m for m, _ in other.metrics], point), label
 
