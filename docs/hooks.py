@@ -4,8 +4,9 @@ repository's ``assets/`` images the pages show.
 * A page line ``<!-- generated: config ENV_ID -->`` becomes the table of the scenario's config
   fields (name, default, meaning), read from its frozen dataclass and the ``Attributes:`` section
   of its docstring; ``observation ENV_ID`` the observation layout, ``actions ENV_ID`` the action
-  space and ``reward`` the reward terms (from ``box2d_driving/envs/reward.py``). So the pages
-  cannot drift from the code.
+  space, ``reward`` the reward terms (from ``box2d_driving/envs/reward.py``) and ``modules
+  PACKAGE`` one line per module of ``box2d_driving`` or ``training`` (the first sentence of its
+  docstring). So the pages cannot drift from the code.
 * Pages link the shipped policies' plots as ``../assets/...`` (which also works when the
   Markdown is read on its own); the site copies those files in and points the links at them.
 """
@@ -56,6 +57,8 @@ def _generated(kind: str, env_id: str | None) -> str:
 
     if kind == "reward":
         return _reward_table()
+    if kind == "modules":
+        return _module_table(env_id)
     env = box2d_driving.make(env_id)
     try:
         return {"config": _config_table, "observation": _observation_table, "actions": _actions_text}[kind](env, env_id)
@@ -137,6 +140,31 @@ def _reward_table() -> str:
     terms = doc.split("\n\n", 1)[1]
     return (terms + f"\n\nEach decision's reward is the sum of the terms {', '.join(f'`{t}`' for t in reward.TERMS)}; "
             "`infos[agent][\"reward_terms\"]` holds them one by one.")
+
+
+def module_summaries(package: str) -> dict[str, str]:
+    """Each module file of ``package`` (a folder at the repository root; ``__main__`` left out)
+    -> the first sentence of its docstring, read without importing it ("" where it has none)."""
+    import ast
+
+    out = {}
+    for path in sorted((ROOT / package).rglob("*.py")):
+        if path.name == "__main__.py":
+            continue
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+        first = " ".join(doc.split("\n\n", 1)[0].split())
+        sentence = re.split(r"(?<=\.)\s(?=[A-Z`(])", first, maxsplit=1)[0] if first else ""
+        out[path.relative_to(ROOT / package).as_posix()] = sentence
+    return out
+
+
+def _module_table(package: str) -> str:
+    rows = ["| module | what it is |", "|---|---|"]
+    for module, sentence in module_summaries(package).items():
+        shown = SPHINX_ROLE.sub(r"`\1`", sentence).replace("``", "`")
+        rows.append(f"| `{module}` | {_cell(shown)} |")
+    return (f"Every module of `{package}`, by the first sentence of its docstring (generated when the "
+            "site is built):\n\n" + "\n".join(rows))
 
 
 # -- a Griffe extension (``mkdocs.yml``: mkdocstrings' ``extensions``) --------------------------

@@ -240,3 +240,27 @@ def test_every_python_example_on_the_pages_runs(tmp_path, monkeypatch):
             ran.append(f"{path.name}:{n + 1}")
     assert len(ran) >= 14, ran
     assert (tmp_path / "map.json").exists()  # the OSM import example, from the shipped extract
+
+
+def test_the_layout_page_lists_every_module_by_its_docstring():
+    """docs/layout.md's module tables are generated from the code when the site is built; every
+    module needs a docstring whose first sentence says what it is, or its row is empty."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "docs" / "hooks.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    page = (ROOT / "docs" / "layout.md").read_text(encoding="utf-8")
+    for package in ("box2d_driving", "training"):
+        assert f"<!-- generated: modules {package} -->" in page
+        summaries = hooks.module_summaries(package)
+        files = {p.relative_to(ROOT / package).as_posix() for p in (ROOT / package).rglob("*.py")} - {"__main__.py"}
+        assert set(summaries) == files and len(files) > 20
+        assert not [m for m, s in summaries.items() if len(s) < 15], "modules without a docstring sentence"
+        table = hooks.on_page_markdown(f"<!-- generated: modules {package} -->", _Page(), None, None)
+        assert all(f"| `{m}` |" in table for m in files)
+
+
+class _Page:  # what the hooks read of an mkdocs page
+    class file:
+        src_uri = "layout.md"
