@@ -5,8 +5,8 @@ repository's ``assets/`` images the pages show.
   fields (name, default, meaning), read from its frozen dataclass and the ``Attributes:`` section
   of its docstring; ``observation ENV_ID`` the observation layout, ``actions ENV_ID`` the action
   space, ``reward`` the reward terms (from ``box2d_driving/envs/reward.py``) and ``modules
-  PACKAGE`` one line per module of ``box2d_driving`` or ``training`` (the first sentence of its
-  docstring). So the pages cannot drift from the code.
+  PACKAGE`` one line per module of ``box2d_driving``, ``training`` or ``tests`` (the first
+  sentence of its docstring). So the pages cannot drift from the code.
 * Pages link the shipped policies' plots as ``../assets/...`` (which also works when the
   Markdown is read on its own); the site copies those files in and points the links at them.
 """

@@ -251,12 +251,12 @@ def test_the_layout_page_lists_every_module_by_its_docstring():
     hooks = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(hooks)
     page = (ROOT / "docs" / "layout.md").read_text(encoding="utf-8")
-    for package in ("box2d_driving", "training"):
+    for package in ("box2d_driving", "training", "tests"):
         assert f"<!-- generated: modules {package} -->" in page
         summaries = hooks.module_summaries(package)
         files = {p.relative_to(ROOT / package).as_posix() for p in (ROOT / package).rglob("*.py")} - {"__main__.py"}
-        assert set(summaries) == files and len(files) > 20
-        assert not [m for m, s in summaries.items() if len(s) < 15], "modules without a docstring sentence"
+        assert set(summaries) == files and len(files) > 20, package
+        assert not [m for m, s in summaries.items() if len(s) < 15], f"{package}: modules without a docstring sentence"
         table = hooks.on_page_markdown(f"<!-- generated: modules {package} -->", _Page(), None, None)
         assert all(f"| `{m}` |" in table for m in files)
 
