@@ -242,6 +242,11 @@ def test_every_python_example_on_the_pages_runs(tmp_path, monkeypatch):
     assert (tmp_path / "map.json").exists()  # the OSM import example, from the shipped extract
 
 
+class _Page:  # what the docs hooks read of an mkdocs page
+    class file:
+        src_uri = "layout.md"
+
+
 def test_the_layout_page_lists_every_module_by_its_docstring():
     """docs/layout.md's module tables are generated from the code when the site is built; every
     module needs a docstring whose first sentence says what it is, or its row is empty."""
@@ -260,7 +265,3 @@ def test_the_layout_page_lists_every_module_by_its_docstring():
         table = hooks.on_page_markdown(f"<!-- generated: modules {package} -->", _Page(), None, None)
         assert all(f"| `{m}` |" in table for m in files)
 
-
-class _Page:  # what the hooks read of an mkdocs page
-    class file:
-        src_uri = "layout.md"
