@@ -52,16 +52,18 @@ def _site_link(page_uri: str, target: str) -> str:
     return posixpath.relpath(resolved, here or ".")  # the copy sits at the same path in the site
 
 
-def _generated(kind: str, env_id: str | None) -> str:
+def _generated(kind: str, target: str | None) -> str:
+    """The generated text of a ``<!-- generated: KIND TARGET -->`` line; TARGET is an env id, or
+    for ``modules`` a package folder."""
     import box2d_driving
 
     if kind == "reward":
         return _reward_table()
     if kind == "modules":
-        return _module_table(env_id)
-    env = box2d_driving.make(env_id)
+        return _module_table(target)
+    env = box2d_driving.make(target)
     try:
-        return {"config": _config_table, "observation": _observation_table, "actions": _actions_text}[kind](env, env_id)
+        return {"config": _config_table, "observation": _observation_table, "actions": _actions_text}[kind](env, target)
     finally:
         env.close()
 

@@ -86,12 +86,16 @@ def _examples(text: str) -> tuple[list[str], list[str]]:
     return [line for line in lines if line.startswith("box2d-driving ")], re.findall(r"```python\n(.*?)```", text, re.S)
 
 
-def _tutorial(name: str) -> tuple[list[list[str]], list[str]]:
-    """A tutorial's command lines as argv lists without the program name, and its Python blocks."""
+def _commands_and_blocks(page: Path) -> tuple[list[list[str]], list[str]]:
+    """A page's command lines as argv lists without the program name, and its Python blocks."""
     import shlex
 
-    lines, blocks = _examples((ROOT / "docs" / "tutorials" / name).read_text())
+    lines, blocks = _examples(page.read_text())
     return [shlex.split(line)[1:] for line in lines], blocks
+
+
+def _tutorial(name: str) -> tuple[list[list[str]], list[str]]:
+    return _commands_and_blocks(ROOT / "docs" / "tutorials" / name)
 
 
 def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, monkeypatch):
@@ -218,15 +222,14 @@ _SMALLER_BLOCK = {"policy, 200, seed=": "policy, 2, seed="}
 
 
 def test_every_python_example_on_the_pages_runs(tmp_path, monkeypatch):
-    import shlex
     import shutil
 
     from box2d_driving.cli import main as cli
 
     monkeypatch.chdir(tmp_path)  # what an example writes lands here; the shipped assets are where it looks
     (tmp_path / "assets").symlink_to(ROOT / "assets")
-    readme_commands, _ = _examples((ROOT / "README.md").read_text())
-    train = next(shlex.split(line)[1:] for line in readme_commands if line.endswith("--out runs/lights4"))
+    readme_commands, _ = _commands_and_blocks(ROOT / "README.md")
+    train = next(argv for argv in readme_commands if argv[-2:] == ["--out", "runs/lights4"])
     assert cli(train + _SMALLER["train"]) == 0
     shutil.copytree("runs/lights4", _SWEEP_TRIAL_RUN)
     ran = []
