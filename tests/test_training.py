@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ th = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
 import box2d_driving  # noqa: E402
+from training.behaviours.scripts import QUICK  # noqa: E402
 from training.ppo.buffer import MaskedRolloutBuffer  # noqa: E402
 from training.runs.inference import load_policy  # noqa: E402
 from training.ppo.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
@@ -483,11 +485,22 @@ def test_main_job_demo_runs_end_to_end(tmp_path):
     assert demo.main(["--out", str(out), "--episodes", "5"]) == 0
     quick = json.loads((out / "quick" / "eval" / "metrics.json").read_text())
     shipped = json.loads((out / "shipped" / "metrics.json").read_text())
-    assert quick["training"]["decisions"] == 48_000
+    assert quick["training"]["decisions"] == QUICK.timesteps
     assert (out / "quick" / "eval" / "learning_curves.png").exists()
     assert (out / "shipped" / "episodes.mp4").stat().st_size > 0
     assert shipped["success_rate"] > 0.8  # the shipped policy drives
     assert demo.main(["--out", str(out)]) == 2  # never overwrites
+
+
+def test_the_quick_size_is_stated_where_users_read_it():
+    """README, tutorial and --quick's help give the decisions QUICK trains, from one dataclass."""
+    from training.behaviours.scripts import CommonArgs
+
+    said = f"{QUICK.timesteps:,} decisions"
+    root = Path(__file__).resolve().parent.parent
+    for text in (CommonArgs.__doc__, (root / "README.md").read_text(),
+                 (root / "docs" / "tutorials" / "train-a-rule.md").read_text()):
+        assert said in " ".join(text.split())
 
 
 def test_init_from_copies_weights_across_car_counts(tmp_path):

@@ -22,6 +22,7 @@ if __package__ in (None, ""):
 
 from training.evaluation import evaluate  # noqa: E402
 from training.behaviours import traffic_lights
+from training.behaviours.scripts import QUICK
 from training.common.cli_args import error, parse  # noqa: E402
 
 SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars_noise05"
@@ -59,7 +60,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     quick = json.loads((out / "quick" / "eval" / "metrics.json").read_text())
     shipped = json.loads((out / "shipped" / "metrics.json").read_text())
     print("\n| policy | success | collision | red-light violation |\n|---|---:|---:|---:|")
-    for name, m in (("short run (48,000 decisions)", quick), ("shipped (10 min, LiDAR noise 0.5)", shipped)):
+    for name, m in ((f"short run ({QUICK.timesteps:,} decisions)", quick), ("shipped (10 min, LiDAR noise 0.5)", shipped)):
         print(f"| {name} | {m['success_rate']:.3f} | {m['collision_rate']:.3f} | "
               f"{m['red_light_violation_rate']:.3f} |")
     print(f"\nreports and plots: {out / 'quick' / 'eval'}, {out / 'shipped'}; "

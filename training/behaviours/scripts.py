@@ -14,6 +14,32 @@ if TYPE_CHECKING:
     from training.trainers.bilevel import BilevelConfig
 
 
+@dataclass(frozen=True)
+class QuickSizes:
+    """The sizes ``--quick`` shrinks a run to: the same algorithm, smaller numbers.
+
+    timesteps: slot-decisions in total, at most (the run asked for may be shorter)
+    n_envs, batch_decisions, minibatch: env instances, slot-decisions per PPO update and per minibatch
+    checkpoint_every: PPO updates between kept checkpoints
+    rounds: bilevel alternation rounds, at most
+    spline_samples, spline_minibatch: car samples per spline update and per spline minibatch
+    spline_checkpoint_every: bilevel rounds between kept checkpoints
+    """
+
+    timesteps: int = 48_000
+    n_envs: int = 8
+    batch_decisions: int = 8_000
+    minibatch: int = 2_000
+    checkpoint_every: int = 2
+    rounds: int = 3
+    spline_samples: int = 256
+    spline_minibatch: int = 128
+    spline_checkpoint_every: int = 1
+
+
+QUICK = QuickSizes()
+
+
 @dataclass
 class CommonArgs:
     """Arguments every training script takes.
@@ -92,10 +118,10 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         init_from=args.init_from,
         ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
     )
-    if args.quick:  # same algorithm, smaller numbers
-        cfg.n_envs, cfg.batch_decisions, cfg.minibatch = 8, 8_000, 2_000
-        cfg.timesteps = min(cfg.timesteps, 48_000)
-        cfg.checkpoint_every = 2
+    if args.quick:
+        cfg.n_envs, cfg.batch_decisions, cfg.minibatch = QUICK.n_envs, QUICK.batch_decisions, QUICK.minibatch
+        cfg.timesteps = min(cfg.timesteps, QUICK.timesteps)
+        cfg.checkpoint_every = QUICK.checkpoint_every
     return cfg
 
 
@@ -155,9 +181,10 @@ def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
         checkpoint_every=args.checkpoint_every, max_minutes=args.max_minutes,
         spline_init_from=args.spline_init_from, spline_n_envs=accel.n_envs,
     )
-    if args.quick:  # same algorithm, smaller numbers
-        cfg.rounds, cfg.spline_samples, cfg.spline_minibatch = min(args.rounds, 3), 256, 128
-        cfg.checkpoint_every = 1
+    if args.quick:
+        cfg.rounds = min(args.rounds, QUICK.rounds)
+        cfg.spline_samples, cfg.spline_minibatch = QUICK.spline_samples, QUICK.spline_minibatch
+        cfg.checkpoint_every = QUICK.spline_checkpoint_every
     return cfg
 
 
