@@ -271,6 +271,22 @@ def test_gifs_animate_the_shipped_policy_and_the_page_links_them(tmp_path):
     assert "![Stopping at red lights: the shipped policy](images/traffic-lights.gif)" in text
 
 
+def test_seeds_a_command_asks_beyond_its_summary_count_as_planned(tmp_path, monkeypatch):
+    """A section whose command now asks a fourth seed: the page plans it before any run adds it."""
+    import dataclasses
+
+    from training.results import reproduce
+
+    summary = _summary(tmp_path / "lights.json", VIOLATIONS)
+    section = next(s for s in reproduce.SECTIONS if s.summary_name == "lights")
+    assert section.seeds == 3
+    more = dataclasses.replace(section, command=section.command.replace("--seeds 3", "--seeds 4"))
+    monkeypatch.setattr(reproduce, "SECTIONS", tuple(more if s is section else s for s in reproduce.SECTIONS))
+    page = tmp_path / "results.md"
+    assert main([str(summary), "--out", str(page)]) == 0
+    assert "12 of 16 planned trials done" in page.read_text()
+
+
 def test_every_rules_rerun_command_is_a_valid_sweep():
     import shlex
 

@@ -104,6 +104,13 @@ class Section:
         return Path(argv[argv.index("--out") + 1])
 
     @property
+    def seeds(self) -> int:
+        """Training seeds per grid point the command asks for (the sweep's default where it names none)."""
+        from training.sweeps.sweep import build_parser
+
+        return build_parser().parse_args(self.argv).seeds
+
+    @property
     def summary_name(self) -> str:
         """File stem of the committed summary: the sweep folder's name without ``sweep-``."""
         return self.out.name.removeprefix("sweep-")

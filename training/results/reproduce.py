@@ -171,7 +171,11 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
             groups = _grid_order(own + joined, keys) if joined else own
             trials = summary["trials"]
             done = sum(r.get("status") == "done" for r in trials)
-            planned = len(grid_product([summary["grid"][k] for k in keys])) * summary["sweep"]["seeds"]
+            # seeds the command now asks for count as planned before a run adds them to the summary
+            seeds = summary["sweep"]["seeds"]
+            if Path(summary["path"]).stem == section.summary_name:
+                seeds = max(seeds, section.seeds)
+            planned = len(grid_product([summary["grid"][k] for k in keys])) * seeds
             curves = load_curves(curves_path(summary["path"]), keys)
             parts += [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
                       f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
