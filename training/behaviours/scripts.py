@@ -23,7 +23,7 @@ class QuickSizes:
     checkpoint_every: PPO updates between kept checkpoints
     rounds: bilevel alternation rounds, at most
     spline_samples, spline_minibatch: car samples per spline update and per spline minibatch
-    spline_checkpoint_every: bilevel rounds between kept checkpoints
+    checkpoint_every_rounds: bilevel rounds between kept checkpoints
     """
 
     timesteps: int = 48_000
@@ -34,7 +34,7 @@ class QuickSizes:
     rounds: int = 3
     spline_samples: int = 256
     spline_minibatch: int = 128
-    spline_checkpoint_every: int = 1
+    checkpoint_every_rounds: int = 1
 
 
 QUICK = QuickSizes()
@@ -184,7 +184,7 @@ def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
     if args.quick:
         cfg.rounds = min(args.rounds, QUICK.rounds)
         cfg.spline_samples, cfg.spline_minibatch = QUICK.spline_samples, QUICK.spline_minibatch
-        cfg.checkpoint_every = QUICK.spline_checkpoint_every
+        cfg.checkpoint_every = QUICK.checkpoint_every_rounds
     return cfg
 
 
