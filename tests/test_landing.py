@@ -61,8 +61,13 @@ def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
     folder = tmp_path / "assets"
     lander = TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None)
     assert lander.land() == ["lights_num_cars=1_seed=0"]
-    assert json.loads((folder / "tiny.json").read_text()) == json.loads((out / "summary.json").read_text())
-    assert (folder / "tiny.csv").read_text() == (out / "summary.csv").read_text()
+    # the summary is copied less the trial not started yet (no empty row to commit mid-sweep)
+    sweep = json.loads((out / "summary.json").read_text())
+    landed = json.loads((folder / "tiny.json").read_text())
+    assert [r["status"] for r in sweep["trials"]] == ["done", "pending"]
+    assert landed == {"sweep": sweep["sweep"], "trials": sweep["trials"][:1]}
+    sweep_csv = (out / "summary.csv").read_text().splitlines(keepends=True)
+    assert (folder / "tiny.csv").read_text() == "".join(sweep_csv[:2]) and len(sweep_csv) == 3
     rows = _curve_rows(folder / "curves" / "tiny.csv")
     assert [(r["trial"], r["seed"], r["num_cars"], r["decisions"], r["episodes"]) for r in rows] == [
         ("lights_num_cars=1_seed=0", "0", "1", "100", "3"), ("lights_num_cars=1_seed=0", "0", "1", "200", "3")]
@@ -75,6 +80,7 @@ def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
     assert {r["trial"] for r in _curve_rows(folder / "curves" / "tiny.csv")} == {
         "lights_num_cars=1_seed=0", "lights_num_cars=2_seed=0"}
     assert json.loads((folder / "tiny.json").read_text())["trials"][1]["status"] == "done"
+    assert (folder / "tiny.csv").read_text() == (out2 / "summary.csv").read_text()
 
     # the same command again on this machine (a new lander): nothing is drawn twice
     assert TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None).land() == []
@@ -86,6 +92,13 @@ def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
         "lights_num_cars=1_seed=0"]
     rows = [r for r in _curve_rows(folder / "curves" / "tiny.csv") if r["trial"] == "lights_num_cars=1_seed=0"]
     assert [r["decisions"] for r in rows] == ["100", "200", "300"]
+
+    # a trial stopped part-way (the sweep was interrupted) is copied: the page lists it as not finished
+    stopped = json.loads((out / "summary.json").read_text())
+    stopped["trials"][1]["status"] = "stopped"
+    (out / "summary.json").write_text(json.dumps(stopped))
+    assert lander.copy_summary()
+    assert json.loads((folder / "tiny.json").read_text()) == stopped
 
 
 def test_trials_from_another_machine_keep_their_rows_and_an_empty_sweep_lands_nothing(tmp_path, drawn):

@@ -3,7 +3,8 @@
 A rule's sweep may run for many hours, longer than the machine it runs on may stay up. So that
 what finished is never lost with the machine, :class:`TrialLander` watches the sweep folder while
 Ray Tune trains: each time a trial finishes, the sweep's summary is copied into the summaries
-folder (``assets/sweeps/NAME.json`` and ``.csv``) and that trial's learning curve (every kept
+folder (``assets/sweeps/NAME.json`` and ``.csv``; its trials that have not started yet are left
+out, so a summary committed mid-sweep holds no empty rows) and that trial's learning curve (every kept
 checkpoint on selection episodes) is drawn and merged into ``curves/NAME.csv``, while the next
 trial trains. A trial whose curve the curves file already holds, drawn from the same checkpoints
 on the same episodes, is not drawn again.
@@ -11,20 +12,15 @@ on the same episodes, is not drawn again.
 
 from __future__ import annotations
 
-import shutil
+import json
 import threading
 from pathlib import Path
 from typing import Callable, Optional
 
 from training.evaluation.checkpoint_curve import CurveError
+from training.sweeps.summary import write_summary_files
 
 __all__ = ["TrialLander"]
-
-
-def _copy_atomic(src: Path, dst: Path) -> None:
-    tmp = dst.with_name(dst.name + ".partial")
-    shutil.copyfile(src, tmp)
-    tmp.replace(dst)
 
 
 class TrialLander:
@@ -48,12 +44,15 @@ class TrialLander:
         return self.folder / "curves" / f"{self.name}.csv"
 
     def copy_summary(self) -> bool:
-        """The sweep's summary into the summaries folder; False when it has none yet."""
+        """The sweep's summary into the summaries folder, less its pending trials (not started:
+        nothing of them to keep); False when the sweep has no summary yet. Finished, failed and
+        stopped trials are all copied."""
         if not (self.out / "summary.json").exists():
             return False
+        saved = json.loads((self.out / "summary.json").read_text())
         self.folder.mkdir(parents=True, exist_ok=True)
-        for ext in ("json", "csv"):
-            _copy_atomic(self.out / f"summary.{ext}", self.folder / f"{self.name}.{ext}")
+        write_summary_files(self.folder, self.name, saved["sweep"],
+                            [r for r in saved["trials"] if r.get("status") != "pending"])
         return True
 
     def land(self) -> list[str]:

@@ -128,17 +128,23 @@ def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], err
 
 def write_summary(out: Path, spec: SweepSpec, rows: list[dict[str, Any]]) -> None:
     """``summary.json`` (settings and rows) and ``summary.csv`` (rows), each replaced whole."""
+    write_summary_files(out, "summary", dataclasses.asdict(spec), rows)
+
+
+def write_summary_files(folder: Path, stem: str, sweep: dict[str, Any], rows: list[dict[str, Any]]) -> None:
+    """``folder/STEM.json`` (the sweep's settings ``sweep``, as :class:`SweepSpec` fields, and the
+    rows) and ``folder/STEM.csv`` (the rows, the figures' counts left out), each replaced whole."""
     rows = sorted(rows, key=lambda r: r["trial"])
-    write_json_atomic(out / "summary.json", {"sweep": dataclasses.asdict(spec), "trials": rows})
-    columns = list(SUMMARY_FIXED[:3]) + list(spec.grid) + list(SUMMARY_FIXED[3:])
+    write_json_atomic(folder / f"{stem}.json", {"sweep": sweep, "trials": rows})
+    columns = list(SUMMARY_FIXED[:3]) + list(sweep["grid"]) + list(SUMMARY_FIXED[3:])
     for row in rows:  # the figures' counts stay in the JSON
         columns += [k for k in row if k not in columns and k != "figures"]
-    tmp = out / "summary.csv.partial"
+    tmp = folder / f"{stem}.csv.partial"
     with tmp.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    tmp.replace(out / "summary.csv")
+    tmp.replace(folder / f"{stem}.csv")
 
 def first_line(text: str) -> str:
     lines = [ln for ln in str(text).strip().splitlines() if ln.strip()]
