@@ -176,3 +176,28 @@ def test_malformed_checkpoints_are_one_clear_error(run, tmp_path):
     (bad / "config.json").write_text("[1, 2]")
     with pytest.raises(CheckpointError, match="JSON object"):
         load_policy(bad)
+
+
+def test_weights_read_are_a_copy_not_a_view_of_the_file(run, tmp_path):
+    """A checkpoint rewritten in place after it was read (a sweep's trial folder while Ray Tune
+    syncs it) leaves the weights read intact. Memory-mapped weights would end the process with
+    SIGBUS here, so the check runs in a child process and looks at how it ended."""
+    import subprocess
+    import sys
+
+    shutil.copytree(run, tmp_path / "run")
+    code = (
+        "import sys; from pathlib import Path\n"
+        "from training.runs.checkpoint import read_checkpoint\n"
+        "from box2d_driving.policies.checkpoint_file import read_arrays\n"
+        "run = Path(sys.argv[1]); model = run / 'model.safetensors'\n"
+        "ckpt = read_checkpoint(run); _, arrays, _ = read_arrays(run)\n"
+        "before = {k: v.clone() for k, v in ckpt.policy.items()}\n"
+        "arrays_before = {k: v.copy() for k, v in arrays.items()}\n"
+        "model.write_bytes(b'')  # truncated in place: the same file, now empty\n"
+        "assert all((ckpt.policy[k] == v).all() for k, v in before.items())\n"
+        "assert all((arrays[k] == v).all() for k, v in arrays_before.items())\n"
+        "print('intact')\n")
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "run")], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parents[1], timeout=300)
+    assert done.returncode == 0 and "intact" in done.stdout, (done.returncode, done.stderr[-2000:])

@@ -151,3 +151,23 @@ def test_background_passes_land_trials_while_the_sweep_runs_and_log_failures(tmp
     assert any("landing tiny: no checkpoints in" in line and "tried again at the end" in line for line in lines)
     with pytest.raises(CurveError):
         lander.land()
+
+
+def test_a_finished_trial_is_read_from_its_last_checkpoint_not_the_synced_trial_folder(tmp_path):
+    """Ray Tune rewrites a trial folder's ``run/`` in place when it syncs it (also after the trial
+    ends), so a finished trial's curve is drawn from its last checkpoint folder, which the
+    summary names; anything else (not finished, a folder outside this trial) reads ``run/``."""
+    out, spec = _sweep(tmp_path)
+    name = "lights_num_cars=1_seed=0"
+    final = out / "tune" / name / "checkpoint_000002"
+    final.mkdir()
+    (final / "state.json").write_text("{}")
+    summary = json.loads((out / "summary.json").read_text())
+    summary["trials"][0]["run"] = str(final)
+    summary["trials"][1]["run"] = str(final)  # not finished: its own run/ is still read
+    (out / "summary.json").write_text(json.dumps(summary))
+    runs = {t["trial"]: t["run"] for t in curves.sweep_trials(out)}
+    assert runs == {name: final, "lights_num_cars=2_seed=0": out / "tune" / "lights_num_cars=2_seed=0" / "run"}
+    summary["trials"][0]["run"] = str(tmp_path / "elsewhere" / "checkpoint_000002")  # e.g. a reused row
+    (out / "summary.json").write_text(json.dumps(summary))
+    assert curves.sweep_trials(out)[0]["run"] == out / "tune" / name / "run"

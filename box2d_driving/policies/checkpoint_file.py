@@ -87,15 +87,22 @@ def check_metadata(path: Path, meta: dict[str, str]) -> None:
 def read_tensors(path: Union[str, Path], framework: str) -> tuple[Path, dict[str, Any], dict[str, str]]:
     """``(file, every tensor by key, metadata)`` of a checkpoint (a run folder or its
     ``model.safetensors``), as ``framework`` arrays (``"numpy"`` here, ``"pt"`` in the trainer),
-    after the header and the format and version are checked; never runs code from the file."""
-    from safetensors import safe_open
+    after the header and the format and version are checked; never runs code from the file.
 
+    The file is read whole into memory, not memory-mapped: arrays mapped from a file that another
+    process rewrites in place (a sweep's trial folder while Ray Tune syncs it) end the reading
+    process with SIGBUS, while a copy can at worst be refused here as unreadable."""
     path = find_checkpoint(path)
     check_header(path)
     try:
-        with safe_open(str(path), framework=framework) as fh:
-            meta = fh.metadata() or {}
-            tensors = {key: fh.get_tensor(key) for key in fh.keys()}
+        data = path.read_bytes()
+        (size,) = struct.unpack("<Q", data[:8])
+        meta = json.loads(data[8:8 + size]).get("__metadata__") or {}
+        if framework == "pt":
+            from safetensors.torch import load
+        else:
+            from safetensors.numpy import load
+        tensors = load(data)
     except Exception as exc:  # corrupt or truncated file
         raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from None
     check_metadata(path, meta)

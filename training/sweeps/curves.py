@@ -24,31 +24,50 @@ from training.evaluation.checkpoint_curve import (CurveError, build_parser, chec
 from training.sweeps.spec import SweepSpec
 
 __all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "finished_trials", "main", "merge_curves",
-           "sweep_curve_rows", "sweep_trials", "trial_curve_rows"]
+           "run_folder", "sweep_curve_rows", "sweep_trials", "trial_curve_rows"]
 
 # selection episodes per checkpoint when ``reproduce --run`` draws a sweep's curves
 SWEEP_CURVE_EPISODES = 100
 
 
 def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
-    """Every trial of a sweep folder: its name, seed, grid point and run folder."""
+    """Every trial of a sweep folder: its name, seed, grid point and run folder (:func:`run_folder`)."""
     try:
         spec = SweepSpec(**json.loads((sweep / "sweep.json").read_text()))
     except (OSError, ValueError, TypeError) as exc:
         raise CurveError(f"{sweep}: not a sweep folder ({exc})") from None
-    return [{"trial": t["name"], "seed": t["seed"], "point": t["point"], "run": sweep / "tune" / t["name"] / "run"}
-            for t in spec.trials()]
+    rows = _summary_rows(sweep)
+    return [{"trial": t["name"], "seed": t["seed"], "point": t["point"],
+             "run": run_folder(sweep, t["name"], rows.get(t["name"]))} for t in spec.trials()]
+
+
+def run_folder(sweep: Path, name: str, row: Optional[dict[str, Any]]) -> Path:
+    """Where trial ``name``'s checkpoints are read. A finished trial: its last checkpoint folder in
+    this sweep (``row["run"]``, from the summary), which Ray Tune writes once, when the trial reports
+    it. Otherwise the trial folder's ``run/``: that is a copy Ray Tune re-syncs from the trial's
+    staging folder every few minutes and once more after the trial ends, rewriting its files in
+    place, so it is only read while nothing better exists."""
+    live = sweep / "tune" / name / "run"
+    if row and row.get("status") == "done" and row.get("run"):
+        final = Path(row["run"])
+        if final.parent == live.parent and (final / "state.json").exists():
+            return final
+    return live
+
+
+def _summary_rows(sweep: Path) -> dict[str, dict[str, Any]]:
+    path = sweep / "summary.json"
+    if not path.exists():
+        return {}
+    try:
+        return {r["trial"]: r for r in json.loads(path.read_text())["trials"]}
+    except (ValueError, KeyError, TypeError) as exc:
+        raise CurveError(f"{path}: not a sweep summary ({exc})") from None
 
 
 def finished_trials(sweep: Path) -> set[str]:
     """The trials the sweep's ``summary.json`` lists as done (none if it has no summary yet)."""
-    path = sweep / "summary.json"
-    if not path.exists():
-        return set()
-    try:
-        return {r["trial"] for r in json.loads(path.read_text())["trials"] if r.get("status") == "done"}
-    except (ValueError, KeyError, TypeError) as exc:
-        raise CurveError(f"{path}: not a sweep summary ({exc})") from None
+    return {name for name, r in _summary_rows(sweep).items() if r.get("status") == "done"}
 
 
 def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print,
