@@ -63,11 +63,10 @@ class TrialLander:
 
         if not self.copy_summary():
             return []
-        done = curves.finished_trials(self.out)
         drawn = []
         for trial in curves.sweep_trials(self.out):
             name = trial["trial"]
-            if name in self.drawn or name not in done or not trial["run"].is_dir():
+            if name in self.drawn or not trial["done"] or not trial["run"].is_dir():
                 continue
             if not curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
                 curves.merge_curves(self.curves_path,

@@ -23,7 +23,7 @@ from training.evaluation.checkpoint_curve import (CurveError, build_parser, chec
                                                   kept_checkpoints, run_curve, write_rows)
 from training.sweeps.spec import SweepSpec
 
-__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "finished_trials", "main", "merge_curves",
+__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "main", "merge_curves",
            "run_folder", "sweep_curve_rows", "sweep_trials", "trial_curve_rows"]
 
 # selection episodes per checkpoint when ``reproduce --run`` draws a sweep's curves
@@ -31,13 +31,15 @@ SWEEP_CURVE_EPISODES = 100
 
 
 def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
-    """Every trial of a sweep folder: its name, seed, grid point and run folder (:func:`run_folder`)."""
+    """Every trial of a sweep folder: its name, seed, grid point, whether the sweep's summary lists
+    it as done, and its run folder (:func:`run_folder`), all from one reading of the summary."""
     try:
         spec = SweepSpec(**json.loads((sweep / "sweep.json").read_text()))
     except (OSError, ValueError, TypeError) as exc:
         raise CurveError(f"{sweep}: not a sweep folder ({exc})") from None
     rows = _summary_rows(sweep)
     return [{"trial": t["name"], "seed": t["seed"], "point": t["point"],
+             "done": rows.get(t["name"], {}).get("status") == "done",
              "run": run_folder(sweep, t["name"], rows.get(t["name"]))} for t in spec.trials()]
 
 
@@ -65,11 +67,6 @@ def _summary_rows(sweep: Path) -> dict[str, dict[str, Any]]:
         raise CurveError(f"{path}: not a sweep summary ({exc})") from None
 
 
-def finished_trials(sweep: Path) -> set[str]:
-    """The trials the sweep's ``summary.json`` lists as done (none if it has no summary yet)."""
-    return {name for name, r in _summary_rows(sweep).items() if r.get("status") == "done"}
-
-
 def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print,
                      finished_only: bool = False) -> list[dict[str, Any]]:
     """The curve rows of every trial of ``sweep`` whose run folder is here (finished or not: a
@@ -77,9 +74,8 @@ def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str],
     ``finished_only``: only the trials its summary lists as done, so that a curve judged over the
     last half of training is not drawn from a trial still running."""
     rows = []
-    done = finished_trials(sweep) if finished_only else set()
     for t in sweep_trials(sweep):
-        if finished_only and t["trial"] not in done:
+        if finished_only and not t["done"]:
             log(f"{t['trial']}: not finished, skipped")
             continue
         if not t["run"].is_dir():
