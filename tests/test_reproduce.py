@@ -613,6 +613,14 @@ def test_a_noise_trend_is_paired_by_seed_where_the_seeds_match():
     assert seeds_needed([0.0, 0.01, 0.02]) == "; at this mean and spread about 7 seeds would tell"
     assert seeds_needed([0.0, 0.0, 0.0]) == ""
     assert "no fall shown" in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
+    # a difference not shown still says how many seeds moved the paper's way (here 1 of 3 fall)
+    assert ", unlike the paper; 1 of 3 seeds fall; at this mean" in noise_trend(
+        [low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
+    # every seed falls, by amounts too spread to show: 3 of 3
+    line = noise_trend([low, point("1.0", [0.099, 0.15, 0.25])], [("v", "violations")], paper=-1)[0]
+    assert "no fall shown" in line and "; 3 of 3 seeds fall" in line
+    # no direction reported by the paper: no count
+    assert "seeds fall" not in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=0)[0]
 
 
 def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
