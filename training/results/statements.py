@@ -173,15 +173,15 @@ def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, p
             "" if not paper else ", as in the paper" if seen == paper else ", unlike the paper")
     else:
         verdict = ("" if paired else "the intervals overlap: ") + f"no {expected}{unmoved}" + (
-            ", unlike the paper" if paper else "") + _seeds_the_papers_way(diffs if paired else [], paper) + more
+            ", unlike the paper" if paper else "") + _seeds_the_papers_way(diffs if paired else [], paper)
+        verdict += more  # how many seeds would tell
     return f"- {label}: {name} {low.point[key]} {a.format()}, {name} {high.point[key]} {b.format()}: {verdict}."
 
 
 def _seeds_the_papers_way(diffs: Sequence[float], paper: int) -> str:
     """Where a paired difference is not shown: how many seeds moved the way the paper reports, in
-    words (a reader should see "3 of 3 seeds rise" beside an interval that straddles zero; a
-    seed whose difference is exactly zero moved neither way); ""
-    without pairs or without a reported direction."""
+    words, so "3 of 3 seeds rise" stands beside an interval that straddles zero (a seed whose
+    difference is exactly zero moved neither way); "" without pairs or a reported direction."""
     if not diffs or not paper:
         return ""
     k = sum(1 for d in diffs if d * paper > 0)
