@@ -61,17 +61,17 @@ def find_checkpoint(path: Union[str, Path]) -> Path:
     return path
 
 
-def check_header(path: Path) -> None:
-    """Refuse anything that is not a safetensors file before any library parses it."""
-    with path.open("rb") as fh:
-        head = fh.read(9)
-    if head[:2] == b"PK":
+def check_header(path: Path, data: bytes) -> int:
+    """Refuse anything that is not a safetensors file before any library parses it; ``data``: the
+    file's bytes. Returns the length of its JSON header (which starts at byte 8)."""
+    if data[:2] == b"PK":
         raise CheckpointError(legacy_message(path))
-    if len(head) < 9:
+    if len(data) < 9:
         raise CheckpointError(f"{path} is not a {FORMAT} file (too short)")
-    (size,) = struct.unpack("<Q", head[:8])
-    if head[8:9] != b"{" or not 2 <= size <= min(MAX_HEADER, path.stat().st_size - 8):
+    (size,) = struct.unpack("<Q", data[:8])
+    if data[8:9] != b"{" or not 2 <= size <= min(MAX_HEADER, len(data) - 8):
         raise CheckpointError(f"{path} is not a {FORMAT} file (no safetensors header)")
+    return size
 
 
 def check_metadata(path: Path, meta: dict[str, str]) -> None:
@@ -93,10 +93,9 @@ def read_tensors(path: Union[str, Path], framework: str) -> tuple[Path, dict[str
     process rewrites in place (a sweep's trial folder while Ray Tune syncs it) end the reading
     process with SIGBUS, while a copy can at worst be refused here as unreadable."""
     path = find_checkpoint(path)
-    check_header(path)
+    data = path.read_bytes()  # once: the header checked is the one parsed
+    size = check_header(path, data)
     try:
-        data = path.read_bytes()
-        (size,) = struct.unpack("<Q", data[:8])
         meta = json.loads(data[8:8 + size]).get("__metadata__") or {}
         if framework == "pt":
             from safetensors.torch import load
