@@ -98,17 +98,29 @@ class Section:
         return shlex.split(self.command)[2:]
 
     @property
+    def args(self) -> Any:
+        """The sweep's command line parsed by ``box2d-driving sweep``'s own parser (its defaults
+        filled in), the one reading of ``command`` that every other property uses."""
+        from training.sweeps.sweep import build_parser
+
+        return build_parser().parse_args(self.argv)
+
+    def spec(self) -> tuple[Any, Optional[int]]:
+        """The sweep the command runs and its torch threads per trial (``spec_from_args``);
+        ``SweepError`` where the command's grid or options are bad."""
+        from training.sweeps.sweep import spec_from_args
+
+        return spec_from_args(self.args)
+
+    @property
     def out(self) -> Path:
         """The sweep folder the command names."""
-        argv = self.argv
-        return Path(argv[argv.index("--out") + 1])
+        return Path(self.args.out)
 
     @property
     def seeds(self) -> int:
         """Training seeds per grid point the command asks for (the sweep's default where it names none)."""
-        from training.sweeps.sweep import build_parser
-
-        return build_parser().parse_args(self.argv).seeds
+        return self.args.seeds
 
     @property
     def summary_name(self) -> str:

@@ -41,7 +41,7 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     except ImportError as exc:
         raise ReproduceError('--run needs Ray Tune: pip install -c constraints-cpu.txt -e ".[train,sweep]" '
                              f"({exc})") from None
-    from training.sweeps.sweep import build_parser, run_sweep, spec_from_args
+    from training.sweeps.sweep import run_sweep
     from training.common.seeds import SELECTION
     from training.sweeps import curves
     from training.sweeps.spec import SweepError, check_spec
@@ -52,7 +52,7 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     for section in sections:
         summary = Path(folder) / f"{section.summary_name}.json"
         try:
-            spec, threads = spec_from_args(build_parser().parse_args(section.argv))
+            spec, threads = section.spec()
             check_spec(spec)
             if summary.exists():
                 reusable_rows(summary, spec)
