@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import pytest
 
@@ -291,14 +292,14 @@ def test_every_rules_rerun_command_is_a_valid_sweep():
     import shlex
 
     from training.results.reproduce import SECTIONS
-    from training.sweeps.sweep import build_parser, spec_from_args
     from training.sweeps.spec import check_spec
 
     for section in SECTIONS:
         argv = shlex.split(section.command)
         assert argv[:2] == ["box2d-driving", "sweep"], section.key
-        spec, _ = spec_from_args(build_parser().parse_args(argv[2:]))
+        spec, _ = section.spec()  # the reading `reproduce --run` hands to Ray Tune
         assert spec.behaviour == section.behaviour
+        assert (section.out, section.seeds) == (Path(argv[argv.index("--out") + 1]), spec.seeds), section.key
         check_spec(spec)  # every trial's options parse and make a valid config
 
 
