@@ -411,6 +411,25 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
         policy.act({"car_0": np.zeros(7, np.float32)})
 
 
+def test_a_resumed_run_continues_the_same_way_every_time(tmp_path):
+    """A sweep trial paused and continued from its checkpoint must learn what any other
+    continuation from that checkpoint learns: the resume seeds from the run's seed and the
+    decisions done, not from the clock or the process."""
+    import shutil
+
+    from training.runs.checkpoint import read_checkpoint
+
+    train(_tiny(timesteps=160), tmp_path / "a")
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    for name in "ab":
+        train(_tiny(timesteps=320), tmp_path / name, resume=True)
+    wa, wb = read_checkpoint(tmp_path / "a").policy, read_checkpoint(tmp_path / "b").policy
+    assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)
+    train(_tiny(timesteps=320, seed=1), tmp_path / "c")  # a different seed learns differently,
+    wc = read_checkpoint(tmp_path / "c").policy  # so the equality above can fail
+    assert not all(np.array_equal(wa[k].numpy(), wc[k].numpy()) for k in wa)
+
+
 def test_load_policy_rejects_bad_checkpoints(tmp_path):
     from training.runs.checkpoint import CheckpointError
 
