@@ -9,7 +9,7 @@ section's ``setting`` says so on the page.
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any, Optional
 
 from training.evaluation import figure_data as fd
 from training.results.data import (Baseline, Difference, Group, HistogramMean, PaperValue, Preferred,
@@ -109,6 +109,16 @@ def lanes_statements(fewer: str, paper_counts: bool) -> tuple[Statement, ...]:
             if paper_counts else ())
 
 
+def lanes_4_vs_8(key: str, title: str, match: tuple[tuple[str, str], ...], command: str, setting: str,
+                 **extra: Any) -> Section:
+    """A lanes section at the paper's car counts (4 and 8): the paper's claim, the lanes table,
+    figure, statements and learning-curve columns, the paper's budget; ``extra``: other
+    :class:`Section` fields (headlines)."""
+    return Section(key, title, "lanes", match, LANES_METRICS, LANES_PAPER_CLAIM, command, setting=setting,
+                   figure=LANES_FIGURE, statements=lanes_statements("4", paper_counts=True),
+                   curve_extra=LANES_CURVE_EXTRA, paper_budget=LANES_BUDGET, **extra)
+
+
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
             LIGHTS_METRICS,
@@ -205,9 +215,7 @@ SECTIONS: tuple[Section, ...] = (
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
                        Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
                                 ("lanes.majority_share", ONE_SIDED)))),
-    Section("lanes-paper", "Lanes, at the paper's smallest budget", "lanes", (("rounds", "150"),),
-            LANES_METRICS,
-            LANES_PAPER_CLAIM,
+    lanes_4_vs_8("lanes-paper", "Lanes, at the paper's smallest budget", (("rounds", "150"),),
             f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=150 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--out runs/sweep-lanes-paper",
@@ -217,17 +225,12 @@ SECTIONS: tuple[Section, ...] = (
                     "noise 0.5, with learning curves. Seeds 0-2 ran first; a fourth seed (3) was added here "
                     "and at noise 0 and 1.0 (below) because two intervals straddled the 0.1 line with three. "
                     + ONE_SIDED_WORDS,
-            figure=LANES_FIGURE,
-            statements=lanes_statements("4", paper_counts=True), curve_extra=LANES_CURVE_EXTRA,
-            paper_budget=LANES_BUDGET,
             headlines=(Headline("lanes at the paper's budget", "8 cars, LiDAR noise 0.5, 150 rounds (4.8 M decisions)",
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
                        Headline("4 cars (the paper: no lanes)", "4 cars, LiDAR noise 0.5, 150 rounds",
                                 (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
-    Section("lanes-paper-16M", "Lanes, half the paper's largest budget (16 M decisions)", "lanes",
+    lanes_4_vs_8("lanes-paper-16M", "Lanes, half the paper's largest budget (16 M decisions)",
             (("rounds", "500"),),
-            LANES_METRICS,
-            LANES_PAPER_CLAIM,
             f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=500 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-paper-16M",
@@ -235,10 +238,7 @@ SECTIONS: tuple[Section, ...] = (
                     "for 500 bilevel rounds instead of 150: 16 M decisions per trial, half the paper's "
                     "largest lanes budget (1,000 epochs), with learning curves, because at 4.8 M the one-sided "
                     "offset was still too noisy to call settled. The trials run one after the other, both "
-                    "car counts per seed, so a summary holds the trials finished so far. " + ONE_SIDED_WORDS,
-            figure=LANES_FIGURE,
-            statements=lanes_statements("4", paper_counts=True), curve_extra=LANES_CURVE_EXTRA,
-            paper_budget=LANES_BUDGET),
+                    "car counts per seed, so a summary holds the trials finished so far. " + ONE_SIDED_WORDS),
     Section("lanes-noise", "Lanes at the paper's LiDAR noise levels", "lanes",
             (("rounds", "150"), ("lidar_noise", IN_GRID)),
             LANES_METRICS,
@@ -266,10 +266,8 @@ SECTIONS: tuple[Section, ...] = (
                                      "(4.8 M decisions)", (("num_cars", "8"), ("lidar_noise", noise)),
                                      ("lanes.majority_share", ONE_SIDED, "success_rate"))
                             for noise in ("0", "1.0"))),
-    Section("lanes-joint", "Lanes with the paper's single 216-way path choice", "lanes",
+    lanes_4_vs_8("lanes-joint", "Lanes with the paper's single 216-way path choice",
             (("rounds", "150"), ("spline_action", "joint")),
-            LANES_METRICS,
-            LANES_PAPER_CLAIM,
             f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
             "spline_updates_per_round=2 spline_action=joint init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
@@ -278,10 +276,7 @@ SECTIONS: tuple[Section, ...] = (
                     "216-way softmax, as the paper's code does, instead of one 6-way choice per waypoint (our "
                     "default, which finds a side within a few rounds). The same training seeds; the trials "
                     "run one after the other, both car counts per seed, so a summary holds the trials "
-                    "finished so far. " + ONE_SIDED_WORDS,
-            figure=LANES_FIGURE,
-            statements=lanes_statements("4", paper_counts=True), curve_extra=LANES_CURVE_EXTRA,
-            paper_budget=LANES_BUDGET),
+                    "finished so far. " + ONE_SIDED_WORDS),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),
