@@ -99,3 +99,12 @@ def tiny_train_config(**overrides):
                 batch_decisions=80, minibatch=40, epochs=1, checkpoint_every=2, threads=1)
     base.update(overrides)
     return TrainConfig(**base)
+
+
+def same_checkpoint_weights(a, b) -> bool:
+    """Whether the run folders (or checkpoint files) ``a`` and ``b`` hold bit-identical policy
+    weights: the same names, every tensor equal."""
+    from training.runs.checkpoint import read_checkpoint
+
+    wa, wb = read_checkpoint(a).policy, read_checkpoint(b).policy
+    return wa.keys() == wb.keys() and all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)

@@ -193,7 +193,7 @@ def test_shared_spline_picker_gives_the_greedy_actions_of_the_latest_weights(env
 def test_bilevel_with_env_workers_trains_exactly_as_in_process(tmp_path):
     """With ``num_cpus=2`` the acceleration envs step in worker processes that pick paths from the
     shared spline weights: same rounds, same weights as in the learner's process."""
-    from training.runs.checkpoint import read_checkpoint
+    from tests.helpers import same_checkpoint_weights
 
     for name, num_cpus in (("local", 0), ("workers", 2)):
         cfg = _config(rounds=2)
@@ -204,9 +204,7 @@ def test_bilevel_with_env_workers_trains_exactly_as_in_process(tmp_path):
         a.pop("wall_s"), b.pop("wall_s")
         assert a == b
     for stage in ("accel", "spline"):
-        wa = read_checkpoint(tmp_path / "local" / stage).policy
-        wb = read_checkpoint(tmp_path / "workers" / stage).policy
-        assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa), stage
+        assert same_checkpoint_weights(tmp_path / "local" / stage, tmp_path / "workers" / stage), stage
 
 
 @pytest.mark.parametrize("script,report", [("lanes", "lane_histogram.png"),

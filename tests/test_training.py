@@ -17,7 +17,8 @@ from training.runs.inference import load_policy  # noqa: E402
 from training.ppo.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
 from training.trainers.trainer import RunError, TrainConfig, build_model, train  # noqa: E402
 from training.ppo.vec_env import SlotVecEnv  # noqa: E402
-from tests.helpers import hand_env, level_index, straight_car, tiny_train_config  # noqa: E402
+from tests.helpers import (hand_env, level_index, same_checkpoint_weights, straight_car,  # noqa: E402
+                           tiny_train_config)
 
 
 def _two_car_env():
@@ -417,17 +418,13 @@ def test_a_resumed_run_continues_the_same_way_every_time(tmp_path):
     decisions done, not from the clock or the process."""
     import shutil
 
-    from training.runs.checkpoint import read_checkpoint
-
     train(_tiny(timesteps=160), tmp_path / "a")
     shutil.copytree(tmp_path / "a", tmp_path / "b")
     for name in "ab":
         train(_tiny(timesteps=320), tmp_path / name, resume=True)
-    wa, wb = read_checkpoint(tmp_path / "a").policy, read_checkpoint(tmp_path / "b").policy
-    assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)
+    assert same_checkpoint_weights(tmp_path / "a", tmp_path / "b")
     train(_tiny(timesteps=320, seed=1), tmp_path / "c")  # a different seed learns differently,
-    wc = read_checkpoint(tmp_path / "c").policy  # so the equality above can fail
-    assert not all(np.array_equal(wa[k].numpy(), wc[k].numpy()) for k in wa)
+    assert not same_checkpoint_weights(tmp_path / "a", tmp_path / "c")  # so the equality above can fail
 
 
 def test_load_policy_rejects_bad_checkpoints(tmp_path):

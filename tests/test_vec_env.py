@@ -142,7 +142,7 @@ def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpre
 
 
 def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
-    from tests.helpers import tiny_train_config
+    from tests.helpers import same_checkpoint_weights, tiny_train_config
     from training.trainers.trainer import train
 
     def cfg(num_cpus, timesteps=160):
@@ -153,9 +153,7 @@ def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
     a = json.loads((tmp_path / "local" / "state.json").read_text())
     b = json.loads((tmp_path / "workers" / "state.json").read_text())
     assert a["agent_steps"] == b["agent_steps"]  # the same episodes, so the same live cars
-    from training.runs.checkpoint import read_checkpoint
-    wa, wb = read_checkpoint(tmp_path / "local").policy, read_checkpoint(tmp_path / "workers").policy
-    assert all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)  # the same learning
+    assert same_checkpoint_weights(tmp_path / "local", tmp_path / "workers")  # the same learning
     train(cfg(2, timesteps=320), tmp_path / "workers", resume=True)
     assert json.loads((tmp_path / "workers" / "state.json").read_text())["decisions"] == 320
 
