@@ -85,7 +85,7 @@ CLAIMS: tuple[Claim, ...] = (
           (Reading(r"- 4 cars, red-light violations: "),), "red_light_violation_rate", "red-light violations"),
     Claim("With more cars, fewer cars enter on red", ("denser-traffic-paper",),
           (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
-    Claim("Lanes with 8 cars, none with 4", ("lanes-noise", "lanes-paper"),
+    Claim("Lanes with 8 cars, none with 4", ("lanes-paper-16M", "lanes-noise", "lanes-paper"),
           LANES_READINGS,
           "lanes.one_sided_offset", "one-sided offset"),
     Claim("Lanes with 8 cars, none with 4, the path picked as in the paper's code (one 216-way softmax)",
