@@ -7,7 +7,8 @@ from pathlib import Path
 from training.results.claims import (CLAIMS, NOT_REPRODUCED, REPRODUCED, UNDECIDED, Claim, Reading, SectionResult,
                                      claim_row, reading_verdict)
 from training.results.data import Group
-from training.results.sections import LANES_BUDGET, SECTIONS
+from training.results.rule_parts import LANES_BUDGET
+from training.results.sections import SECTIONS
 from training.results.stats import mean_ci
 
 CLAIM = Claim("More noise, fewer violations", ("big", "small"), (Reading(r"- violations: "),), "v", "violations")

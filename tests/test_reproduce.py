@@ -181,7 +181,7 @@ def test_lanes_measures_from_hand_built_trials():
     from training.evaluation import figure_data as fd
     from training.results.data import HistogramMean, Size, groups_of, metric_value
     from training.results.reproduce import ran_budget
-    from training.results.sections import ONE_SIDED
+    from training.results.rule_parts import ONE_SIDED
 
     bins = fd.LANE_BINS
     left = np.zeros(len(bins) - 1)
@@ -493,7 +493,7 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
 def test_lanes_and_pedestrian_statements_read_the_intervals():
     from training.results.sections import section, statements
 
-    from training.results.sections import ONE_SIDED
+    from training.results.rule_parts import ONE_SIDED
 
     lanes = [Group({"num_cars": "2"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.52, 0.60, 0.55]),
                                                   ONE_SIDED: mean_ci([0.02, 0.04, 0.03]),

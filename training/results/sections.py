@@ -9,114 +9,23 @@ section's ``setting`` says so on the page.
 
 from __future__ import annotations
 
-from typing import Any, Optional
+from typing import Optional
 
 from training.evaluation import figure_data as fd
-from training.results.data import (Baseline, Difference, Group, HistogramMean, PaperValue, Preferred,
-                                   Size, light_blind_rates)
+from training.results.data import Baseline, Group, PaperValue, light_blind_rates
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, gap_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
-from training.results.statements import (Statement, above_statement, apart_statement, level_change_statement,
-                                         lights_statement, noise_trend_statement, paper_comparison, reference_statement,
+from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLAIM, COMMUNICATION_FIGURE,
+                                         COMMUNICATION_METRICS, COMMUNICATION_STATEMENTS, DENSER_BUDGET, FAST_LANES_R,
+                                         LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
+                                         LANES_NOISE_METRICS, LIGHTS_METRICS, LIGHTS_NOISE_BUDGET, ONE_SIDED,
+                                         ONE_SIDED_WORDS, PEARSON, SUCCESS_LOST_UNHEARD, SWEEP, lanes_4_vs_8,
+                                         lanes_statements)
+from training.results.statements import (above_statement, level_change_statement, lights_statement,
+                                         noise_trend_statement, paper_comparison, reference_statement,
                                          unlearnt_statement)
 
 __all__ = ["IN_GRID", "Headline", "PaperValue", "SECTIONS", "Section", "section", "statements"]
-
-
-SWEEP = "box2d-driving sweep"
-# which bit value a run's cars use for what is each run's own choice: the correlation's sign is
-# arbitrary per seed, so its size is what is averaged
-PEARSON = Size("communication.pearson_heading_change_bit")
-# success lost when every message is replaced by silence, on the same report episodes: how much
-# the listeners rely on the message
-SUCCESS_LOST_UNHEARD = Difference("success_rate", "messages_unheard.success_rate")
-# which side the fast cars take is each run's choice (seeds give +0.999 and -0.997): the size
-FAST_LANES_R = Size("fast_lanes.pearson_r")
-# lanes: how far off the road axis the cars drive, on one side. Defined before the paper-settings
-# runs (after the 3-seed sweep had been looked at): the signed mean lane position in the junction,
-# per seed, by size (the side is each run's choice). Cars on the axis, or on both sides in turn,
-# give ~0; cars keeping to one side give their offset (+-1 at the road edges).
-# From the lane samples (the summaries' lanes.one_sided_offset); summaries written before that
-# column existed give it from the lane histogram's bin centres (within about 0.01 of it).
-ONE_SIDED = Size(Preferred("lanes.one_sided_offset",
-                           HistogramMean("lane_position_counts", tuple(float(b) for b in fd.LANE_BINS))))
-# the communication measures drawn and stated against LiDAR noise
-AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
-                 (PEARSON, "|Pearson(heading change, bit)|"),
-                 (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
-# the turn-signal rules' table columns, the paper's claim and its runs (both turn-signal sections)
-COMMUNICATION_METRICS = (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2])
-COMMUNICATION_CLAIM = ("Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
-                       "more on the message when their perception is less reliable.")
-COMMUNICATION_BUDGET = "12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"
-# both turn-signal sections' figure and statements: the trend with noise, then whether the
-# listeners rely on the message at each noise level
-COMMUNICATION_FIGURE = against_noise_figure(AGAINST_NOISE)
-COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
-                            above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
-                                            "the listeners rely on the message", "success rises without the message",
-                                            level=0.0, level_text="zero",
-                                            paper="The paper ties the listeners' reliance to noise (more with "
-                                                  "noisier LiDAR), not to any one level: the comparison across "
-                                                  "levels is this measure's noise-trend line (given once each level "
-                                                  "has two or more seeds)."))
-# the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
-LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
-                  ("collision_rate", "collisions"))
-LIGHTS_NOISE_BUDGET = "4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 decisions (2.4 M)"
-DENSER_BUDGET = "8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for 1,000 epochs"
-# the lanes rules' table columns, figure, statements (fewer cars against 8) and the paper's runs
-LANES_METRICS = (("lanes.majority_share", "crossings on the majority side"),
-                 ("lanes.time_share_majority", "time on the majority side"),
-                 ("lanes.mean_abs_lane_position", "mean |lane position|"), (ONE_SIDED, "one-sided offset"),
-                 ("success_rate", "success"))
-ONE_SIDED_WORDS = ("*One-sided offset*: the size of each seed's mean signed lane position in the junction (0 on "
-                   "the axis or on both sides in turn, +-1 at the road edges); *mean |lane position|* counts "
-                   "driving off the axis on either side.")
-LANES_FIGURE = distribution_figure("lane_position_counts", fd.LANE_BINS,
-                                   "lane position inside the junction, each seed mirrored so that its "
-                                   "majority side is +",
-                                   bars_figure("lanes.majority_share", "share on the majority side"))
-# a one-sided offset above this (a tenth of the half-width, mean over seeds) is read as keeping to
-# one side: the 2-car seeds of the 48-round sweep lie at 0.014-0.041, the 8-car ones at 0.33-0.39
-LANE_SIDE_LEVEL = 0.1
-# the one-sided offset of a learning curve: from the checkpoint's lane samples, not a histogram
-LANES_CURVE_EXTRA = (("lanes.one_sided_offset", "one-sided offset"),)
-# the measures compared between noise levels (the paper: sharper peaks on one side with noise, then
-# poor convergence past a threshold)
-LANES_NOISE_METRICS = ((ONE_SIDED, "one-sided offset"), ("lanes.time_share_majority", "time on the majority side"))
-# the claim both paper-car-count lanes sections test (our path choice and the paper's)
-LANES_PAPER_CLAIM = ("With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
-                     "(the paper's runs: 4 and 8 cars).")
-LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
-                "spline episodes per epoch")
-
-
-def lanes_statements(fewer: str, paper_counts: bool) -> tuple[Statement, ...]:
-    """Fewer cars (``fewer``) against 8: the majority share and the one-sided offset, intervals
-    apart. ``paper_counts``: the paper's own car counts (4 and 8), where its claim is "lanes with
-    8, none with 4": then whether each count keeps to one side is said, and the offsets'
-    difference alone names no agreement with the paper."""
-    return (apart_statement("num_cars", fewer, "8", "lanes.majority_share", "crossings on the majority side",
-                            "more one-sided with 8 cars"),
-            apart_statement("num_cars", fewer, "8", ONE_SIDED, "one-sided offset",
-                            "further off the axis on one side with 8 cars", judged=not paper_counts)) + ((
-            above_statement(ONE_SIDED, "one-sided offset", "the cars keep to one side",
-                            "the cars drive on the axis or on both sides", level=LANE_SIDE_LEVEL,
-                            level_text=f"{LANE_SIDE_LEVEL:g}",
-                            paper=f"The paper: lanes with 8 cars, none with {fewer}. *Keep to one side*: the "
-                                  f"one-sided offset's interval above {LANE_SIDE_LEVEL:g} of the half-width."),)
-            if paper_counts else ())
-
-
-def lanes_4_vs_8(key: str, title: str, match: tuple[tuple[str, str], ...], command: str, setting: str,
-                 **extra: Any) -> Section:
-    """A lanes section at the paper's car counts (4 and 8): the paper's claim, the lanes table,
-    figure, statements and learning-curve columns, the paper's budget; ``extra``: other
-    :class:`Section` fields (headlines)."""
-    return Section(key, title, "lanes", match, LANES_METRICS, LANES_PAPER_CLAIM, command, setting=setting,
-                   figure=LANES_FIGURE, statements=lanes_statements("4", paper_counts=True),
-                   curve_extra=LANES_CURVE_EXTRA, paper_budget=LANES_BUDGET, **extra)
 
 
 SECTIONS: tuple[Section, ...] = (
@@ -216,29 +125,29 @@ SECTIONS: tuple[Section, ...] = (
                        Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
                                 ("lanes.majority_share", ONE_SIDED)))),
     lanes_4_vs_8("lanes-paper", "Lanes, at the paper's smallest budget", (("rounds", "150"),),
-            f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=150 "
-            "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
-            "--out runs/sweep-lanes-paper",
-            setting="The lanes run above with the paper's car counts (4 and 8) for 150 bilevel rounds, each "
-                    "one acceleration update of 32,000 decisions (4.8 M in all, the paper's 150 epochs) and two "
-                    "path updates of 2,048 car samples (the paper: 1,200 spline episodes per epoch), at LiDAR "
-                    "noise 0.5, with learning curves. Seeds 0-2 ran first; a fourth seed (3) was added here "
-                    "and at noise 0 and 1.0 (below) because two intervals straddled the 0.1 line with three. "
-                    + ONE_SIDED_WORDS,
-            headlines=(Headline("lanes at the paper's budget", "8 cars, LiDAR noise 0.5, 150 rounds (4.8 M decisions)",
-                                (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
-                       Headline("4 cars (the paper: no lanes)", "4 cars, LiDAR noise 0.5, 150 rounds",
-                                (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
+                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=150 "
+                 "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
+                 "--out runs/sweep-lanes-paper",
+                 setting="The lanes run above with the paper's car counts (4 and 8) for 150 bilevel rounds, each "
+                         "one acceleration update of 32,000 decisions (4.8 M in all, the paper's 150 epochs) and two "
+                         "path updates of 2,048 car samples (the paper: 1,200 spline episodes per epoch), at LiDAR "
+                         "noise 0.5, with learning curves. Seeds 0-2 ran first; a fourth seed (3) was added here "
+                         "and at noise 0 and 1.0 (below) because two intervals straddled the 0.1 line with three. "
+                         + ONE_SIDED_WORDS,
+                 headlines=(Headline("lanes at the paper's budget", "8 cars, LiDAR noise 0.5, 150 rounds (4.8 M decisions)",
+                                     (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
+                            Headline("4 cars (the paper: no lanes)", "4 cars, LiDAR noise 0.5, 150 rounds",
+                                     (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
     lanes_4_vs_8("lanes-paper-16M", "Lanes, half the paper's largest budget (16 M decisions)",
-            (("rounds", "500"),),
-            f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=500 "
-            "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
-            "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-paper-16M",
-            setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, the same training seeds) "
-                    "for 500 bilevel rounds instead of 150: 16 M decisions per trial, half the paper's "
-                    "largest lanes budget (1,000 epochs), with learning curves, because at 4.8 M the one-sided "
-                    "offset was still too noisy to call settled. The trials run one after the other, both "
-                    "car counts per seed, so a summary holds the trials finished so far. " + ONE_SIDED_WORDS),
+                 (("rounds", "500"),),
+                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=500 "
+                 "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
+                 "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-paper-16M",
+                 setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, the same training seeds) "
+                         "for 500 bilevel rounds instead of 150: 16 M decisions per trial, half the paper's "
+                         "largest lanes budget (1,000 epochs), with learning curves, because at 4.8 M the one-sided "
+                         "offset was still too noisy to call settled. The trials run one after the other, both "
+                         "car counts per seed, so a summary holds the trials finished so far. " + ONE_SIDED_WORDS),
     Section("lanes-noise", "Lanes at the paper's LiDAR noise levels", "lanes",
             (("rounds", "150"), ("lidar_noise", IN_GRID)),
             LANES_METRICS,
@@ -267,16 +176,16 @@ SECTIONS: tuple[Section, ...] = (
                                      ("lanes.majority_share", ONE_SIDED, "success_rate"))
                             for noise in ("0", "1.0"))),
     lanes_4_vs_8("lanes-joint", "Lanes with the paper's single 216-way path choice",
-            (("rounds", "150"), ("spline_action", "joint")),
-            f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
-            "spline_updates_per_round=2 spline_action=joint init_from=assets/policies/traffic_lights_4cars_noise05 "
-            "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
-            setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, 150 bilevel rounds, "
-                    "4.8 M decisions) with one change: the path policy picks among the 216 paths with one "
-                    "216-way softmax, as the paper's code does, instead of one 6-way choice per waypoint (our "
-                    "default, which finds a side within a few rounds). The same training seeds; the trials "
-                    "run one after the other, both car counts per seed, so a summary holds the trials "
-                    "finished so far. " + ONE_SIDED_WORDS),
+                 (("rounds", "150"), ("spline_action", "joint")),
+                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
+                 "spline_updates_per_round=2 spline_action=joint init_from=assets/policies/traffic_lights_4cars_noise05 "
+                 "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
+                 setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, 150 bilevel rounds, "
+                         "4.8 M decisions) with one change: the path policy picks among the 216 paths with one "
+                         "216-way softmax, as the paper's code does, instead of one 6-way choice per waypoint (our "
+                         "default, which finds a side within a few rounds). The same training seeds; the trials "
+                         "run one after the other, both car counts per seed, so a summary holds the trials "
+                         "finished so far. " + ONE_SIDED_WORDS),
     Section("right-of-way", "Right of way and safe distance", "real-junction", (("communication", "false"),),
             (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
              ("success_rate", "success"), ("collision_rate", "collisions")),

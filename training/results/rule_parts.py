@@ -1,0 +1,110 @@
+"""The pieces several of the results page's rules share (:mod:`training.results.sections` lists the
+rules): derived measures (a correlation's size, the success lost with messages unheard, the lanes'
+one-sided offset), table columns, figures, statements, the paper's claims and the runs it made, and
+:func:`lanes_4_vs_8`, the section every lanes run at the paper's car counts is.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from training.evaluation import figure_data as fd
+from training.results.data import Difference, HistogramMean, Preferred, Size
+from training.results.figures import against_noise_figure, bars_figure, distribution_figure
+from training.results.page_section import Section
+from training.results.statements import Statement, above_statement, apart_statement, noise_trend_statement
+
+SWEEP = "box2d-driving sweep"
+# which bit value a run's cars use for what is each run's own choice: the correlation's sign is
+# arbitrary per seed, so its size is what is averaged
+PEARSON = Size("communication.pearson_heading_change_bit")
+# success lost when every message is replaced by silence, on the same report episodes: how much
+# the listeners rely on the message
+SUCCESS_LOST_UNHEARD = Difference("success_rate", "messages_unheard.success_rate")
+# which side the fast cars take is each run's choice (seeds give +0.999 and -0.997): the size
+FAST_LANES_R = Size("fast_lanes.pearson_r")
+# lanes: how far off the road axis the cars drive, on one side. Defined before the paper-settings
+# runs (after the 3-seed sweep had been looked at): the signed mean lane position in the junction,
+# per seed, by size (the side is each run's choice). Cars on the axis, or on both sides in turn,
+# give ~0; cars keeping to one side give their offset (+-1 at the road edges).
+# From the lane samples (the summaries' lanes.one_sided_offset); summaries written before that
+# column existed give it from the lane histogram's bin centres (within about 0.01 of it).
+ONE_SIDED = Size(Preferred("lanes.one_sided_offset",
+                           HistogramMean("lane_position_counts", tuple(float(b) for b in fd.LANE_BINS))))
+# the communication measures drawn and stated against LiDAR noise
+AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
+                 (PEARSON, "|Pearson(heading change, bit)|"),
+                 (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
+# the turn-signal rules' table columns, the paper's claim and its runs (both turn-signal sections)
+COMMUNICATION_METRICS = (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2])
+COMMUNICATION_CLAIM = ("Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
+                       "more on the message when their perception is less reliable.")
+COMMUNICATION_BUDGET = "12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"
+# both turn-signal sections' figure and statements: the trend with noise, then whether the
+# listeners rely on the message at each noise level
+COMMUNICATION_FIGURE = against_noise_figure(AGAINST_NOISE)
+COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
+                            above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
+                                            "the listeners rely on the message", "success rises without the message",
+                                            level=0.0, level_text="zero",
+                                            paper="The paper ties the listeners' reliance to noise (more with "
+                                                  "noisier LiDAR), not to any one level: the comparison across "
+                                                  "levels is this measure's noise-trend line (given once each level "
+                                                  "has two or more seeds)."))
+# the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
+LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
+                  ("collision_rate", "collisions"))
+LIGHTS_NOISE_BUDGET = "4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 decisions (2.4 M)"
+DENSER_BUDGET = "8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for 1,000 epochs"
+# the lanes rules' table columns, figure, statements (fewer cars against 8) and the paper's runs
+LANES_METRICS = (("lanes.majority_share", "crossings on the majority side"),
+                 ("lanes.time_share_majority", "time on the majority side"),
+                 ("lanes.mean_abs_lane_position", "mean |lane position|"), (ONE_SIDED, "one-sided offset"),
+                 ("success_rate", "success"))
+ONE_SIDED_WORDS = ("*One-sided offset*: the size of each seed's mean signed lane position in the junction (0 on "
+                   "the axis or on both sides in turn, +-1 at the road edges); *mean |lane position|* counts "
+                   "driving off the axis on either side.")
+LANES_FIGURE = distribution_figure("lane_position_counts", fd.LANE_BINS,
+                                   "lane position inside the junction, each seed mirrored so that its "
+                                   "majority side is +",
+                                   bars_figure("lanes.majority_share", "share on the majority side"))
+# a one-sided offset above this (a tenth of the half-width, mean over seeds) is read as keeping to
+# one side: the 2-car seeds of the 48-round sweep lie at 0.014-0.041, the 8-car ones at 0.33-0.39
+LANE_SIDE_LEVEL = 0.1
+# the one-sided offset of a learning curve: from the checkpoint's lane samples, not a histogram
+LANES_CURVE_EXTRA = (("lanes.one_sided_offset", "one-sided offset"),)
+# the measures compared between noise levels (the paper: sharper peaks on one side with noise, then
+# poor convergence past a threshold)
+LANES_NOISE_METRICS = ((ONE_SIDED, "one-sided offset"), ("lanes.time_share_majority", "time on the majority side"))
+# the claim both paper-car-count lanes sections test (our path choice and the paper's)
+LANES_PAPER_CLAIM = ("With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
+                     "(the paper's runs: 4 and 8 cars).")
+LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
+                "spline episodes per epoch")
+
+
+def lanes_statements(fewer: str, paper_counts: bool) -> tuple[Statement, ...]:
+    """Fewer cars (``fewer``) against 8: the majority share and the one-sided offset, intervals
+    apart. ``paper_counts``: the paper's own car counts (4 and 8), where its claim is "lanes with
+    8, none with 4": then whether each count keeps to one side is said, and the offsets'
+    difference alone names no agreement with the paper."""
+    return (apart_statement("num_cars", fewer, "8", "lanes.majority_share", "crossings on the majority side",
+                            "more one-sided with 8 cars"),
+            apart_statement("num_cars", fewer, "8", ONE_SIDED, "one-sided offset",
+                            "further off the axis on one side with 8 cars", judged=not paper_counts)) + ((
+            above_statement(ONE_SIDED, "one-sided offset", "the cars keep to one side",
+                            "the cars drive on the axis or on both sides", level=LANE_SIDE_LEVEL,
+                            level_text=f"{LANE_SIDE_LEVEL:g}",
+                            paper=f"The paper: lanes with 8 cars, none with {fewer}. *Keep to one side*: the "
+                                  f"one-sided offset's interval above {LANE_SIDE_LEVEL:g} of the half-width."),)
+            if paper_counts else ())
+
+
+def lanes_4_vs_8(key: str, title: str, match: tuple[tuple[str, str], ...], command: str, setting: str,
+                 **extra: Any) -> Section:
+    """A lanes section at the paper's car counts (4 and 8): the paper's claim, the lanes table,
+    figure, statements and learning-curve columns, the paper's budget; ``extra``: other
+    :class:`Section` fields (headlines)."""
+    return Section(key, title, "lanes", match, LANES_METRICS, LANES_PAPER_CLAIM, command, setting=setting,
+                   figure=LANES_FIGURE, statements=lanes_statements("4", paper_counts=True),
+                   curve_extra=LANES_CURVE_EXTRA, paper_budget=LANES_BUDGET, **extra)
