@@ -1,0 +1,359 @@
+"""The results page's numbers and words: measures, intervals, tests, and each statement it prints, on hand-built trials."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from tests.results_helpers import VIOLATIONS, lights_summary, ragged_tables
+from training.common.seeds import REPORT
+from training.results.reproduce import Group, main
+from training.results.stats import mean_ci, t95, t_test_p
+
+
+def test_a_metric_is_a_column_its_size_or_the_difference_of_two_metrics():
+    from training.results.data import Difference, Size, metric_value
+
+    row = {"a": 0.8, "b": 0.65, "r": -0.3, "text": "x", "c - d": 0.5, "abs:a": 2.0}
+    assert metric_value(row, "a") == 0.8 and metric_value(row, Size("r")) == 0.3
+    assert metric_value(row, Difference("a", "b")) == pytest.approx(0.15)
+    assert metric_value(row, Difference("b", Size("r"))) == pytest.approx(0.35)
+    assert math.isnan(metric_value(row, Difference("a", "missing"))) and math.isnan(metric_value(row, "text"))
+    # a column is read by its name whatever characters it holds
+    assert metric_value(row, "c - d") == 0.5 and metric_value(row, "abs:a") == 2.0
+    assert str(Difference("a", Size("r"))) == "a - |r|"
+
+
+def test_mean_and_interval_match_a_hand_computation():
+    e = mean_ci([0.10, 0.12, 0.08])
+    sd = math.sqrt(((0.0) ** 2 + 0.02 ** 2 + 0.02 ** 2) / 2)
+    assert e.mean == pytest.approx(0.10) and e.high - e.mean == pytest.approx(4.303 * sd / math.sqrt(3))
+    assert mean_ci([0.3]).low is None and mean_ci([]).n == 0 and mean_ci([1.0, float("nan")]).n == 1
+    assert t95(2) == 4.303 and t95(22) == t95(20) and t95(1000) == 1.96
+
+
+def test_the_paper_comparison_says_inside_or_outside(tmp_path):
+    from training.results.reproduce import SECTIONS, Group
+    from training.results.statements import paper_comparison
+
+    section = next(s for s in SECTIONS if s.key == "right-of-way")
+    groups = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.90, 0.91, 0.92]),
+                                    "safety_distance.safe_share": mean_ci([0.95, 0.96, 0.94])})]
+    lines = "\n".join(paper_comparison(section.paper_values, groups))
+    # the paper's +- 8.9 is a spread over its runs: our mean is compared with it, not called an interval
+    assert "not a confidence interval): our mean is inside that spread" in lines  # 0.91 within 0.8525 +- 0.089
+    assert "the paper's value lies outside our interval" in lines  # 0.9845 vs 0.95 +- 0.025
+    p = t_test_p([0.95, 0.96, 0.94], 0.9845)
+    assert f"all 3 seeds below it; one-sample t-test p = {p:.3f}" in lines
+    mixed = [Group({}, [0, 1, 2], {"right_of_way.fifo_share": mean_ci([0.9] * 3),
+                                   "safety_distance.safe_share": mean_ci([0.97, 0.99, 0.995])})]
+    text = "\n".join(paper_comparison(section.paper_values, mixed))
+    assert "1 of 3 seeds below it, 2 above" in text
+    # inside the interval: how many seeds this spread would need (differences -0.0145, 0.0055, 0.0105
+    # from 0.9845: a mean of 0.0002 against an sd of 0.013, beyond any sweep)
+    assert "at this mean and spread more than 200 seeds would be needed" in text
+
+
+def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():
+    from training.results.stats import _T95, incomplete_beta
+
+    for dof, t in _T95.items():  # the tabulated 95 % quantiles give p = 0.05
+        assert abs(incomplete_beta(dof / 2, 0.5, dof / (dof + t * t)) - 0.05) < 2e-4
+    assert t_test_p([1.0, 2.0, 3.0], 2.0) == pytest.approx(1.0)
+    # t = (2 - 0) / (1 / sqrt 3) = 3.464 with 2 dof: p = 0.0742 (tables)
+    assert t_test_p([1.0, 2.0, 3.0], 0.0) == pytest.approx(0.0742, abs=5e-4)
+    assert t_test_p([0.5], 0.0) is None
+    assert t_test_p([0.5, 0.5], 0.0) == 0.0
+
+
+def test_welch_p_value_and_the_seeds_two_independent_rows_would_need():
+    from training.results.statements import (
+        apart,
+        reference_statement,
+        seeds_needed_apart,
+    )
+    from training.results.stats import welch_p
+
+    # equal spreads and sizes: Welch's t equals Student's, t = 3 / sqrt(2 / 3) = 3.674 with 4 dof: p = 0.0213
+    assert welch_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]) == pytest.approx(0.0213, abs=5e-4)
+    assert welch_p([4.0, 5.0, 6.0], [1.0, 2.0, 3.0]) == welch_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
+    assert welch_p([1.0, 2.0, 3.0], [1.0, 2.0, 3.0]) == pytest.approx(1.0)
+    assert welch_p([1.0], [2.0, 3.0]) is None
+    assert welch_p([1.0, 1.0], [2.0, 2.0]) == 0.0
+    # unequal spreads: fewer degrees of freedom than pooling would give, so a larger p
+    assert welch_p([2.0, 2.1, 2.2, 2.3], [0.0, 3.0, 6.0]) > 0.3
+    # sd 0.01 in each row, means 0.02 apart: k seeds per row tell once t95(dof) * sqrt(2e-4 / k) < 0.02,
+    # with dof = 2 (k - 1): k = 4 (t95(6) = 2.447: 0.0173)
+    assert seeds_needed_apart([0.09, 0.10, 0.11], [0.11, 0.12, 0.13]) == \
+        "; at this difference and spread about 4 seeds per row would tell"
+    assert seeds_needed_apart([0.1, 0.2], [0.1, 0.2]) == ""
+    more = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.118, 0.134, 0.127])})
+    four = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.076, 0.077, 0.114])})
+    line = reference_statement([more], four, "the 4-car row")[0]
+    assert "the intervals overlap: no difference shown, unlike the paper (Welch's t-test p = " in line
+    assert f"p = {welch_p([0.118, 0.134, 0.127], [0.076, 0.077, 0.114]):.3f}; at this difference" in line
+    # overlapping intervals whose difference Welch's test still separates (the 8-car 16 M row against
+    # five 4-car seeds): the verdict follows the test and names no seed count
+    five = Group({}, [0, 1, 2, 3, 4], {"red_light_violation_rate": mean_ci([0.076, 0.0775, 0.114, 0.076, 0.099])})
+    assert apart(five.estimates["red_light_violation_rate"], more.estimates["red_light_violation_rate"]) == 0
+    line = reference_statement([more], five, "the 4-car row")[0]
+    p = welch_p([0.118, 0.134, 0.127], [0.076, 0.0775, 0.114, 0.076, 0.099])
+    assert p < 0.05
+    assert line.endswith("more violations with more cars by Welch's test, though the two intervals overlap, "
+                         f"unlike the paper (Welch's t-test p = {p:.3f}).")
+    apart_ = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.01, 0.011, 0.012])})
+    line = reference_statement([apart_], four, "the 4-car row")[0]
+    assert line.endswith("fewer violations with more cars, intervals apart, as in the paper (Welch's t-test p = "
+                         f"{welch_p([0.01, 0.011, 0.012], [0.076, 0.077, 0.114]):.3f}).")
+
+
+def test_lanes_measures_from_hand_built_trials():
+    import numpy as np
+
+    from training.evaluation import figure_data as fd
+    from training.results.data import HistogramMean, Size, groups_of, metric_value
+    from training.results.reproduce import ran_budget
+    from training.results.rule_parts import ONE_SIDED
+
+    bins = fd.LANE_BINS
+    left = np.zeros(len(bins) - 1)
+    left[3] = 10  # every sample in one bin left of the axis: centre (bins[3] + bins[4]) / 2
+    centre = (bins[3] + bins[4]) / 2
+    row = {"seed": 0, "status": "done", "num_cars": "8", "decisions": 1_536_000,
+           "figures": {"lane_position_counts": left.tolist()}}
+    assert metric_value(row, HistogramMean("lane_position_counts", tuple(bins))) == pytest.approx(centre)
+    assert metric_value(row, ONE_SIDED) == pytest.approx(-centre)  # the size: |mean| > 0 on one side
+    split = dict(row, figures={"lane_position_counts": (left + left[::-1]).tolist()})
+    assert metric_value(split, ONE_SIDED) == pytest.approx(0.0, abs=1e-12)  # both sides in turn: 0
+    assert np.isnan(metric_value({"figures": {}}, Size(HistogramMean("lane_position_counts", tuple(bins)))))
+    # summed over seeds, each seed's histogram is first mirrored to its own majority side
+    right = dict(row, seed=1, figures={"lane_position_counts": left[::-1].tolist()})
+    summary = {"grid": {"num_cars": ["8"]}, "trials": [row, right]}
+    (group,) = groups_of(summary, [ONE_SIDED])
+    assert group.figures["lane_position_counts"][len(bins) - 2 - 3] == 20 and group.figures["lane_position_counts"][3] == 0
+    assert ran_budget([row, right]) == " (each ran 1,536,000 decisions: whole rollouts)"
+    assert ran_budget([row, dict(right, decisions=1_568_000)]) == " (each ran 1,536,000 to 1,568,000 decisions: whole rollouts)"
+
+
+def test_a_grid_point_whose_cars_do_not_arrive_is_called_unlearnt(tmp_path):
+    summary = json.loads(lights_summary(tmp_path / "s.json", VIOLATIONS).read_text())
+    for row in summary["trials"]:
+        if row["num_cars"] == "4" and row["lidar_noise"] == "0":
+            row["success_rate"] = 0.3
+    (tmp_path / "s.json").write_text(json.dumps(summary))
+    page = tmp_path / "results.md"
+    assert main([str(tmp_path / "s.json"), "--out", str(page)]) == 0
+    notes = [line for line in page.read_text().splitlines() if "have not learnt" in line]
+    assert len(notes) == 1 and notes[0].startswith("- lidar_noise=0, num_cars=4: success 0.300")
+
+
+def test_a_lone_car_that_stops_on_red_is_told_apart_from_a_light_blind_driver(tmp_path):
+    from training.results.data import light_blind_violation_rate
+
+    blind = light_blind_violation_rate(1, 0.0, REPORT.start, 200)
+    assert 0.3 < blind < 0.6  # full throttle enters on red about as often as on green
+    summary = lights_summary(tmp_path / "s.json", {**VIOLATIONS, ("0", "1"): [0.05, 0.06, 0.04]})
+    page = tmp_path / "results.md"
+    assert main([str(summary), "--out", str(page)]) == 0
+    lines = [line for line in page.read_text().splitlines() if line.startswith("- 1 car, red-light violations")]
+    # the two noise levels disagree, so each gets its own line and neither claims every level
+    assert len(lines) == 2 and not any("every noise level" in line for line in lines)
+    assert ": noise 0 0.050" in lines[0] and "the lone car reacts to the light" in lines[0]
+    assert ": noise 0.5 " in lines[1] and "the light is ignored" in lines[1]
+
+
+def test_communication_averages_the_correlations_size_and_draws_both_measures_against_noise(tmp_path):
+    trials = []
+    pearson = {"0": [-0.10, 0.12, -0.11], "0.5": [0.20, -0.18, 0.22]}
+    success = {"0": [0.80, 0.70, 0.75], "0.5": [0.80, 0.78, 0.79]}
+    unheard = {"0": [0.73, 0.64, 0.67], "0.5": [0.81, 0.77, 0.79]}  # lost: 0.07, 0.06, 0.08 and -0.01, 0.01, 0
+    for noise, values in pearson.items():
+        for seed, r in enumerate(values):
+            trials.append({"trial": f"real-junction_lidar_noise={noise}_seed={seed}", "behaviour": "real-junction",
+                           "seed": seed, "lidar_noise": noise, "status": "done", "error": "", "report_episodes": 200,
+                           "report_first_seed": REPORT.start, "communication.speaker_consistency_bits": 0.1 + seed / 100,
+                           "communication.pearson_heading_change_bit": r, "success_rate": success[noise][seed],
+                           "messages_unheard.success_rate": unheard[noise][seed]})
+    sweep = {"behaviour": "real-junction", "grid": {"lidar_noise": ["0", "0.5"]}, "seeds": 3,
+             "fixed": {"communication": "true", "num_cars": "8"}, "timesteps": 5887232, "minutes": None,
+             "episodes": 200, "quick": False}
+    (tmp_path / "communication.json").write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(tmp_path / "communication.json"), "--out", str(page)]) == 0
+    section = page.read_text().split("## Turn signals (communication)")[1].split("\n## ")[0]
+    assert "| \\|Pearson(heading change, bit)\\| |" in section and not ragged_tables(page.read_text())
+    assert f"| 0 | 3 | {mean_ci([0.1, 0.11, 0.12]).format()}" in section
+    assert f"{mean_ci([0.10, 0.12, 0.11]).format()} (0.100, 0.120, 0.110)" in section  # sizes, not signed values
+    assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section
+    # the same seeds at both levels: paired by seed
+    assert "- speaker consistency (bits): noise 0" in section and "no rise shown (paired by seed (3 seeds)" in section
+    assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, paired by seed (3 seeds)" in section
+    # the ablation is differenced per trial (the seeds' own success spread cancels), then estimated over seeds
+    lost_0, lost_05 = mean_ci([0.07, 0.06, 0.08]), mean_ci([-0.01, 0.01, 0.0])
+    assert f"{lost_0.format()} (0.070, 0.060, 0.080) |" in section and f"{lost_05.format()} (-0.010, 0.010, " in section
+    # the paper ties reliance to noise, not to one level: the per-level lines claim no agreement
+    assert (f"- success lost with messages unheard (lidar_noise=0): {lost_0.format()}: the listeners rely on the "
+            "message.\n") in section and "The paper ties the listeners' reliance to noise" in section
+    assert "(lidar_noise=0.5): " in section and "straddles zero: neither shown." in section
+    assert "- success lost with messages unheard: noise 0" in section and "falls, paired by seed (3 seeds)" in section
+    assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
+    assert "## Right of way" in page.read_text() and "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]
+
+
+def test_lanes_and_pedestrian_statements_read_the_intervals():
+    from training.results.rule_parts import ONE_SIDED
+    from training.results.sections import section, statements
+
+    lanes = [Group({"num_cars": "2"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.52, 0.60, 0.55]),
+                                                  ONE_SIDED: mean_ci([0.02, 0.04, 0.03]),
+                                                  "success_rate": mean_ci([0.9] * 3)}),
+             Group({"num_cars": "8"}, [0, 1, 2], {"lanes.majority_share": mean_ci([0.97, 1.0, 0.99]),
+                                                  ONE_SIDED: mean_ci([0.33, 0.38, 0.32]),
+                                                  "success_rate": mean_ci([0.9] * 3)})]
+    text = "\n".join(statements(section("lanes"), lanes, {}))
+    assert "more one-sided with 8 cars, intervals apart, as in the paper" in text
+    assert "- one-sided offset: num_cars=2" in text and "further off the axis on one side with 8 cars, intervals apart" in text
+    lanes[1].estimates["lanes.majority_share"] = mean_ci([0.50, 0.70, 0.60])
+    assert "no difference shown, unlike the paper" in "\n".join(statements(section("lanes"), lanes, {}))
+
+    walk = [Group({}, [0, 1, 2], {"share_more_than_6m": mean_ci([0.99, 0.98, 0.995]), "success_rate": mean_ci([0.9] * 3)})]
+    assert "most samples keep more than 6 m, as in the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
+    walk[0].estimates["share_more_than_6m"] = mean_ci([0.2, 0.3, 0.25])
+    assert "unlike the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
+
+
+def test_an_overlap_or_a_straddle_says_how_many_seeds_would_tell():
+    from training.results.statements import (
+        above_statement,
+        apart_statement,
+        seeds_needed,
+        seeds_needed_apart,
+    )
+
+    few = Group({"num_cars": "4"}, [0, 1, 2], {"offset": mean_ci([0.30, 0.35, 0.40])})
+    many = Group({"num_cars": "8"}, [0, 1, 2], {"offset": mean_ci([0.20, 0.60, 0.70])})
+    line = apart_statement("num_cars", "4", "8", "offset", "one-sided offset", "more with 8")([few, many], {})[0]
+    more = seeds_needed_apart([0.30, 0.35, 0.40], [0.20, 0.60, 0.70])
+    assert more.startswith("; at this difference and spread about ")
+    assert line.endswith(f"the intervals overlap: no difference shown, unlike the paper{more}.")
+    # apart: no seed count
+    many.estimates["offset"] = mean_ci([0.60, 0.62, 0.64])
+    line = apart_statement("num_cars", "4", "8", "offset", "one-sided offset", "more with 8")([few, many], {})[0]
+    assert line.endswith("more with 8, intervals apart, as in the paper.")
+
+    # seeds 0.2 / 0.6 / 0.7 against the level 0.1: distances 0.1 / 0.5 / 0.6 (mean 0.4, sd 0.265); three
+    # seeds give 4.303 * 0.265 / sqrt 3 = 0.66 > 0.4, four 3.182 * 0.265 / 2 = 0.42 > 0.4, five
+    # 2.776 * 0.265 / sqrt 5 = 0.33 < 0.4: five would tell
+    lone = Group({"num_cars": "8"}, [0, 1, 2], {"offset": mean_ci([0.20, 0.60, 0.70])})
+    say = above_statement("offset", "one-sided offset", "one side", "on the axis", level=0.1, level_text="0.1")
+    assert seeds_needed([0.1, 0.5, 0.6]) == "; at this mean and spread about 5 seeds would tell"
+    assert say([lone], {})[0].endswith(
+        "the interval straddles 0.1: neither shown; at this mean and spread about 5 seeds would tell.")
+    lone.estimates["offset"] = mean_ci([0.5, 0.6, 0.7])
+    assert say([lone], {})[0].endswith("one side, as in the paper.")
+
+
+def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
+    grid = lights_summary(tmp_path / "lights.json", {**VIOLATIONS, ("0.5", "4"): [0.05, 0.07, 0.06]})
+    trials = [{"trial": f"lights_seed={s}", "behaviour": "lights", "seed": s, "status": "done", "error": "",
+               "report_episodes": 200, "report_first_seed": REPORT.start, "red_light_violation_rate": v,
+               "success_rate": 0.9, "collision_rate": 0.1} for s, v in enumerate([0.010, 0.012, 0.011])]
+    sweep = {"behaviour": "lights", "grid": {}, "seeds": 3, "timesteps": 991552, "minutes": None, "episodes": 200,
+             "quick": False, "fixed": {"num_cars": "8", "lidar_noise": "0.5",
+                                       "init_from": "assets/policies/traffic_lights_4cars_noise05"}}
+    (tmp_path / "dense.json").write_text(json.dumps({"sweep": sweep, "trials": trials}))
+    page = tmp_path / "results.md"
+    assert main([str(grid), str(tmp_path / "dense.json"), "--out", str(page)]) == 0
+    text = page.read_text()
+    dense = text.split("## Denser traffic")[1].split("\n## ")[0]
+    assert "- red-light violations: these trials 0.011" in dense and "fewer violations with more cars, intervals apart" in dense
+    assert "| 0.5 | 4 | 3 |" in text.split("## Stopping at red lights")[1].split("\n## ")[0]  # the grid keeps its own table
+    assert "0.011" not in text.split("## Stopping at red lights")[1].split("\n## ")[0]
+
+
+def test_more_violations_with_more_cars_is_not_called_an_overlap():
+    from training.results.sections import section, statements
+
+    groups = [Group({"lidar_noise": "0", "num_cars": n}, [0, 1, 2],
+                    {"red_light_violation_rate": mean_ci(v), "success_rate": mean_ci([0.9] * 3),
+                     "collision_rate": mean_ci([0.1] * 3)})
+              for n, v in (("1", [0.10, 0.11, 0.12]), ("4", [0.40, 0.41, 0.42]))]
+    text = "\n".join(statements(section("traffic-lights"), groups, {}))
+    assert "4 cars" in text and "more violations with more cars, intervals apart, unlike the paper." in text
+    assert "overlap" not in text
+
+
+def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_points_only():
+    from training.results.sections import section, statements
+
+    def point(noise, cars, violations, success=0.9):
+        return Group({"lidar_noise": noise, "num_cars": cars}, [0, 1, 2],
+                     {"red_light_violation_rate": mean_ci(violations), "success_rate": mean_ci([success] * 3),
+                      "collision_rate": mean_ci([0.1] * 3)})
+
+    groups = [point("0", "4", [0.20, 0.21, 0.22]), point("0.5", "4", [0.15, 0.16, 0.17]),
+              point("0.75", "4", [0.05, 0.06, 0.07]),
+              point("0", "8", [0.10, 0.11, 0.12]), point("0.75", "8", [0.45, 0.46, 0.47], success=0.2)]
+    lines = [line for line in statements(section("traffic-lights"), groups, {}) if "against noise" in line
+             or line.startswith("- 4 cars") or line.startswith("- 8 cars")]
+    # the same seeds at both levels: a paired test (each seed 0.15 lower)
+    assert lines == [f"- 4 cars, red-light violations: noise 0 {mean_ci([0.20, 0.21, 0.22]).format()}, noise 0.75 "
+                     f"{mean_ci([0.05, 0.06, 0.07]).format()}: falls, paired by seed (3 seeds), high minus low noise "
+                     "-0.150 ± 0.000, p = 0.000, as in the paper."]
+    groups[2] = point("0.75", "4", [0.30, 0.31, 0.32])
+    text = "\n".join(statements(section("traffic-lights"), groups, {}))
+    assert "- 4 cars, red-light violations: noise 0" in text and "rises, paired by seed (3 seeds)" in text
+    assert "unlike the paper." in text
+    groups[2] = point("0.75", "4", [0.10, 0.20, 0.30])
+    assert "no fall shown (paired by seed" in "\n".join(statements(section("traffic-lights"), groups, {}))
+
+
+def test_a_noise_trend_is_paired_by_seed_where_the_seeds_match():
+    from training.results.statements import noise_trend, seeds_needed
+
+    def point(noise, violations, seeds=(0, 1, 2)):
+        return Group({"lidar_noise": noise}, list(seeds), {"v": mean_ci(violations)})
+
+    # intervals overlap (the seeds differ a lot from each other), but every seed falls by about 0.02
+    low, high = point("0.25", [0.10, 0.20, 0.30]), point("1.0", [0.08, 0.18, 0.29])
+    diffs = [-0.02, -0.02, -0.01]
+    line = noise_trend([low, high], [("v", "violations")], paper=-1)[0]
+    d = mean_ci(diffs)
+    assert f"falls, paired by seed (3 seeds), high minus low noise {d.mean:+.3f} ± {(d.high - d.low) / 2:.3f}" in line
+    assert f"p = {t_test_p(diffs, 0.0):.3f}, as in the paper." in line
+    # seeds that do not match (0-2 against 3-5): intervals only
+    other = point("1.0", [0.08, 0.18, 0.29], seeds=(3, 4, 5))
+    assert "the intervals overlap: no fall shown" in noise_trend([low, other], [("v", "violations")], paper=-1)[0]
+    # how many seeds a spread would need: a mean of 0.01 with sd 0.01 needs 7 (t95(6) * 0.01 / sqrt(7) < 0.01)
+    assert seeds_needed([0.0, 0.01, 0.02]) == "; at this mean and spread about 7 seeds would tell"
+    assert seeds_needed([0.0, 0.0, 0.0]) == ""
+    assert "no fall shown" in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
+    # a difference not shown still says how many seeds moved the paper's way (here 1 of 3 fall)
+    assert ", unlike the paper; 1 of 3 seeds fall; at this mean" in noise_trend(
+        [low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
+    # every seed falls, by amounts too spread to show: 3 of 3
+    line = noise_trend([low, point("1.0", [0.099, 0.15, 0.25])], [("v", "violations")], paper=-1)[0]
+    assert "no fall shown" in line and "; 3 of 3 seeds fall" in line
+    # no direction reported by the paper: no count
+    assert "seeds fall" not in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=0)[0]
+
+
+def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
+    from training.results.sections import section, statements
+
+    def point(noise, cars, violations, success=0.9):
+        return Group({"lidar_noise": noise, "num_cars": cars}, [0, 1, 2],
+                     {"red_light_violation_rate": mean_ci(violations), "success_rate": mean_ci([success] * 3),
+                      "collision_rate": mean_ci([0.1] * 3)})
+
+    groups = [point(noise, cars, v, s) for noise in ("0", "0.5") for cars, v, s in
+              (("1", [0.40, 0.41, 0.42], 1.0), ("4", [0.05, 0.06, 0.07], 0.9), ("8", [0.45, 0.46, 0.47], 0.2))]
+    lines = statements(section("traffic-lights"), groups, {})
+    fewer = [line for line in lines if line.startswith("- red-light violations, 1 car against 4 cars")]
+    assert len(fewer) == 1 and ", every noise level: noise 0 " in fewer[0] and "; noise 0.5 " in fewer[0]
+    assert fewer[0].endswith("fewer violations with more cars, intervals apart, as in the paper.")
+    unlearnt = [line for line in lines if "have not learnt" in line]
+    assert len(unlearnt) == 1 and unlearnt[0].startswith("- num_cars=8: success noise 0 0.200")
+    assert "; noise 0.5 0.200" in unlearnt[0] and "these rows" in unlearnt[0]
