@@ -1,4 +1,5 @@
-"""Training stack: slot VecEnv semantics, masked buffer, CTDE policy, trainer, inference."""
+"""Training stack: slot VecEnv semantics, the trainer (checkpoints, resume, budgets, fine-tunes),
+the per-behaviour scripts, inference and the CLI; the buffer and the policy have their own files."""
 
 import dataclasses
 import json
@@ -12,9 +13,8 @@ pytest.importorskip("stable_baselines3")
 
 import box2d_driving  # noqa: E402
 from training.behaviours.scripts import QUICK  # noqa: E402
-from training.ppo.buffer import MaskedRolloutBuffer  # noqa: E402
 from training.runs.inference import load_policy  # noqa: E402
-from training.ppo.policy import CTDENetwork, CTDEPolicy, policy_kwargs_for  # noqa: E402
+from training.ppo.policy import CTDEPolicy  # noqa: E402
 from training.trainers.trainer import RunError, TrainConfig, build_model, train  # noqa: E402
 from training.ppo.vec_env import SlotVecEnv  # noqa: E402
 from tests.helpers import (hand_env, level_index, same_checkpoint_weights, straight_car,  # noqa: E402
@@ -77,266 +77,6 @@ def test_vec_env_seeding_is_deterministic_and_attrs_work():
     a.close()
 
 
-def _slot_rows(lay, instances, t, alive):
-    """Slot observations of ``instances`` instances at step ``t``: each car's own observation is
-    ``[t * 100 + slot, 0.5]`` (zeros when dead), the team block and alive flags as the env
-    writes them."""
-    n = lay.n_cars
-    own = np.zeros((instances * n, lay.obs_dim), np.float32)
-    own[:, 0] = t * 100 + np.arange(instances * n)
-    own[:, 1] = 0.5
-    own *= alive[:, None]
-    obs = np.zeros((instances * n, lay.size), np.float32)
-    for k in range(instances):
-        cars = slice(k * n, (k + 1) * n)
-        obs[cars, lay.team] = own[cars].reshape(-1)
-        obs[cars, lay.alive] = alive[cars]
-    obs[:, lay.own] = own
-    obs[:, lay.self_alive] = alive
-    return obs
-
-
-def _filled_buffer(steps, instances, cars, group_size, seed=0):
-    from gymnasium import spaces
-
-    from training.ppo.slots import TeamLayout, slot_observation_space
-
-    lay = TeamLayout(2, cars)
-    space = slot_observation_space(spaces.Box(-1e6, 1e6, (2,), np.float32), cars)
-    slots = instances * cars
-    buf = MaskedRolloutBuffer(steps, space, spaces.Discrete(2), n_envs=slots, layout=lay,
-                              group_size=group_size, gae_lambda=0.9, gamma=0.9)
-    rng = np.random.default_rng(seed)
-    alive = (rng.random((steps, slots)) < 0.7).astype(np.float32)
-    full = []
-    for t in range(steps):
-        full.append(_slot_rows(lay, instances, t, alive[t]))
-        buf.add(full[-1], np.zeros((slots, 1)), np.ones(slots), np.zeros(slots), th.zeros(slots), th.zeros(slots))
-    buf.compute_returns_and_advantage(th.zeros(slots), np.zeros(slots))
-    return buf, lay, alive, np.stack(full)
-
-
-def test_masked_buffer_yields_only_live_transitions_with_their_team_rebuilt():
-    buf, lay, alive, full = _filled_buffer(steps=4, instances=2, cars=3, group_size=1)
-    batches = list(buf.get(batch_size=5))
-    rows = np.concatenate([b.observations.numpy() for b in batches])
-    assert rows.shape[1] == lay.size  # full slot observations, the team block rebuilt
-    ids = rows[:, 0].astype(int)
-    expected = [t * 100 + s for t in range(4) for s in range(6) if alive[t, s]]
-    assert sorted(ids.tolist()) == sorted(expected)  # each live transition once, no padding
-    for row, i in zip(rows, ids):
-        np.testing.assert_array_equal(row, full[i // 100, i % 100])
-    assert buf.n_valid == int(alive.sum())
-
-
-def test_masked_buffer_by_step_packs_whole_steps_into_one_minibatch():
-    steps, instances, cars = 6, 3, 3
-    buf, lay, alive, _ = _filled_buffer(steps, instances, cars, group_size=cars, seed=1)
-    seen, batches = [], list(buf.get(batch_size=4))
-    for batch in batches[:-1]:  # cut after the step that reaches 4 rows, never inside one
-        assert 4 <= len(batch.observations) < 4 + cars
-    for batch in batches:
-        rows = batch.observations.numpy()
-        assert rows.shape[1] == lay.obs_dim + 1  # packed: own observation and group number
-        ids, group = rows[:, 0].astype(int), rows[:, -1].astype(int)
-        assert group[0] == 0 and np.all(np.diff(group) >= 0) and np.all(np.diff(group) <= 1)
-        for g in np.unique(group):
-            members = ids[group == g]
-            steps_of = {(v // 100, (v % 100) // cars) for v in members}  # (t, instance)
-            assert len(steps_of) == 1
-            t, k = steps_of.pop()
-            live = [t * 100 + k * cars + i for i in range(cars) if alive[t, k * cars + i]]
-            assert sorted(members.tolist()) == live  # the group is the step's whole live team
-        seen.extend(ids.tolist())
-    expected = [t * 100 + s for t in range(steps) for s in range(instances * cars) if alive[t, s]]
-    assert sorted(seen) == sorted(expected)  # each live transition exactly once
-
-
-@pytest.mark.parametrize("critic", ["mean", "own+mean", "own"])
-def test_packed_rows_give_the_values_and_gradients_of_full_rows(critic):
-    """The update's packed path (one encoder pass, team mean over a group's rows) computes what
-    the slot-observation path computes, gradients included."""
-    th.manual_seed(0)
-    env = box2d_driving.make("intersection-v0", num_cars=4)
-    net = CTDENetwork(**policy_kwargs_for(env, critic))
-    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)] * 2)
-    venv.seed(2)
-    lay, rows = venv.layout, [venv.reset()]
-    rng = np.random.default_rng(0)
-    for _ in range(40):
-        rows.append(venv.step(rng.integers(0, 13, size=8))[0])
-    full = th.as_tensor(np.concatenate(rows))
-    full = full[full[:, lay.self_alive] > 0.5]  # live rows; a step's team stays together
-    steps = full[:, lay.alive].sum(dim=1)
-    assert (steps < 4).any()  # some cars have finished: dead slots are in the test
-    first = th.ones(len(full), dtype=th.bool)
-    first[1:] = (full[1:, lay.team] != full[:-1, lay.team]).any(dim=1)
-    packed = th.cat([full[:, lay.own], (th.cumsum(first, 0) - 1)[:, None].float()], dim=1)
-    pi_full, vf_full = net(full)
-    grads_full = th.autograd.grad((pi_full.sum() + vf_full.square().sum()), list(net.parameters()))
-    pi_packed, vf_packed = net(packed)
-    grads_packed = th.autograd.grad((pi_packed.sum() + vf_packed.square().sum()), list(net.parameters()))
-    assert th.allclose(pi_packed, pi_full, atol=1e-5) and th.allclose(vf_packed, vf_full, atol=1e-5)
-    assert th.allclose(net.forward_critic(packed), vf_full, atol=1e-5)
-    for g_packed, g_full in zip(grads_packed, grads_full):
-        assert th.allclose(g_packed, g_full, rtol=1e-4, atol=1e-4 * float(g_full.abs().max()))
-
-
-@pytest.mark.parametrize("critic", ["mean", "own+mean"])
-def test_a_rollout_step_takes_the_grouped_path_with_the_same_values(critic):
-    """Whole instances in slot order (a rollout step) are recognised and give what the general
-    path gives, padding slots of finished cars included; anything else takes the general path."""
-    th.manual_seed(1)
-    env = box2d_driving.make("intersection-v0", num_cars=4)
-    net = CTDENetwork(**policy_kwargs_for(env, critic))
-    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)] * 3)
-    venv.seed(5)
-    obs, rng, checked_dead = venv.reset(), np.random.default_rng(1), False
-    for _ in range(30):
-        x = th.as_tensor(obs)
-        assert net._whole_instances(x) is not None
-        pi, vf = net(x)
-        assert th.allclose(pi, net.forward_actor(x), atol=1e-5)
-        assert th.allclose(vf, net.forward_critic(x), atol=1e-5)
-        checked_dead |= bool((x[:, venv.layout.self_alive] == 0).any())
-        obs = venv.step(rng.integers(0, 13, size=12))[0]
-    assert checked_dead
-    x = th.as_tensor(obs)
-    assert net._whole_instances(x[[1, 0, 2, 3] + list(range(4, 12))]) is None  # not in slot order
-    assert net._whole_instances(x[:6]) is None
-
-
-@pytest.mark.parametrize("n_rays", [100, 36, 7])
-def test_fast_lidar_encoder_equals_the_convolution(n_rays):
-    from training.ppo.encoder import LidarEncoder, encode
-
-    th.manual_seed(n_rays)
-    encoders = [LidarEncoder(5, n_rays, 4), LidarEncoder(5, n_rays, 4)]
-    x = th.randn(50, 5 * n_rays + 20)
-    fast, slow = encode(encoders, x), [e.reference(x) for e in encoders]
-    params = [p for e in encoders for p in e.parameters()]
-    g_fast = th.autograd.grad(sum((o * o).sum() for o in fast), params)
-    g_slow = th.autograd.grad(sum((o * o).sum() for o in slow), params)
-    for a, b in zip(fast, slow):
-        assert th.allclose(a, b, atol=1e-5)
-    for a, b in zip(g_fast, g_slow):
-        assert th.allclose(a, b, rtol=1e-4, atol=1e-4 * float(b.abs().max()))
-    assert not th.allclose(g_fast[0], th.zeros_like(g_fast[0]))
-
-
-def test_encoder_without_gradients_equals_the_convolution_and_follows_weight_updates():
-    """The rollout's fused no-gradient path (few rows) and the training path (many rows) give the
-    reference convolution's values, also after an optimiser step changes the weights it caches."""
-    from training.ppo.encoder import FUSED_ROWS, LidarEncoder, encode
-
-    th.manual_seed(1)
-    encoders = [LidarEncoder(5, 100, 4), LidarEncoder(5, 100, 4)]
-    opt = th.optim.SGD([p for e in encoders for p in e.parameters()], lr=0.5)
-    for rows in (64, FUSED_ROWS + 1):
-        x = th.randn(rows, 520)
-        for _ in range(2):
-            with th.no_grad():
-                fast, slow = encode(encoders, x), [e.reference(x) for e in encoders]
-            for a, b in zip(fast, slow):
-                assert th.allclose(a, b, atol=1e-5)
-            opt.zero_grad()
-            sum((o * o).sum() for o in encode(encoders, x)).backward()
-            opt.step()  # new weights: the cached fused matrices must not be reused
-
-
-def test_encoder_stand_ins_keep_shapes_and_gradients_and_only_inside_their_block():
-    """``bench --train``'s bound: within ``encoders_cost_nothing`` the encoders' outputs keep their
-    shapes and pass gradients on; outside it ``encode`` is the convolution again."""
-    from training.ppo.encoder import LidarEncoder, encode, encoders_cost_nothing
-
-    th.manual_seed(2)
-    encoders = [LidarEncoder(5, 100, 4), LidarEncoder(5, 100, 4)]
-    x = th.randn(30, 520)
-    with encoders_cost_nothing():
-        stand_ins = encode(encoders, x)
-    assert [tuple(o.shape) for o in stand_ins] == [(30, e.out_dim) for e in encoders]
-    sum(o.sum() for o in stand_ins).backward()
-    assert all(e.layer2.bias.grad is not None and e.layer1.weight.grad is None for e in encoders)
-    for a, b in zip(encode(encoders, x), [e.reference(x) for e in encoders]):
-        assert th.allclose(a, b, atol=1e-5)
-
-
-def test_critic_encodes_a_repeated_team_once_with_the_same_values():
-    th.manual_seed(0)
-    net, _ = _network()
-    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)] * 2)
-    venv.seed(3)
-    rows = [th.as_tensor(venv.reset())]
-    for _ in range(3):
-        rows.append(th.as_tensor(venv.step(np.zeros(8, dtype=int))[0]))
-    x = th.cat(rows)  # 4 steps x 2 instances x 4 cars, grouped by step
-    encoded = []
-    net.critic_encoder.register_forward_hook(lambda m, i, o: encoded.append(o.shape[0]))
-    grouped = net.forward_critic(x)
-    assert encoded == [8 * 4]  # 8 distinct teams of 4 cars, not 32 rows x 4 cars
-    one_by_one = th.cat([net.forward_critic(x[i:i + 1]) for i in range(x.shape[0])])
-    assert th.allclose(grouped, one_by_one, atol=1e-5)
-    interleaved = th.cat([x[0::2], x[1::2]])  # no repeats next to each other
-    order = th.cat([th.arange(0, 32, 2), th.arange(1, 32, 2)])
-    assert th.allclose(net.forward_critic(interleaved), grouped[order], atol=1e-5)
-
-
-def _network(critic="mean"):
-    env = box2d_driving.make("intersection-v0", num_cars=4)
-    kw = policy_kwargs_for(env, critic)
-    return CTDENetwork(**kw), SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)])
-
-
-@pytest.mark.parametrize("critic", ["mean", "own+mean"])
-def test_value_is_invariant_to_teammate_order_and_dead_slot_garbage(critic):
-    th.manual_seed(0)
-    net, venv = _network(critic)
-    lay = venv.layout
-    x = th.as_tensor(venv.reset())
-    # make the cars distinct so the test can fail
-    x[:, lay.team] += th.rand(lay.n_cars * lay.obs_dim)
-    v = net.forward_critic(x)
-    perm = [2, 0, 3, 1]
-    team = x[:, lay.team].reshape(-1, 4, lay.obs_dim)
-    xp = x.clone()
-    xp[:, lay.team] = team[:, perm].reshape(x.shape[0], -1)
-    xp[:, lay.alive] = x[:, lay.alive][:, perm]
-    assert th.allclose(net.forward_critic(xp), v, atol=1e-5)
-    # car 3 dead: garbage in its slot must not matter
-    xd = x.clone()
-    xd[:, lay.alive.start + 3] = 0
-    v_dead = net.forward_critic(xd)
-    team = xd[:, lay.team].reshape(-1, 4, lay.obs_dim)
-    team[:, 3] = th.randn_like(team[:, 3]) * 1e6
-    xd[:, lay.team] = team.reshape(xd.shape[0], -1)
-    assert th.allclose(net.forward_critic(xd), v_dead, atol=1e-5)
-    assert not th.allclose(v_dead, v, atol=1e-5)  # the mask does matter
-
-
-def test_own_critic_ignores_the_team():
-    th.manual_seed(0)
-    net, venv = _network("own")
-    lay = venv.layout
-    x = th.as_tensor(venv.reset())
-    y = x.clone()
-    y[:, lay.own.stop:] = th.randn_like(y[:, lay.own.stop:])
-    assert th.equal(net.forward_critic(y), net.forward_critic(x))
-
-
-def test_actor_is_blind_to_the_team_block():
-    th.manual_seed(0)
-    net, venv = _network()
-    lay = venv.layout
-    x = th.as_tensor(venv.reset())
-    a = net.forward_actor(x)
-    y = x.clone()
-    y[:, lay.own.stop:] = th.randn_like(y[:, lay.own.stop:]) * 100
-    assert th.equal(net.forward_actor(y), a)
-    z = x.clone()
-    z[:, lay.own] += 0.5
-    assert not th.allclose(net.forward_actor(z), a)
-
-
 def test_model_save_load_round_trip(tmp_path):
     """Weights, Adam moments and step, and the counters survive the safetensors checkpoint."""
     from training.runs.checkpoint import read_checkpoint, restore_model, save_model
@@ -365,12 +105,9 @@ def test_model_save_load_round_trip(tmp_path):
             assert th.equal(value, theirs["state"][idx][name]), (idx, name)
 
 
-_tiny = tiny_train_config
-
-
 def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     out = tmp_path / "run"
-    stats = train(_tiny(), out)
+    stats = train(tiny_train_config(), out)
     assert (out / "model.safetensors").exists() and (out / "config.json").exists()
     assert list((out / "checkpoints").glob("model_*.safetensors"))
     assert not list(out.rglob("*.zip")) and not list(out.rglob("*.partial"))
@@ -378,10 +115,10 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     state = json.loads((out / "state.json").read_text())
     assert state["decisions"] == 320 and state["agent_steps"] > 0
     with pytest.raises(RunError, match="not empty"):
-        train(_tiny(), out)
-    train(_tiny(timesteps=480), out, resume=True)
+        train(tiny_train_config(), out)
+    train(tiny_train_config(timesteps=480), out, resume=True)
     assert json.loads((out / "state.json").read_text())["decisions"] == 480
-    train(_tiny(timesteps=640), out, resume=True)
+    train(tiny_train_config(timesteps=640), out, resume=True)
     logs = sorted(p.name for p in out.glob("progress*.csv"))
     assert logs == ["progress.csv", "progress.resumed_000000000320.csv",
                     "progress.resumed_000000000480.csv"]
@@ -391,14 +128,14 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     from training.evaluation.plots import read_progress
     assert len(read_progress(out)["time/agent_steps"]) == 8  # 4 + 2 + 2 updates, none lost
     with pytest.raises(RunError, match="env_overrides differs"):
-        train(_tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=800), out, resume=True)
+        train(tiny_train_config(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=800), out, resume=True)
     # a wall-clock budget already spent: nothing more is trained
-    assert train(_tiny(timesteps=10_000, max_minutes=0.0), out, resume=True) == {}
+    assert train(tiny_train_config(timesteps=10_000, max_minutes=0.0), out, resume=True) == {}
     assert json.loads((out / "state.json").read_text())["decisions"] == 640
     assert len(list(out.glob("progress*.csv"))) == 3  # and no empty log for it
     assert len(list(out.glob("config.resumed_*.json"))) == 2
     with pytest.raises(RunError, match="no checkpoint"):
-        train(_tiny(), tmp_path / "missing", resume=True)
+        train(tiny_train_config(), tmp_path / "missing", resume=True)
 
     policy = load_policy(out)
     env = policy.make_env()
@@ -418,12 +155,12 @@ def test_a_resumed_run_continues_the_same_way_every_time(tmp_path):
     decisions done, not from the clock or the process."""
     import shutil
 
-    train(_tiny(timesteps=160), tmp_path / "a")
+    train(tiny_train_config(timesteps=160), tmp_path / "a")
     shutil.copytree(tmp_path / "a", tmp_path / "b")
     for name in "ab":
-        train(_tiny(timesteps=320), tmp_path / name, resume=True)
+        train(tiny_train_config(timesteps=320), tmp_path / name, resume=True)
     assert same_checkpoint_weights(tmp_path / "a", tmp_path / "b")
-    train(_tiny(timesteps=320, seed=1), tmp_path / "c")  # a different seed learns differently,
+    train(tiny_train_config(timesteps=320, seed=1), tmp_path / "c")  # a different seed learns differently,
     assert not same_checkpoint_weights(tmp_path / "a", tmp_path / "c")  # so the equality above can fail
 
 
@@ -487,7 +224,7 @@ def test_crosswalk_script_and_evaluation_with_invisible_control(tmp_path):
 
 
 def test_wall_clock_budget_stops_a_run(tmp_path):
-    train(_tiny(timesteps=1_000_000, max_minutes=0.05), tmp_path / "budget")
+    train(tiny_train_config(timesteps=1_000_000, max_minutes=0.05), tmp_path / "budget")
     state = json.loads((tmp_path / "budget" / "state.json").read_text())
     assert 0 < state["decisions"] < 1_000_000
     assert state["wall_s"] >= 3.0
@@ -522,9 +259,9 @@ def test_the_quick_size_is_stated_where_users_read_it():
 def test_init_from_copies_weights_across_car_counts(tmp_path):
     from training.runs.checkpoint import read_checkpoint
 
-    train(_tiny(), tmp_path / "four")
+    train(tiny_train_config(), tmp_path / "four")
     out = tmp_path / "eight"
-    cfg = _tiny(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=80,
+    cfg = tiny_train_config(env_overrides={"num_cars": 3, "horizon": 8}, timesteps=80,
                 init_from=str(tmp_path / "four"))
     cfg.batch_decisions, cfg.n_envs = 3, 1  # one decision per update: weights barely move
     # check the copy itself, before any update
@@ -537,19 +274,19 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
         assert th.equal(model.policy.state_dict()[k], v)
     train(cfg, out)
     assert (out / "model.safetensors").exists()
-    bad = _tiny(env_overrides={"num_cars": 2, "history": 3}, init_from=str(tmp_path / "four"))
+    bad = tiny_train_config(env_overrides={"num_cars": 2, "history": 3}, init_from=str(tmp_path / "four"))
     with pytest.raises(RunError, match="observation layout"):
         train(bad, tmp_path / "bad")
     with pytest.raises(RunError, match="no checkpoint"):
-        train(_tiny(init_from=str(tmp_path / "nope")), tmp_path / "bad2")
+        train(tiny_train_config(init_from=str(tmp_path / "nope")), tmp_path / "bad2")
 
 
 def test_init_from_widens_a_policy_to_the_communication_option(tmp_path):
     from training.trainers.trainer import load_ppo, load_weights
 
-    train(_tiny(), tmp_path / "plain")
+    train(tiny_train_config(), tmp_path / "plain")
     src = load_ppo(tmp_path / "plain").policy
-    cfg = _tiny(env_overrides={"num_cars": 2, "horizon": 8, "communication": True})
+    cfg = tiny_train_config(env_overrides={"num_cars": 2, "horizon": 8, "communication": True})
     venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2, horizon=8, communication=True)])
     model = build_model(cfg, venv)
     load_weights(model, tmp_path / "plain")
@@ -573,7 +310,7 @@ def test_init_from_widens_a_policy_to_the_communication_option(tmp_path):
         assert th.allclose(p_new[:, :n], p_new[:, n:], atol=1e-7)  # the bit is a fair coin
     # a checkpoint whose sat-nav has a field the target lacks cannot be widened
     with pytest.raises(RunError, match="observation layout"):
-        train(_tiny(init_from=str(tmp_path / "plain"), env_overrides={"num_cars": 2, "history": 3}),
+        train(tiny_train_config(init_from=str(tmp_path / "plain"), env_overrides={"num_cars": 2, "history": 3}),
               tmp_path / "bad")
 
 
