@@ -14,6 +14,13 @@ from training.results.figures import against_noise_figure, bars_figure, distribu
 from training.results.page_section import Section
 from training.results.statements import Statement, above_statement, apart_statement, noise_trend_statement
 
+__all__ = ["AGAINST_NOISE", "COMMUNICATION_BUDGET", "COMMUNICATION_CLAIM", "COMMUNICATION_FIGURE",
+           "COMMUNICATION_METRICS", "COMMUNICATION_STATEMENTS", "DENSER_BUDGET", "FAST_LANES_R", "LANE_SIDE_LEVEL",
+           "LANES_BUDGET", "LANES_CURVE_EXTRA", "LANES_FIGURE", "LANES_METRICS", "LANES_NOISE_METRICS",
+           "LANES_PAPER_CLAIM", "LIGHTS_METRICS", "LIGHTS_NOISE_BUDGET", "ONE_SIDED", "ONE_SIDED_WORDS", "PEARSON",
+           "SUCCESS_LOST_UNHEARD", "SWEEP", "lanes_4_vs_8", "lanes_statements"]
+
+
 SWEEP = "box2d-driving sweep"
 # which bit value a run's cars use for what is each run's own choice: the correlation's sign is
 # arbitrary per seed, so its size is what is averaged
