@@ -14,7 +14,8 @@ import box2d_driving
 from box2d_driving.cli import main as cli
 from box2d_driving.maps import MapError, load_map
 from box2d_driving.maps import geometry as geo
-from box2d_driving.maps.nuscenes import arcline_points, import_patch
+from box2d_driving.maps.nuscenes import import_patch
+from box2d_driving.maps.nuscenes_format import arcline_points
 from tests.nuscenes_fixtures import CENTRE, four_way_nuscenes
 
 
@@ -64,6 +65,20 @@ def test_signals_stop_lines_crosswalks_and_area(nus):
         assert geo.distance_to_polylines(s.segment.mean(axis=0)[None], [np.vstack([m.junction_area, m.junction_area[:1]])])[0] < 0.3
     assert m.source["road_segment"] == "junction-0001" and "nuScenes" in m.source["attribution"]
 
+
+
+def test_approaches_without_stop_lines_get_one_at_the_lane_ends():
+    """A file without ``stop_line`` records still imports: each approach's stop line lies across
+    its inbound lane ends, a note says so, and the map names its own road segment."""
+    data = four_way_nuscenes()
+    data["stop_line"] = []
+    m = import_patch(data, centre=tuple(CENTRE + 1.0))
+    assert sorted(s.arm for s in m.stop_lines) == [0, 1, 2, 3]
+    for line in m.stop_lines:
+        end = m.lanes[m.arms[line.arm].lanes_in[0]].centreline[-1]
+        assert np.linalg.norm(line.segment.mean(axis=0) - end) < 1e-6
+        assert f"approach {line.arm}: no stop line in the data; one at the lane ends" in m.notes
+    assert m.source["road_segment"] == "junction-0001" and len(m.signals) == 4
 
 def test_round_trip_and_driving_on_it(nus, tmp_path):
     path = nus.save(tmp_path / "nus.json")

@@ -1,105 +1,36 @@
 """Turn source-independent arm descriptions into a :class:`RoadMap`.
 
 An importer (OSM, or a user's own) describes each road leaving the junction as an
-:class:`ArmSpec`: its axis from the junction centre outwards, lane counts and width, turn lanes,
-signals and crossings found on it. :func:`build_map` then lays out lanes, finds where each arm's
-own carriageway starts (its *mouth*: beyond the overlap with its neighbours, plus a curb radius),
-rounds the corners between neighbouring arms, places crosswalks and stop lines, joins inbound to
-outbound lanes with connectors (Bezier curves, checked for radius and for staying on the road),
-marks conflicting connectors and groups the signals into a two-phase plan.
-
-Lateral positions ``u`` are measured to the right of an arm's outward direction. The carriageway
-is centred on the axis: inbound lanes to the left of ``split``, outbound lanes to its right.
+:class:`~box2d_driving.maps.arm_spec.ArmSpec`: its axis from the junction centre outwards, lane
+counts and width, turn lanes, signals and crossings found on it. :func:`build_map` then lays out
+lanes, finds where each arm's own carriageway starts (its *mouth*: beyond the overlap with its
+neighbours, plus a curb radius), rounds the corners between neighbouring arms, places crosswalks
+and stop lines, joins inbound to outbound lanes with connectors (``connectors.py``: Bezier
+curves, checked for radius and for staying on the road, conflicts marked) and groups the signals
+into a two-phase plan. Each step is one function below, in the order :func:`_build` calls them.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
+from functools import partial
 from typing import Optional
 
 import numpy as np
 
 from box2d_driving.maps import geometry as geo
+from box2d_driving.maps.arm_spec import ArmSpec, arm_angle, strip
 from box2d_driving.maps.config import ImportConfig
+from box2d_driving.maps.connectors import TurnNaming, connect_lanes
 from box2d_driving.maps.mirror import FLIP_Y, mirror_map, swap_turn
-from box2d_driving.maps.roadmap import (Arm, Connector, Crosswalk, Lane, MapError, RoadMap, SignalHead,
+from box2d_driving.maps.roadmap import (Arm, Crosswalk, Lane, MapError, RoadMap, SignalHead,
                                         SpawnRegion, StopLine)
-
-
-@dataclass
-class ArmSpec:
-    """One road leaving the junction, as an importer found it.
-
-    Attributes:
-        centreline: ``(P, 2)`` axis from the junction centre outwards (m).
-        lanes_in / lanes_out: lane counts towards / away from the junction.
-        lane_width: (m).
-        median: extra width between the two directions (dual carriageways) (m).
-        turn_lanes: per inbound lane, left to right, the allowed movements, or None.
-        signals: ``(position, source_id)`` of signal heads found for this approach.
-        crossings: ``(s, kind, source_id)`` of pedestrian crossings, ``s`` along the axis (m).
-    """
-
-    centreline: np.ndarray
-    lanes_in: int
-    lanes_out: int
-    lane_width: float
-    name: str = ""
-    highway: str = ""
-    median: float = 0.0
-    turn_lanes: Optional[list[set[str]]] = None
-    cut: bool = False
-    source_ids: list[int] = field(default_factory=list)
-    signals: list[tuple[np.ndarray, Optional[int]]] = field(default_factory=list)
-    crossings: list[tuple[float, str, Optional[int]]] = field(default_factory=list)
-
-    @property
-    def width(self) -> float:
-        return (self.lanes_in + self.lanes_out) * self.lane_width + self.median
-
-    @property
-    def split(self) -> float:
-        return (self.lanes_in - self.lanes_out) * self.lane_width / 2
-
-    @property
-    def u_left(self) -> float:
-        return -self.width / 2
-
-    @property
-    def u_right(self) -> float:
-        return self.width / 2
-
-    @property
-    def length(self) -> float:
-        return float(geo.cumulative_length(self.centreline)[-1])
-
-    def lane_u(self, direction: str, index: int) -> float:
-        """Lateral position of a lane's centre; ``index`` 0 is the leftmost in its direction."""
-        if direction == "out":
-            return self.split + self.median / 2 + (index + 0.5) * self.lane_width
-        return self.split - self.median / 2 - (index + 0.5) * self.lane_width
-
-
-def arm_angle(centreline: np.ndarray, at: float = 15.0) -> float:
-    """Outward direction of an arm: from the centre to the point ``at`` metres out (rad)."""
-    p = geo.point_at(centreline, at) - centreline[0]
-    return math.atan2(p[1], p[0])
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-def _strip(spec: ArmSpec, start: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Left and right edges of the arm's carriageway from arc length ``start`` outwards."""
-    axis = geo.resample(spec.centreline, 1.0, start)
-    return geo.offset(axis, spec.u_left), geo.offset(axis, spec.u_right)
 
 
 def _mouths(specs: list[ArmSpec], cfg: ImportConfig) -> list[float]:
     """Arc length where each arm stops overlapping the other arms' carriageways, plus the curb."""
-    polys = [np.vstack([l, r[::-1]]) for l, r in (_strip(s) for s in specs)]
+    polys = [np.vstack([l, r[::-1]]) for l, r in (strip(s) for s in specs)]
     out = []
     for i, spec in enumerate(specs):
         last = 0.0
@@ -127,20 +58,6 @@ def _corner(p0: np.ndarray, d0: np.ndarray, p2: np.ndarray, d2: np.ndarray, samp
     return geo.bezier(p0, p0 + hit[0] * d0, p2, samples=samples)
 
 
-def _movement(turn: float, cfg: ImportConfig) -> str:
-    if abs(turn) < cfg.straight_angle:
-        return "straight"
-    if abs(turn) > cfg.uturn_angle:
-        return "uturn"
-    return "left" if turn > 0 else "right"
-
-
-def _default_turns(n: int) -> list[set[str]]:
-    if n == 1:
-        return [{"left", "straight", "right"}]
-    return [{"left", "straight"}] + [{"straight"}] * (n - 2) + [{"straight", "right"}]
-
-
 def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
               signalled: bool = False, notes: Optional[list[str]] = None) -> RoadMap:
     """Lay out a junction from its arms (see the module docstring) for traffic keeping to
@@ -164,17 +81,27 @@ def _mirror_spec(spec: ArmSpec) -> ArmSpec:
                    signals=[(p * FLIP_Y, sid) for p, sid in spec.signals], crossings=list(spec.crossings))
 
 
+@dataclass
+class _Surface:
+    """The carriageway: ``edges`` (curbs, medians, rounded corners), the ``drivable`` polygons (the
+    junction polygon first, then each arm's), and each arm's rounded ``corners`` towards the next."""
+
+    edges: list[np.ndarray]
+    drivable: list[np.ndarray]
+    corners: list[np.ndarray]
+
+    def on_road(self, points: np.ndarray, clearance: float) -> np.ndarray:
+        """Per point: inside a drivable polygon and at least ``clearance`` (m) from every edge."""
+        inside = np.zeros(len(points), dtype=bool)
+        for poly in self.drivable:
+            inside |= geo.points_in_polygon(points, poly)
+        return inside & (geo.distance_to_polylines(points, self.edges) >= clearance)
+
+
 def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, signalled: bool,
            notes: Optional[list[str]], mirrored: bool) -> RoadMap:
     """:func:`build_map` for right-hand traffic; ``mirrored``: the specs are a left-hand
     junction's mirror image (notes then name turns and lanes as they are in reality)."""
-    def shown_lane(lane: Lane) -> int:
-        count = (specs[lane.arm].lanes_in if lane.direction == "in" else specs[lane.arm].lanes_out)
-        return count - 1 - lane.index if mirrored else lane.index
-
-    def shown_turn(movement: str) -> str:
-        return swap_turn(movement) if mirrored else movement
-
     notes = list(notes or [])
     if len(specs) < 3:
         raise MapError(f"{name}: a junction needs at least 3 arms, found {len(specs)}")
@@ -184,8 +111,22 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
         s.centreline = geo.resample(s.centreline, cfg.sample_step)
     mouths = _mouths(specs, cfg)
     angles = [arm_angle(s.centreline) for s in specs]
+    arms, lanes = _lay_lanes(specs, mouths, cfg)
+    surface = _lay_surface(specs, mouths, cfg)
+    crosswalks, stop_lines = _place_crossings(specs, mouths, cfg, notes)
+    junction_area = _junction_area(specs, mouths, surface.corners, crosswalks, stop_lines, cfg)
+    on_road = partial(surface.on_road, clearance=cfg.edge_clearance)
+    connectors = connect_lanes(specs, angles, arms, lanes, on_road, cfg, TurnNaming(specs, mirrored), notes)
+    signals, phases = _place_signals(specs, angles, stop_lines, signalled, notes)
+    return RoadMap(name=name, source=source, size_m=cfg.size_m, arms=arms, lanes=lanes, connectors=connectors,
+                   stop_lines=stop_lines, signals=signals, phases=phases, crosswalks=crosswalks,
+                   drivable=surface.drivable, edges=surface.edges,
+                   spawn_regions=_spawn_regions(lanes, stop_lines, mouths, cfg), junction_area=junction_area,
+                   notes=list(dict.fromkeys(notes)))
 
-    # ---- lanes ---------------------------------------------------------------------------------
+
+def _lay_lanes(specs: list[ArmSpec], mouths: list[float], cfg: ImportConfig) -> tuple[list[Arm], list[Lane]]:
+    """Each arm and its lanes, from its mouth outwards; inbound lanes point towards the junction."""
     arms, lanes = [], []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         axis = geo.resample(spec.centreline, cfg.sample_step / 2, mouth)
@@ -198,11 +139,15 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
                                   width=spec.lane_width, centreline=line[::-1] if direction == "in" else line))
                 ids.append(lanes[-1].id)
         arms.append(arm)
+    return arms, lanes
 
-    # ---- edges, drivable area ------------------------------------------------------------------
+
+def _lay_surface(specs: list[ArmSpec], mouths: list[float], cfg: ImportConfig) -> _Surface:
+    """Curbs and medians of every arm, the rounded corners between neighbouring arms, and the
+    drivable polygons they bound."""
     edges, drivable, junction, corners = [], [], [], []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
-        left, right = _strip(spec, mouth)
+        left, right = strip(spec, mouth)
         edges += [left, right]
         if spec.median > 0:  # a dual carriageway: the median is kerbed, not drivable
             axis = geo.resample(spec.centreline, 1.0, mouth)
@@ -213,22 +158,20 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
         else:
             drivable.append(np.vstack([left, right[::-1]]))
         j = (i + 1) % len(specs)
-        nxt_left, nxt_right = _strip(specs[j], mouths[j])
+        nxt_left, nxt_right = strip(specs[j], mouths[j])
         corner = _corner(left[0], -geo.tangent_at(spec.centreline, mouth), nxt_right[0],
                          -geo.tangent_at(specs[j].centreline, mouths[j]), cfg.corner_samples)
         edges.append(corner)
         junction += [right[0], left[0], *corner[1:-1]]
         corners.append(corner)
     drivable.insert(0, np.array(junction))
-    boundary = list(edges)
+    return _Surface(edges=edges, drivable=drivable, corners=corners)
 
-    def on_road(points: np.ndarray) -> np.ndarray:
-        inside = np.zeros(len(points), dtype=bool)
-        for poly in drivable:
-            inside |= geo.points_in_polygon(points, poly)
-        return inside & (geo.distance_to_polylines(points, boundary) >= cfg.edge_clearance)
 
-    # ---- crosswalks and stop lines -------------------------------------------------------------
+def _place_crossings(specs: list[ArmSpec], mouths: list[float], cfg: ImportConfig,
+                     notes: list[str]) -> tuple[list[Crosswalk], list[StopLine]]:
+    """Crosswalks near the junction (one per ``crosswalk_width`` of arm; far ones left out with a
+    note) and each approach's stop line, behind its crosswalks."""
     crosswalks, stop_lines = [], []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         stop = mouth + cfg.stop_margin
@@ -253,85 +196,50 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
             n = np.array([t[1], -t[0]])
             inner = spec.split - spec.median / 2
             stop_lines.append(StopLine(arm=i, s=float(stop), segment=np.array([p + inner * n, p + spec.u_left * n])))
+    return crosswalks, stop_lines
 
-    # ---- junction area: out to the stop lines, or past the crosswalks of outbound-only arms -----
+
+def _junction_area(specs: list[ArmSpec], mouths: list[float], corners: list[np.ndarray],
+                   crosswalks: list[Crosswalk], stop_lines: list[StopLine], cfg: ImportConfig) -> np.ndarray:
+    """The junction's polygon: out to the stop lines, or past the crosswalks of outbound-only arms."""
     area = []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         line = next((s for s in stop_lines if s.arm == i), None)
         ext = line.s if line is not None else max([mouth] + [c.s + cfg.crosswalk_width / 2
                                                             for c in crosswalks if c.arm == i])
-        left, right = _strip(spec, mouth)
+        left, right = strip(spec, mouth)
         cum = geo.cumulative_length(left)
         k = int(np.searchsorted(cum, ext - mouth))
         up_right = np.vstack([right[:k], geo.point_at(right, ext - mouth)])  # outwards
         down_left = np.vstack([geo.point_at(left, ext - mouth), left[:k][::-1]])  # back in
         area += [*up_right, *down_left, *corners[i][1:-1]]
-    junction_area = geo.dedupe(np.array(area))
+    return geo.dedupe(np.array(area))
 
-    # ---- connectors ----------------------------------------------------------------------------
-    connectors: list[Connector] = []
-    for i, spec in enumerate(specs):
-        if not spec.lanes_in:
-            continue
-        turns = spec.turn_lanes if spec.turn_lanes and len(spec.turn_lanes) == spec.lanes_in else None
-        if spec.turn_lanes and turns is None:
-            notes.append(f"arm {spec.name!r}: turn:lanes lists {len(spec.turn_lanes)} lanes, not "
-                         f"{spec.lanes_in}; default turn lanes used")
-        allowed = turns or _default_turns(spec.lanes_in)
-        targets = []  # (arm j, movement)
-        for j, other in enumerate(specs):
-            if j != i and other.lanes_out:
-                movement = _movement(_wrap(angles[j] - _wrap(angles[i] + math.pi)), cfg)
-                if movement != "uturn":
-                    targets.append((j, movement))
-        possible = {m for _, m in targets}
-        allowed = [a & possible or set(possible) for a in allowed]  # a lane with no such arm serves all
-        for j, movement in targets:
-            from_lanes = [arms[i].lanes_in[k] for k in range(spec.lanes_in) if movement in allowed[k]]
-            to_lanes = list(arms[j].lanes_out)
-            if movement == "right":
-                from_lanes, to_lanes = from_lanes[::-1], to_lanes[::-1]
-            for k, fl in enumerate(from_lanes):
-                tl = to_lanes[min(k, len(to_lanes) - 1)]
-                a, b = lanes[fl].centreline, lanes[tl].centreline
-                p0, p3 = a[-1], b[0]
-                d0 = (a[-1] - a[-2]) / np.linalg.norm(a[-1] - a[-2])
-                d3 = (b[1] - b[0]) / np.linalg.norm(b[1] - b[0])
-                h = cfg.connector_handle * np.linalg.norm(p3 - p0)
-                path = geo.bezier(p0, p0 + h * d0, p3 - h * d3, p3)
-                radius = geo.min_radius(path)
-                label = (f"{shown_turn(movement)} from {spec.name!r} lane {shown_lane(lanes[fl])} "
-                         f"to {specs[j].name!r} lane {shown_lane(lanes[tl])}")
-                if radius < cfg.min_turn_radius:
-                    notes.append(f"connector {label} left out: radius {radius:.1f} m")
-                    continue
-                if not on_road(path).all():
-                    notes.append(f"connector {label} left out: it leaves the carriageway")
-                    continue
-                connectors.append(Connector(id=len(connectors), from_lane=fl, to_lane=tl, movement=movement,
-                                            path=path, min_radius=radius))
-    mark_conflicts(connectors)
-    served = {c.from_lane for c in connectors}
-    for lane in lanes:
-        if lane.direction == "in" and lane.id not in served:
-            notes.append(f"inbound lane {shown_lane(lane)} of {specs[lane.arm].name!r} has no connector")
 
-    # ---- signals -------------------------------------------------------------------------------
+def _place_signals(specs: list[ArmSpec], angles: list[float], stop_lines: list[StopLine], signalled: bool,
+                   notes: list[str]) -> tuple[list[SignalHead], list[list[int]]]:
+    """A signal head at each stop line and the two-phase plan, when the junction is signalled
+    (``signalled``, or any arm found a head); a head no arm found is inferred, with a note."""
     signals: list[SignalHead] = []
-    phases: list[list[int]] = []
-    if signalled or any(s.signals for s in specs):
-        groups = signal_groups(angles, [s.lanes_in for s in specs], [s.lanes_out for s in specs])
-        for i, spec in enumerate(specs):
-            line = next((s for s in stop_lines if s.arm == i), None)
-            if line is None:
-                continue
-            found = spec.signals[0] if spec.signals else None
-            signals.append(SignalHead(id=len(signals), arm=i, group=groups[i], position=line.segment.mean(axis=0),
-                                      source_id=None if found is None else found[1], inferred=found is None))
-            if found is None:
-                notes.append(f"approach {spec.name!r}: no signal node found; signal head inferred")
-        phases = [[g] for g in sorted({h.group for h in signals})]
+    if not (signalled or any(s.signals for s in specs)):
+        return signals, []
+    groups = signal_groups(angles, [s.lanes_in for s in specs], [s.lanes_out for s in specs])
+    for i, spec in enumerate(specs):
+        line = next((s for s in stop_lines if s.arm == i), None)
+        if line is None:
+            continue
+        found = spec.signals[0] if spec.signals else None
+        signals.append(SignalHead(id=len(signals), arm=i, group=groups[i], position=line.segment.mean(axis=0),
+                                  source_id=None if found is None else found[1], inferred=found is None))
+        if found is None:
+            notes.append(f"approach {spec.name!r}: no signal node found; signal head inferred")
+    return signals, [[g] for g in sorted({h.group for h in signals})]
 
+
+def _spawn_regions(lanes: list[Lane], stop_lines: list[StopLine], mouths: list[float],
+                   cfg: ImportConfig) -> list[SpawnRegion]:
+    """Where cars may start on each inbound lane: from its outer end to ``spawn_gap`` before its
+    stop line."""
     spawns = []
     for lane in lanes:
         if lane.direction == "in":
@@ -340,17 +248,7 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
             hi = length - (line.s - mouths[lane.arm]) - cfg.spawn_gap
             if hi > 0:
                 spawns.append(SpawnRegion(lane=lane.id, s_range=(0.0, hi)))
-    return RoadMap(name=name, source=source, size_m=cfg.size_m, arms=arms, lanes=lanes, connectors=connectors,
-                   stop_lines=stop_lines, signals=signals, phases=phases, crosswalks=crosswalks,
-                   drivable=drivable, edges=edges, spawn_regions=spawns, junction_area=junction_area,
-                   notes=list(dict.fromkeys(notes)))
-
-
-def mark_conflicts(connectors: list[Connector]) -> None:
-    """Connectors from different lanes conflict if their paths cross or they end on one lane."""
-    for c in connectors:
-        c.conflicts = [d.id for d in connectors if d.from_lane != c.from_lane
-                       and (d.to_lane == c.to_lane or geo.polylines_cross(c.path, d.path))]
+    return spawns
 
 
 def signal_groups(angles: list[float], lanes_in: list[int], lanes_out: list[int]) -> list[int]:

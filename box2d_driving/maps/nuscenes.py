@@ -19,87 +19,23 @@ same :class:`RoadMap` the OSM importer does, with nuScenes' own geometry:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Union
 
 import numpy as np
 
 from box2d_driving.maps import geometry as geo
-from box2d_driving.maps.build import mark_conflicts, signal_groups
+from box2d_driving.maps.build import signal_groups
 from box2d_driving.maps.config import ImportConfig
+from box2d_driving.maps.connectors import classify_turn, mark_conflicts
+from box2d_driving.maps.nuscenes_format import Layers, pick_intersection
 from box2d_driving.maps.parse import read_json
 from box2d_driving.maps.roadmap import (Arm, Connector, Crosswalk, Lane, MapError, RoadMap, SignalHead,
                                         SpawnRegion, StopLine)
 from box2d_driving.road.geometry import Path as TrackPath
 
 LICENCE = {"licence": "nuScenes terms of use (CC BY-NC-SA 4.0)", "attribution": "nuScenes map expansion (Motional)"}
-_SIGN = {"L": 1.0, "S": 0.0, "R": -1.0}
-
-
-def arcline_points(path: dict, step: float = 0.5) -> np.ndarray:
-    """Points along one ``arcline_path_3``: from ``start_pose`` (x, y, yaw), each of the three
-    pieces of ``shape`` (L: left arc, S: straight, R: right arc, radius ``radius``) for its
-    ``segment_length``."""
-    x, y, yaw = (float(v) for v in path["start_pose"][:3])
-    r = float(path.get("radius", 0.0))
-    pts = [(x, y)]
-    for kind, length in zip(path["shape"], path["segment_length"]):
-        length = float(length)
-        if length <= 0:
-            continue
-        sign = _SIGN[kind]
-        n = max(int(math.ceil(length / step)), 1)
-        for k in range(1, n + 1):
-            s = length * k / n
-            if sign == 0 or r <= 0:
-                px, py = x + s * math.cos(yaw), y + s * math.sin(yaw)
-            else:
-                turn = sign * s / r
-                px = x + sign * r * (math.sin(yaw + turn) - math.sin(yaw))
-                py = y - sign * r * (math.cos(yaw + turn) - math.cos(yaw))
-            pts.append((px, py))
-        if sign == 0 or r <= 0:
-            x, y = x + length * math.cos(yaw), y + length * math.sin(yaw)
-        else:
-            turn = sign * length / r
-            x += sign * r * (math.sin(yaw + turn) - math.sin(yaw))
-            y -= sign * r * (math.cos(yaw + turn) - math.cos(yaw))
-            yaw += turn
-    return geo.dedupe(np.array(pts))
-
-
-class _Layers:
-    """Token lookups over the map-expansion layers."""
-
-    def __init__(self, data: dict, where: str) -> None:
-        for key in ("node", "polygon", "lane", "lane_connector", "road_segment", "arcline_path_3", "connectivity"):
-            if key not in data:
-                raise MapError(f"{where}: not a nuScenes map-expansion file (no {key!r} layer)")
-        self.data = data
-        self.node = {n["token"]: (float(n["x"]), float(n["y"])) for n in data["node"]}
-        self.polygon = {p["token"]: p for p in data["polygon"]}
-        self.line = {ln["token"]: ln for ln in data.get("line", [])}
-        self.where = where
-
-    def ring(self, tokens: list[str]) -> np.ndarray:
-        try:
-            return np.array([self.node[t] for t in tokens])
-        except KeyError as exc:
-            raise MapError(f"{self.where}: node {exc} is referenced but not defined") from None
-
-    def polygon_ring(self, token: str) -> np.ndarray:
-        if token not in self.polygon:
-            raise MapError(f"{self.where}: polygon {token!r} is referenced but not defined")
-        return self.ring(self.polygon[token]["exterior_node_tokens"])
-
-    def polygon_holes(self, token: str) -> list[np.ndarray]:
-        return [self.ring(h["node_tokens"]) for h in self.polygon[token].get("holes", [])]
-
-    def centreline(self, token: str) -> Optional[np.ndarray]:
-        paths = self.data["arcline_path_3"].get(token)
-        if not paths:
-            return None
-        return geo.dedupe(np.vstack([arcline_points(p) for p in paths]))
 
 
 def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, float], str, None] = None,
@@ -110,177 +46,279 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
     cfg = cfg or ImportConfig()
     where = "nuScenes map" if isinstance(source, dict) else str(source)
     data = source if isinstance(source, dict) else read_json(source, "nuScenes map file")
-    L = _Layers(data, where)
-    seg = _pick_intersection(L, centre)
-    jpoly_abs = L.polygon_ring(seg["polygon_token"])
-    origin = jpoly_abs.mean(axis=0)
-    half = cfg.size_m / 2
+    layers = Layers(data, where)
+    segment = pick_intersection(layers, centre)
+    junction_abs = layers.polygon_ring(segment["polygon_token"])
+    frame = _Frame(origin=junction_abs.mean(axis=0), half=cfg.size_m / 2)
+    junction = frame.local(junction_abs)
     notes: list[str] = []
 
-    def local(p: np.ndarray) -> np.ndarray:
-        return np.asarray(p, float) - origin
-
-    jpoly = local(jpoly_abs)
-    conn_paths = {}
-    for rec in data["lane_connector"]:
-        line = L.centreline(rec["token"])
-        if line is not None and geo.points_in_polygon(local(line)[len(line) // 2:len(line) // 2 + 1], jpoly)[0]:
-            conn_paths[rec["token"]] = local(line)
-    lane_lines = {}
-    lane_width = {}
-    for rec in data["lane"]:
-        if rec.get("lane_type", "CAR") != "CAR":
-            continue
-        line = L.centreline(rec["token"])
-        if line is None:
-            continue
-        line = local(line)
-        inside = np.max(np.abs(line), axis=1) <= half
-        if inside.sum() < 2:
-            continue
-        lane_lines[rec["token"]] = line
-        poly = L.polygon_ring(rec["polygon_token"]) if rec.get("polygon_token") in L.polygon else None
-        length = float(geo.cumulative_length(line)[-1])
-        if poly is not None and length > 0:
-            x, y = poly[:, 0], poly[:, 1]
-            area = 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1)))
-            lane_width[rec["token"]] = float(np.clip(area / length, *cfg.lane_width_range))
-    connectivity = data["connectivity"]
-    links = []  # (in lane token, connector token, out lane token)
-    for ct in conn_paths:
-        ins = [t for t in connectivity.get(ct, {}).get("incoming", []) if t in lane_lines]
-        outs = [t for t in connectivity.get(ct, {}).get("outgoing", []) if t in lane_lines]
-        links += [(i, ct, o) for i in ins for o in outs]
+    connector_paths = _junction_connectors(layers, frame, junction)
+    lane_lines, lane_widths = _car_lanes(layers, frame, cfg)
+    links = _links(layers, connector_paths, lane_lines)
     if not links:
-        raise MapError(f"{where}: no lane connector of intersection {seg['token']!r} links two lanes")
+        raise MapError(f"{where}: no lane connector of intersection {segment['token']!r} links two lanes")
     inbound = sorted({i for i, _, _ in links})
     outbound = sorted({o for _, _, o in links})
     if set(inbound) & set(outbound):
         raise MapError(f"{where}: lanes {sorted(set(inbound) & set(outbound))} both enter and leave the junction")
+    approaches = _group_approaches(lane_lines, inbound, outbound, frame, lane_widths, cfg)
+    if len(approaches.arms) < 3:
+        raise MapError(f"{where}: intersection {segment['token']!r} has {len(approaches.arms)} approaches; "
+                       "need at least 3")
+    connectors = _connect(links, connector_paths, approaches.lane_id, cfg)
+    stop_lines = _stop_lines(layers, frame, approaches, notes)
+    signals = _signals(layers, frame, approaches, stop_lines, notes)
+    crosswalks = _crosswalks(layers, frame, approaches)
+    drivable, edges = _surface(layers, frame, junction)
+    if not edges:
+        raise MapError(f"{where}: no drivable_area boundary near intersection {segment['token']!r}")
+    area = geo.convex_hull(np.vstack([junction] + [x.segment for x in stop_lines]))
+    described = {"kind": "nuscenes-map-expansion", "file": None if isinstance(source, dict) else Path(source).name,
+                 "road_segment": segment["token"], "centre_xy": [float(v) for v in frame.origin], **LICENCE}
+    return RoadMap(name=name or f"nuscenes_{segment['token'][:8]}", source=described, size_m=cfg.size_m,
+                   arms=approaches.arms, lanes=approaches.lanes, connectors=connectors, stop_lines=stop_lines,
+                   signals=signals, phases=[[g] for g in sorted({h.group for h in signals})], crosswalks=crosswalks,
+                   drivable=drivable, edges=edges, spawn_regions=_spawn_regions(approaches.lanes, stop_lines, cfg),
+                   junction_area=area, notes=list(dict.fromkeys(notes)))
 
-    # clip each lane to the square (keep the piece touching the junction) and group into arms
+
+@dataclass
+class _Frame:
+    """The map's local frame: metres from the junction polygon's centroid ``origin`` (in the
+    file's coordinates), cut to the square of half-side ``half``."""
+
+    origin: np.ndarray
+    half: float
+
+    def local(self, points: np.ndarray) -> np.ndarray:
+        return np.asarray(points, float) - self.origin
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        """Per local point: within the square."""
+        return np.max(np.abs(points), axis=-1) <= self.half
+
+
+@dataclass
+class _Approaches:
+    """The junction's arms (lanes grouped by the bearing of their junction end), their lanes,
+    each arm's outward direction (rad) and each nuScenes lane token's lane id."""
+
+    arms: list[Arm]
+    lanes: list[Lane]
+    angles: list[float]
+    lane_id: dict[str, int]
+
+    def nearest(self, p: np.ndarray, need_in: bool) -> Optional[int]:
+        """The arm whose direction is nearest the bearing of local point ``p`` (within 45
+        degrees; with ``need_in``, only arms with inbound lanes), or None."""
+        b = math.atan2(p[1], p[0])
+        cands = [(abs(math.remainder(b - self.angles[k], 2 * math.pi)), k) for k in range(len(self.arms))
+                 if self.arms[k].lanes_in or not need_in]
+        best = min(cands, default=None)
+        return None if best is None or best[0] > math.radians(45) else best[1]
+
+    def along(self, k: int, p: np.ndarray) -> float:
+        """Distance of local point ``p`` along arm ``k``'s outward direction (m)."""
+        out = self.arms[k].centreline[-1]
+        return float(p @ out / np.linalg.norm(out))
+
+
+def _junction_connectors(layers: Layers, frame: _Frame, junction: np.ndarray) -> dict[str, np.ndarray]:
+    """The ``lane_connector`` centre lines (local) whose midpoint lies in the junction polygon."""
+    paths = {}
+    for rec in layers.data["lane_connector"]:
+        line = layers.centreline(rec["token"])
+        if line is not None and geo.points_in_polygon(frame.local(line)[len(line) // 2:len(line) // 2 + 1],
+                                                      junction)[0]:
+            paths[rec["token"]] = frame.local(line)
+    return paths
+
+
+def _car_lanes(layers: Layers, frame: _Frame, cfg: ImportConfig) -> tuple[dict[str, np.ndarray], dict[str, float]]:
+    """Centre lines (local) of the car lanes reaching into the square, and their widths where the
+    lane polygon gives one (its area over the centre line's length, clipped to
+    ``cfg.lane_width_range``)."""
+    lines, widths = {}, {}
+    for rec in layers.data["lane"]:
+        if rec.get("lane_type", "CAR") != "CAR":
+            continue
+        line = layers.centreline(rec["token"])
+        if line is None:
+            continue
+        line = frame.local(line)
+        if frame.inside(line).sum() < 2:
+            continue
+        lines[rec["token"]] = line
+        poly = layers.polygon_ring(rec["polygon_token"]) if rec.get("polygon_token") in layers.polygon else None
+        length = float(geo.cumulative_length(line)[-1])
+        if poly is not None and length > 0:
+            x, y = poly[:, 0], poly[:, 1]
+            area = 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1)))
+            widths[rec["token"]] = float(np.clip(area / length, *cfg.lane_width_range))
+    return lines, widths
+
+
+def _links(layers: Layers, connector_paths: dict[str, np.ndarray],
+           lane_lines: dict[str, np.ndarray]) -> list[tuple[str, str, str]]:
+    """(inbound lane, connector, outbound lane) tokens that ``connectivity`` joins through the
+    junction's connectors."""
+    connectivity = layers.data["connectivity"]
+    links = []
+    for ct in connector_paths:
+        ins = [t for t in connectivity.get(ct, {}).get("incoming", []) if t in lane_lines]
+        outs = [t for t in connectivity.get(ct, {}).get("outgoing", []) if t in lane_lines]
+        links += [(i, ct, o) for i in ins for o in outs]
+    return links
+
+
+def _group_approaches(lane_lines: dict[str, np.ndarray], inbound: list[str], outbound: list[str], frame: _Frame,
+                      lane_widths: dict[str, float], cfg: ImportConfig) -> _Approaches:
+    """Each lane clipped to the square (the piece touching the junction) and the lanes grouped into
+    arms: neighbours by the bearing of their junction end closer than 35 degrees share an arm."""
     lines = {}
     for t in inbound + outbound:
-        line = lane_lines[t]
-        inside = np.max(np.abs(line), axis=1) <= half
-        idx = np.flatnonzero(inside)
-        lines[t] = line[idx[0]:idx[-1] + 1]
+        idx = np.flatnonzero(frame.inside(lane_lines[t]))
+        lines[t] = lane_lines[t][idx[0]:idx[-1] + 1]
     junction_end = {t: (lines[t][-1] if t in inbound else lines[t][0]) for t in lines}
     bearing = {t: math.atan2(p[1], p[0]) for t, p in junction_end.items()}
+
+    def close(a: str, b: str) -> bool:
+        return abs(math.remainder(bearing[a] - bearing[b], 2 * math.pi)) < math.radians(35)
+
     arms_of: list[list[str]] = []
     for t in sorted(lines, key=lambda t: bearing[t]):
-        if arms_of and abs(math.remainder(bearing[t] - bearing[arms_of[-1][0]], 2 * math.pi)) < math.radians(35):
+        if arms_of and close(t, arms_of[-1][0]):
             arms_of[-1].append(t)
         else:
             arms_of.append([t])
-    if len(arms_of) > 1 and abs(math.remainder(bearing[arms_of[0][0]] - bearing[arms_of[-1][0]], 2 * math.pi)) < math.radians(35):
+    if len(arms_of) > 1 and close(arms_of[0][0], arms_of[-1][0]):  # the group across +-180 degrees
         arms_of[0] = arms_of.pop() + arms_of[0]
-    if len(arms_of) < 3:
-        raise MapError(f"{where}: intersection {seg['token']!r} has {len(arms_of)} approaches; need at least 3")
 
-    arms, lanes, lane_id = [], [], {}
-    angles = []
+    arms, lanes, lane_id, angles = [], [], {}, []
     for k, tokens in enumerate(arms_of):
         a = math.atan2(np.mean([math.sin(bearing[t]) for t in tokens]), np.mean([math.cos(bearing[t]) for t in tokens]))
         out_dir = np.array([math.cos(a), math.sin(a)])
         right = np.array([out_dir[1], -out_dir[0]])
         reach = max(float(np.max(lines[t] @ out_dir)) for t in tokens)
         mouth = float(min(junction_end[t] @ out_dir for t in tokens))
-        arm = Arm(id=k, name=f"approach {k}", highway="", centreline=np.array([[0.0, 0.0], out_dir * max(reach, mouth + 1)]),
-                  mouth=max(mouth, 0.0), lanes_in=[], lanes_out=[], source_ids=sorted(tokens))
+        axis = np.array([[0.0, 0.0], out_dir * max(reach, mouth + 1)])
+        arm = Arm(id=k, name=f"approach {k}", highway="", centreline=axis, mouth=max(mouth, 0.0),
+                  lanes_in=[], lanes_out=[], source_ids=sorted(tokens))
         for direction, ids, sign in (("in", arm.lanes_in, -1.0), ("out", arm.lanes_out, 1.0)):
             members = [t for t in tokens if (t in inbound) == (direction == "in")]
             members.sort(key=lambda t: sign * float(junction_end[t] @ right))  # leftmost first
             for index, t in enumerate(members):
                 lane_id[t] = len(lanes)
                 lanes.append(Lane(id=len(lanes), arm=k, direction=direction, index=index,
-                                  width=lane_width.get(t, cfg.lane_width), centreline=lines[t]))
+                                  width=lane_widths.get(t, cfg.lane_width), centreline=lines[t]))
                 ids.append(lane_id[t])
         arms.append(arm)
         angles.append(a)
+    return _Approaches(arms=arms, lanes=lanes, angles=angles, lane_id=lane_id)
 
+
+def _connect(links: list[tuple[str, str, str]], connector_paths: dict[str, np.ndarray], lane_id: dict[str, int],
+             cfg: ImportConfig) -> list[Connector]:
+    """A connector per link (U-turns left out), its movement from the turn between its ends, with
+    conflicts marked."""
     connectors = []
     for i, ct, o in links:
-        path = conn_paths[ct]
+        path = connector_paths[ct]
         d0, d1 = path[1] - path[0], path[-1] - path[-2]
         turn = math.remainder(math.atan2(d1[1], d1[0]) - math.atan2(d0[1], d0[0]), 2 * math.pi)
-        movement = ("straight" if abs(turn) < cfg.straight_angle else "uturn" if abs(turn) > cfg.uturn_angle
-                    else "left" if turn > 0 else "right")
+        movement = classify_turn(turn, cfg)
         if movement == "uturn":
             continue
         connectors.append(Connector(id=len(connectors), from_lane=lane_id[i], to_lane=lane_id[o], movement=movement,
                                     path=path, min_radius=geo.min_radius(path)))
     mark_conflicts(connectors)
+    return connectors
 
-    def nearest_arm(p: np.ndarray, need_in: bool) -> Optional[int]:
-        b = math.atan2(p[1], p[0])
-        cands = [(abs(math.remainder(b - angles[k], 2 * math.pi)), k) for k in range(len(arms))
-                 if arms[k].lanes_in or not need_in]
-        best = min(cands, default=None)
-        return None if best is None or best[0] > math.radians(45) else best[1]
 
-    stop_lines = []
-    for rec in data.get("stop_line", []):
-        poly = local(L.polygon_ring(rec["polygon_token"]))
+def _stop_lines(layers: Layers, frame: _Frame, approaches: _Approaches, notes: list[str]) -> list[StopLine]:
+    """Each approach's stop line: the ``stop_line`` polygon nearest the junction on it, as its long
+    axis; where the data has none, one across the lane ends (with a note)."""
+    stop_lines: list[StopLine] = []
+    for rec in layers.data.get("stop_line", []):
+        poly = frame.local(layers.polygon_ring(rec["polygon_token"]))
         c = poly.mean(axis=0)
-        k = nearest_arm(c, True) if np.max(np.abs(c)) <= half else None
+        k = approaches.nearest(c, True) if frame.inside(c) else None
         if k is None:
             continue
-        s = float(c @ arms[k].centreline[-1] / np.linalg.norm(arms[k].centreline[-1]))
+        s = approaches.along(k, c)
         prev = next((x for x in stop_lines if x.arm == k), None)
         if prev is None or s < prev.s:
             stop_lines = [x for x in stop_lines if x.arm != k] + [StopLine(arm=k, s=s, segment=geo.long_axis(poly))]
-    for arm in arms:
+    for arm in approaches.arms:
         if arm.lanes_in and not any(x.arm == arm.id for x in stop_lines):
-            ends = np.array([lanes[t].centreline[-1] for t in arm.lanes_in])
-            seg = ends[[0, -1]] if len(ends) > 1 else np.array([ends[0] - 1e-3, ends[0] + 1e-3])
-            stop_lines.append(StopLine(arm=arm.id, s=arm.mouth, segment=seg))
+            ends = np.array([approaches.lanes[t].centreline[-1] for t in arm.lanes_in])
+            across = ends[[0, -1]] if len(ends) > 1 else np.array([ends[0] - 1e-3, ends[0] + 1e-3])
+            stop_lines.append(StopLine(arm=arm.id, s=arm.mouth, segment=across))
             notes.append(f"approach {arm.id}: no stop line in the data; one at the lane ends")
     stop_lines.sort(key=lambda x: x.arm)
+    return stop_lines
 
-    signals = []
-    lights = [t for t in data.get("traffic_light", [])]
+
+def _signals(layers: Layers, frame: _Frame, approaches: _Approaches, stop_lines: list[StopLine],
+             notes: list[str]) -> list[SignalHead]:
+    """When any ``traffic_light`` lies on an approach, a signal head at every stop line (those no
+    light was found for inferred, with a note) in a two-phase plan; else none."""
     found: dict[int, Any] = {}
-    for rec in lights:
+    for rec in layers.data.get("traffic_light", []):
         pose = rec.get("pose", {})
-        p = local(np.array([pose.get("tx", np.nan), pose.get("ty", np.nan)], float))
-        if not np.all(np.isfinite(p)) and rec.get("line_token") in L.line:
-            p = local(L.ring(L.line[rec["line_token"]]["node_tokens"]).mean(axis=0))
-        if np.all(np.isfinite(p)) and np.max(np.abs(p)) <= half:
-            k = nearest_arm(p, True)
+        p = frame.local(np.array([pose.get("tx", np.nan), pose.get("ty", np.nan)], float))
+        if not np.all(np.isfinite(p)) and rec.get("line_token") in layers.line:
+            p = frame.local(layers.ring(layers.line[rec["line_token"]]["node_tokens"]).mean(axis=0))
+        if np.all(np.isfinite(p)) and frame.inside(p):
+            k = approaches.nearest(p, True)
             if k is not None and k not in found:
                 found[k] = rec["token"]
-    if found:
-        groups = signal_groups(angles, [len(a.lanes_in) for a in arms], [len(a.lanes_out) for a in arms])
-        for line in stop_lines:
-            signals.append(SignalHead(id=len(signals), arm=line.arm, group=groups[line.arm],
-                                      position=line.segment.mean(axis=0), source_id=found.get(line.arm),
-                                      inferred=line.arm not in found))
-            if line.arm not in found:
-                notes.append(f"approach {line.arm}: no traffic light found; signal head inferred")
-    crosswalks = []
-    for rec in data.get("ped_crossing", []):
-        poly = local(L.polygon_ring(rec["polygon_token"]))
-        c = poly.mean(axis=0)
-        k = nearest_arm(c, False) if np.max(np.abs(c)) <= half else None
-        if k is not None:
-            s = float(c @ arms[k].centreline[-1] / np.linalg.norm(arms[k].centreline[-1]))
-            crosswalks.append(Crosswalk(arm=k, s=s, polygon=poly, kind="ped_crossing", source_id=rec["token"]))
+    signals: list[SignalHead] = []
+    if not found:
+        return signals
+    arms = approaches.arms
+    groups = signal_groups(approaches.angles, [len(a.lanes_in) for a in arms], [len(a.lanes_out) for a in arms])
+    for line in stop_lines:
+        signals.append(SignalHead(id=len(signals), arm=line.arm, group=groups[line.arm],
+                                  position=line.segment.mean(axis=0), source_id=found.get(line.arm),
+                                  inferred=line.arm not in found))
+        if line.arm not in found:
+            notes.append(f"approach {line.arm}: no traffic light found; signal head inferred")
+    return signals
 
-    drivable = [jpoly]
+
+def _crosswalks(layers: Layers, frame: _Frame, approaches: _Approaches) -> list[Crosswalk]:
+    """The ``ped_crossing`` polygons in the square, each on its nearest arm."""
+    crosswalks = []
+    for rec in layers.data.get("ped_crossing", []):
+        poly = frame.local(layers.polygon_ring(rec["polygon_token"]))
+        c = poly.mean(axis=0)
+        k = approaches.nearest(c, False) if frame.inside(c) else None
+        if k is not None:
+            crosswalks.append(Crosswalk(arm=k, s=approaches.along(k, c), polygon=poly, kind="ped_crossing",
+                                        source_id=rec["token"]))
+    return crosswalks
+
+
+def _surface(layers: Layers, frame: _Frame, junction: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Drivable polygons (the junction polygon, then the ``drivable_area`` rings clipped to the
+    square) and road edges (those rings' boundaries and holes, clipped)."""
+    drivable = [junction]
     edges: list[np.ndarray] = []
-    for rec in data.get("drivable_area", []):
+    for rec in layers.data.get("drivable_area", []):
         for token in rec.get("polygon_tokens", []):
-            ring = local(L.polygon_ring(token))
-            clipped = geo.clip_polygon_to_square(ring, half)
+            ring = frame.local(layers.polygon_ring(token))
+            clipped = geo.clip_polygon_to_square(ring, frame.half)
             if len(clipped):
                 drivable.append(clipped)
-            for r in [ring] + [local(h) for h in L.polygon_holes(token)]:
-                edges += geo.clip_ring_to_square(r, half)
-    if not edges:
-        raise MapError(f"{where}: no drivable_area boundary near intersection {seg['token']!r}")
-    area = geo.convex_hull(np.vstack([jpoly] + [x.segment for x in stop_lines]))
+            for r in [ring] + [frame.local(h) for h in layers.polygon_holes(token)]:
+                edges += geo.clip_ring_to_square(r, frame.half)
+    return drivable, edges
 
+
+def _spawn_regions(lanes: list[Lane], stop_lines: list[StopLine], cfg: ImportConfig) -> list[SpawnRegion]:
+    """On each inbound lane: from its outer end to ``cfg.spawn_gap`` before its stop line."""
     spawns = []
     for lane in lanes:
         if lane.direction == "in":
@@ -289,30 +327,4 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
             hi = track.project(line.segment.mean(axis=0)) - cfg.spawn_gap
             if hi > 0:
                 spawns.append(SpawnRegion(lane=lane.id, s_range=(0.0, float(hi))))
-    source = {"kind": "nuscenes-map-expansion", "file": None if isinstance(source, dict) else Path(source).name,
-              "road_segment": seg["token"], "centre_xy": [float(v) for v in origin], **LICENCE}
-    return RoadMap(name=name or f"nuscenes_{seg['token'][:8]}", source=source, size_m=cfg.size_m, arms=arms,
-                   lanes=lanes, connectors=connectors, stop_lines=stop_lines, signals=signals,
-                   phases=[[g] for g in sorted({h.group for h in signals})], crosswalks=crosswalks,
-                   drivable=drivable, edges=edges, spawn_regions=spawns, junction_area=area,
-                   notes=list(dict.fromkeys(notes)))
-
-
-def _pick_intersection(L: _Layers, centre: Union[tuple[float, float], str, None]) -> dict:
-    inters = [r for r in L.data["road_segment"] if r.get("is_intersection")]
-    if not inters:
-        raise MapError(f"{L.where}: no road_segment with is_intersection")
-    if isinstance(centre, str):
-        match = [r for r in inters if r["token"] == centre]
-        if not match:
-            raise MapError(f"{L.where}: no intersection road_segment {centre!r}")
-        return match[0]
-    if centre is None:
-        if len(inters) > 1:
-            raise MapError(f"{L.where}: {len(inters)} intersections; give centre=(x, y) or a road_segment token")
-        return inters[0]
-    p = np.asarray(centre, float)
-    containing = [r for r in inters if geo.points_in_polygon(p[None], L.polygon_ring(r["polygon_token"]))[0]]
-    if containing:
-        return containing[0]
-    return min(inters, key=lambda r: float(np.linalg.norm(L.polygon_ring(r["polygon_token"]).mean(axis=0) - p)))
+    return spawns

@@ -31,7 +31,8 @@ from typing import Optional, Union
 import numpy as np
 
 from box2d_driving.maps import geometry as geo
-from box2d_driving.maps.build import ArmSpec, arm_angle, build_map
+from box2d_driving.maps.arm_spec import ArmSpec, arm_angle
+from box2d_driving.maps.build import build_map
 from box2d_driving.maps.config import ImportConfig
 from box2d_driving.maps.osm_data import LocalFrame, OsmData, read_osm
 from box2d_driving.maps.roadmap import MapError, RoadMap

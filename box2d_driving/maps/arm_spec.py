@@ -1,0 +1,82 @@
+"""How an importer describes one road leaving a junction (:class:`ArmSpec`), and the arm
+geometry the layout steps share.
+
+Lateral positions ``u`` are measured to the right of an arm's outward direction. The carriageway
+is centred on the axis: inbound lanes to the left of ``split``, outbound lanes to its right.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from box2d_driving.maps import geometry as geo
+
+
+@dataclass
+class ArmSpec:
+    """One road leaving the junction, as an importer found it.
+
+    Attributes:
+        centreline: ``(P, 2)`` axis from the junction centre outwards (m).
+        lanes_in / lanes_out: lane counts towards / away from the junction.
+        lane_width: (m).
+        median: extra width between the two directions (dual carriageways) (m).
+        turn_lanes: per inbound lane, left to right, the allowed movements, or None.
+        signals: ``(position, source_id)`` of signal heads found for this approach.
+        crossings: ``(s, kind, source_id)`` of pedestrian crossings, ``s`` along the axis (m).
+    """
+
+    centreline: np.ndarray
+    lanes_in: int
+    lanes_out: int
+    lane_width: float
+    name: str = ""
+    highway: str = ""
+    median: float = 0.0
+    turn_lanes: Optional[list[set[str]]] = None
+    cut: bool = False
+    source_ids: list[int] = field(default_factory=list)
+    signals: list[tuple[np.ndarray, Optional[int]]] = field(default_factory=list)
+    crossings: list[tuple[float, str, Optional[int]]] = field(default_factory=list)
+
+    @property
+    def width(self) -> float:
+        return (self.lanes_in + self.lanes_out) * self.lane_width + self.median
+
+    @property
+    def split(self) -> float:
+        return (self.lanes_in - self.lanes_out) * self.lane_width / 2
+
+    @property
+    def u_left(self) -> float:
+        return -self.width / 2
+
+    @property
+    def u_right(self) -> float:
+        return self.width / 2
+
+    @property
+    def length(self) -> float:
+        return float(geo.cumulative_length(self.centreline)[-1])
+
+    def lane_u(self, direction: str, index: int) -> float:
+        """Lateral position of a lane's centre; ``index`` 0 is the leftmost in its direction."""
+        if direction == "out":
+            return self.split + self.median / 2 + (index + 0.5) * self.lane_width
+        return self.split - self.median / 2 - (index + 0.5) * self.lane_width
+
+
+def arm_angle(centreline: np.ndarray, at: float = 15.0) -> float:
+    """Outward direction of an arm: from the centre to the point ``at`` metres out (rad)."""
+    p = geo.point_at(centreline, at) - centreline[0]
+    return math.atan2(p[1], p[0])
+
+
+def strip(spec: ArmSpec, start: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Left and right edges of the arm's carriageway from arc length ``start`` outwards."""
+    axis = geo.resample(spec.centreline, 1.0, start)
+    return geo.offset(axis, spec.u_left), geo.offset(axis, spec.u_right)
