@@ -110,63 +110,15 @@ def _parse_checked(data: Any, where: str) -> RoadMap:
     if not isinstance(raw_lanes, list) or not isinstance(raw_arms, list) or not raw_arms:
         raise MapError(f"{where}: 'arms' and 'lanes' must be non-empty lists")
     n_arms, n_lanes = len(raw_arms), len(raw_lanes)
-    arms = []
-    for i, a in enumerate(raw_arms):
-        w = f"{where}: arms[{i}]"
-        a = _obj(a, w)
-        arms.append(Arm(id=i, name=str(a.get("name", "")), highway=str(a.get("highway", "")),
-                        centreline=_pts(_need(a, "centreline", w), f"{w}.centreline"),
-                        mouth=_num(_need(a, "mouth", w), f"{w}.mouth"),
-                        lanes_in=_ids(_need(a, "lanes_in", w), n_lanes, f"{w}.lanes_in"),
-                        lanes_out=_ids(_need(a, "lanes_out", w), n_lanes, f"{w}.lanes_out"),
-                        cut=_flag(a.get("cut", False), f"{w}.cut"), source_ids=list(a.get("source_ids", []))))
-    lanes = []
-    for i, la in enumerate(raw_lanes):
-        w = f"{where}: lanes[{i}]"
-        la = _obj(la, w)
-        direction = _need(la, "direction", w)
-        if direction not in ("in", "out"):
-            raise MapError(f"{w}.direction must be 'in' or 'out', got {direction!r}")
-        arm = _need(la, "arm", w)
-        if not isinstance(arm, int) or not 0 <= arm < n_arms:
-            raise MapError(f"{w}.arm: no arm {arm!r}")
-        width = _num(_need(la, "width", w), f"{w}.width", 0.0, 100.0)
-        if not width > 0:
-            raise MapError(f"{w}.width must be positive, got {width}")
-        lanes.append(Lane(id=i, arm=arm, direction=direction,
-                          index=_num(_need(la, "index", w), f"{w}.index", 0, 1000, integer=True),
-                          width=width, centreline=_pts(_need(la, "centreline", w), f"{w}.centreline")))
-    connectors = []
+    arms = [_arm(i, a, n_lanes, f"{where}: arms[{i}]") for i, a in enumerate(raw_arms)]
+    lanes = [_lane(i, la, n_arms, f"{where}: lanes[{i}]") for i, la in enumerate(raw_lanes)]
     raw_conn = data.get("connectors", [])
-    for i, c in enumerate(raw_conn):
-        w = f"{where}: connectors[{i}]"
-        c = _obj(c, w)
-        fl, tl = _need(c, "from_lane", w), _need(c, "to_lane", w)
-        _ids([fl, tl], n_lanes, f"{w} lanes")
-        if lanes[fl].direction != "in" or lanes[tl].direction != "out":
-            raise MapError(f"{w}: must lead from an inbound lane to an outbound lane")
-        movement = _need(c, "movement", w)
-        if movement not in MOVEMENTS:
-            raise MapError(f"{w}.movement must be one of {MOVEMENTS}, got {movement!r}")
-        radius = c.get("min_radius")
-        connectors.append(Connector(id=i, from_lane=fl, to_lane=tl, movement=movement,
-                                    path=_pts(_need(c, "path", w), f"{w}.path"),
-                                    conflicts=_ids(c.get("conflicts", []), len(raw_conn), f"{w}.conflicts"),
-                                    min_radius=float("inf") if radius is None
-                                    else _num(radius, f"{w}.min_radius", 0.0, 1e300)))
+    connectors = [_connector(i, c, lanes, len(raw_conn), f"{where}: connectors[{i}]") for i, c in enumerate(raw_conn)]
     stop_lines = [StopLine(arm=_ids([_need(s, "arm", where)], n_arms, f"{where}: stop_lines[{i}].arm")[0],
                            s=_num(_need(s, "s", where), f"{where}: stop_lines[{i}].s"),
                            segment=_pts(_need(s, "segment", where), f"{where}: stop_lines[{i}].segment"))
                   for i, s in enumerate(data.get("stop_lines", []))]
-    signals = []
-    for i, h in enumerate(data.get("signals", [])):
-        w = f"{where}: signals[{i}]"
-        group = _need(h, "group", w)
-        if not isinstance(group, int) or group < 0:
-            raise MapError(f"{w}.group must be a non-negative integer")
-        signals.append(SignalHead(id=i, arm=_ids([_need(h, "arm", w)], n_arms, f"{w}.arm")[0], group=group,
-                                  position=_pts([_need(h, "position", w)], f"{w}.position", 1)[0],
-                                  source_id=h.get("source_id"), inferred=_flag(h.get("inferred", False), f"{w}.inferred")))
+    signals = [_signal(i, h, n_arms, f"{where}: signals[{i}]") for i, h in enumerate(data.get("signals", []))]
     phases = data.get("phases", [])
     if signals:
         groups = {h.group for h in signals}
@@ -180,22 +132,81 @@ def _parse_checked(data: Any, where: str) -> RoadMap:
                   for i, c in enumerate(data.get("crosswalks", []))]
     drivable = [_pts(p, f"{where}: drivable[{i}]", 3) for i, p in enumerate(_need(data, "drivable", where))]
     edges = [_pts(p, f"{where}: edges[{i}]") for i, p in enumerate(_need(data, "edges", where))]
-    spawns = []
-    for i, s in enumerate(data.get("spawn_regions", [])):
-        w = f"{where}: spawn_regions[{i}]"
-        lane = _ids([_need(s, "lane", w)], n_lanes, f"{w}.lane")[0]
-        bounds = _need(s, "s_range", w)
-        if not isinstance(bounds, list) or len(bounds) != 2:
-            raise MapError(f"{w}.s_range must be [low, high], got {bounds!r}")
-        lo, hi = (_num(v, f"{w}.s_range") for v in bounds)
-        if not 0 <= lo <= hi:
-            raise MapError(f"{w}.s_range must be 0 <= low <= high, got {[lo, hi]}")
-        spawns.append(SpawnRegion(lane=lane, s_range=(lo, hi)))
+    spawns = [_spawn_region(s, n_lanes, f"{where}: spawn_regions[{i}]")
+              for i, s in enumerate(data.get("spawn_regions", []))]
     source = data.get("source", {})
     if not isinstance(source, dict):
         raise MapError(f"{where}: 'source' must be an object")
     area = _pts(_need(data, "junction_area", where), f"{where}: junction_area", 3)
-    return RoadMap(name=str(data.get("name", "")), source=source, size_m=_num(data.get("size_m", 0.0), f"{where}: size_m", 0.0),
+    size = _num(data.get("size_m", 0.0), f"{where}: size_m", 0.0)
+    return RoadMap(name=str(data.get("name", "")), source=source, size_m=size,
                    arms=arms, lanes=lanes, connectors=connectors, stop_lines=stop_lines, signals=signals,
                    phases=phases if signals else [], crosswalks=crosswalks, drivable=drivable, edges=edges,
                    spawn_regions=spawns, junction_area=area, notes=[str(n) for n in data.get("notes", [])])
+
+
+def _arm(i: int, a: Any, n_lanes: int, w: str) -> Arm:
+    """Arm ``i`` of the file (``w`` names it in errors)."""
+    a = _obj(a, w)
+    return Arm(id=i, name=str(a.get("name", "")), highway=str(a.get("highway", "")),
+               centreline=_pts(_need(a, "centreline", w), f"{w}.centreline"),
+               mouth=_num(_need(a, "mouth", w), f"{w}.mouth"),
+               lanes_in=_ids(_need(a, "lanes_in", w), n_lanes, f"{w}.lanes_in"),
+               lanes_out=_ids(_need(a, "lanes_out", w), n_lanes, f"{w}.lanes_out"),
+               cut=_flag(a.get("cut", False), f"{w}.cut"), source_ids=list(a.get("source_ids", [])))
+
+
+def _lane(i: int, la: Any, n_arms: int, w: str) -> Lane:
+    """Lane ``i`` of the file: on an existing arm, inbound or outbound, of positive width."""
+    la = _obj(la, w)
+    direction = _need(la, "direction", w)
+    if direction not in ("in", "out"):
+        raise MapError(f"{w}.direction must be 'in' or 'out', got {direction!r}")
+    arm = _need(la, "arm", w)
+    if not isinstance(arm, int) or not 0 <= arm < n_arms:
+        raise MapError(f"{w}.arm: no arm {arm!r}")
+    width = _num(_need(la, "width", w), f"{w}.width", 0.0, 100.0)
+    if not width > 0:
+        raise MapError(f"{w}.width must be positive, got {width}")
+    return Lane(id=i, arm=arm, direction=direction,
+                index=_num(_need(la, "index", w), f"{w}.index", 0, 1000, integer=True),
+                width=width, centreline=_pts(_need(la, "centreline", w), f"{w}.centreline"))
+
+
+def _connector(i: int, c: Any, lanes: list[Lane], n_connectors: int, w: str) -> Connector:
+    """Connector ``i``: from an inbound lane to an outbound one, a known movement, conflicts that
+    name other connectors."""
+    c = _obj(c, w)
+    fl, tl = _need(c, "from_lane", w), _need(c, "to_lane", w)
+    _ids([fl, tl], len(lanes), f"{w} lanes")
+    if lanes[fl].direction != "in" or lanes[tl].direction != "out":
+        raise MapError(f"{w}: must lead from an inbound lane to an outbound lane")
+    movement = _need(c, "movement", w)
+    if movement not in MOVEMENTS:
+        raise MapError(f"{w}.movement must be one of {MOVEMENTS}, got {movement!r}")
+    radius = c.get("min_radius")
+    return Connector(id=i, from_lane=fl, to_lane=tl, movement=movement, path=_pts(_need(c, "path", w), f"{w}.path"),
+                     conflicts=_ids(c.get("conflicts", []), n_connectors, f"{w}.conflicts"),
+                     min_radius=float("inf") if radius is None else _num(radius, f"{w}.min_radius", 0.0, 1e300))
+
+
+def _signal(i: int, h: Any, n_arms: int, w: str) -> SignalHead:
+    """Signal head ``i``: on an existing arm, in a non-negative signal group."""
+    group = _need(h, "group", w)
+    if not isinstance(group, int) or group < 0:
+        raise MapError(f"{w}.group must be a non-negative integer")
+    return SignalHead(id=i, arm=_ids([_need(h, "arm", w)], n_arms, f"{w}.arm")[0], group=group,
+                      position=_pts([_need(h, "position", w)], f"{w}.position", 1)[0],
+                      source_id=h.get("source_id"), inferred=_flag(h.get("inferred", False), f"{w}.inferred"))
+
+
+def _spawn_region(s: Any, n_lanes: int, w: str) -> SpawnRegion:
+    """A spawn region: on an existing lane, ``s_range`` as ``[low, high]`` with 0 <= low <= high (m)."""
+    lane = _ids([_need(s, "lane", w)], n_lanes, f"{w}.lane")[0]
+    bounds = _need(s, "s_range", w)
+    if not isinstance(bounds, list) or len(bounds) != 2:
+        raise MapError(f"{w}.s_range must be [low, high], got {bounds!r}")
+    lo, hi = (_num(v, f"{w}.s_range") for v in bounds)
+    if not 0 <= lo <= hi:
+        raise MapError(f"{w}.s_range must be 0 <= low <= high, got {[lo, hi]}")
+    return SpawnRegion(lane=lane, s_range=(lo, hi))
