@@ -181,6 +181,13 @@ def test_report_adds_communication_and_the_unheard_control(tmp_path, capsys):
     del metrics["communication"]["by_bit"]  # a report from before the per-bit profile: refused
     (tmp_path / "metrics.json").write_text(json.dumps(metrics))
     assert communication_table.main([f"0={tmp_path}", "--out", str(out)]) == 2
+    # arguments it cannot read: one line naming the argument, no traceback
+    capsys.readouterr()
+    for bad, named in ((str(tmp_path), "expected NOISE=EVAL_FOLDER"), (f"half={tmp_path}", "'half="),
+                       (f"0.5={tmp_path / 'none'}", "cannot read the evaluation report")):
+        assert communication_table.main([bad, "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert named in err and err.count("\n") == 1 and "Traceback" not in err
 
 
 def test_remove_collided_option_reaches_training_config_and_evaluation(tmp_path):

@@ -61,17 +61,45 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     rows = []
     for item in args.runs:
-        noise, folder = item.split("=", 1)
-        m = json.loads((Path(folder) / "metrics.json").read_text())
-        if "communication" not in m:
-            print(f"communication_table: error: {folder} was not evaluated with communication", file=sys.stderr)
+        run, problem = _read_run(item)
+        if problem:
+            print(f"communication_table: error: {problem}", file=sys.stderr)
             return 2
-        if "by_bit" not in m["communication"]:
-            print(f"communication_table: error: {folder} predates the per-bit profile; re-evaluate it "
-                  "(training/evaluation/evaluate.py --overwrite)", file=sys.stderr)
-            return 2
-        rows.append((float(noise), m, training_seed(Path(folder))))
+        rows.append(run)
     rows.sort(key=lambda r: r[0])
+    _print_tables(rows)
+    _plot(rows, args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def _read_run(item: str) -> tuple[tuple[float, dict, str], str]:
+    """One ``NOISE=EVAL_FOLDER`` argument: (noise, its report, training seed), or what is wrong with
+    it in words."""
+    noise, sep, folder = item.partition("=")
+    try:
+        level = float(noise)
+    except ValueError:
+        level = float("nan")
+    if not sep or not np.isfinite(level):
+        return (0.0, {}, ""), f"{item!r}: expected NOISE=EVAL_FOLDER, e.g. 0.5=runs/comm_n05/eval"
+    report = Path(folder) / "metrics.json"
+    try:
+        m = json.loads(report.read_text())
+    except (OSError, ValueError) as exc:
+        return (0.0, {}, ""), f"{report}: cannot read the evaluation report ({type(exc).__name__})"
+    if "communication" not in m:
+        return (0.0, {}, ""), f"{folder} was not evaluated with communication"
+    if "by_bit" not in m["communication"]:
+        return (0.0, {}, ""), (f"{folder} predates the per-bit profile; re-evaluate it "
+                               "(training/evaluation/evaluate.py --overwrite)")
+    return (level, m, training_seed(Path(folder))), ""
+
+
+def _print_tables(rows: list[tuple[float, dict, str]]) -> None:
+    """The markdown tables: the measures per run, what each bit value says, the turn-signal
+    measures (where every report has them), means per noise level (where a level repeats) and
+    whether each measure rises with noise."""
     print("| LiDAR noise | seed | bit = 1 share | speaker consistency (bits) | Pearson(dh, bit) | Pearson(abs dh, bit) "
           "| success | collisions | FIFO share | safe-distance share |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
@@ -107,7 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     levels = np.unique(noise)
     if len(levels) < len(rows):
         print()
-        print("Per noise level over its runs, mean +- std (population std, ddof 0: with two runs, half their difference):")
+        print("Per noise level over its runs, mean +- std "
+              "(population std, ddof 0: with two runs, half their difference):")
         print()
         print("| LiDAR noise | runs | " + " | ".join(name for name, _ in trend) + " | collisions |")
         print("|---:|---:|" + "---:|" * (len(trend) + 1))
@@ -125,6 +154,13 @@ def main(argv: list[str] | None = None) -> int:
     for name, value in trend:
         t = rank_trend(noise, [value(r[1]["communication"]) for r in rows])
         print(f"| {name} | {t['n']} | {t['spearman']:.3f} | {t['p_rises']:.3f} |")
+
+
+def _plot(rows: list[tuple[float, dict, str]], out: str) -> None:
+    """Speaker consistency and the heading-change / bit correlations against noise (the mean per
+    level, each run as a dot where a level repeats) into ``out``."""
+    noise = np.array([r[0] for r in rows])
+    levels = np.unique(noise)
     plt = plots._plt()
     fig, ax = plt.subplots(figsize=(6, 4))
     for i, (key, label) in enumerate(KEYS):
@@ -139,10 +175,8 @@ def main(argv: list[str] | None = None) -> int:
     ax.set_ylabel("value")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(args.out, dpi=110)
+    fig.savefig(out, dpi=110)
     plt.close(fig)
-    print(f"wrote {args.out}")
-    return 0
 
 
 if __name__ == "__main__":
