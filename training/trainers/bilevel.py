@@ -3,15 +3,15 @@ the acceleration sub-policy (CTDE PPO) on a spline scenario.
 
 Each round: (1) ``spline_updates_per_round`` times, collect ``spline_samples`` car samples on
 :class:`SplineBanditVecEnv` with the acceleration policy greedy and make one single-step PPO
-update of the spline policy; (2) collect
-``accel_updates_per_round * batch_decisions`` slot-decisions on the :class:`SlotVecEnv` (in the
-learner's process or ``--num-cpus`` workers) with the spline policy greedy (each env's
-``spline_policy`` is a :class:`~training.ppo.shared_policy.SharedSplinePicker`, whose shared weights
-are refreshed after every spline update), as many PPO updates of the acceleration policy and its
-centralised critic. The bandit calls the live acceleration policy, so the frozen side is always
-the latest one; the bandit's envs step in the learner's process. Learning rates and clip ranges are constants: SB3 restarts
-its progress schedule at every ``learn(reset_num_timesteps=False)`` call, which would otherwise
-reset annealed values each round. No observation normalisation is used.
+update of the spline policy; (2) collect ``accel_updates_per_round * batch_decisions``
+slot-decisions on the :class:`SlotVecEnv` (in the learner's process or ``--num-cpus`` workers)
+with the spline policy greedy (each env's ``spline_policy`` is a
+:class:`~training.ppo.shared_policy.SharedSplinePicker`, whose shared weights are refreshed after
+every spline update), as many PPO updates of the acceleration policy and its centralised critic.
+The bandit calls the live acceleration policy, so the frozen side is always the latest one; the
+bandit's envs step in the learner's process. Learning rates and clip ranges are constants: SB3
+restarts its progress schedule at every ``learn(reset_num_timesteps=False)`` call, which would
+otherwise reset annealed values each round. No observation normalisation is used.
 
 Output folder::
 
@@ -221,37 +221,14 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
     th.set_num_threads(torch_threads(acfg))
     picker = make_picker(config)  # every acceleration-stage episode's paths, greedily
     accel_venv = make_vec_env(acfg, spline_policy=picker)
-    state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}
     if resume:
         state = json.loads((out / "state.json").read_text())
-        accel = build_model(resumed_config(out / "accel", acfg), accel_venv)
-        bandit = make_bandit(config, accel)
-        spline = build_spline_model(config, bandit)
-        try:
-            restore_model(accel, read_checkpoint(out / "accel"))
-            restore_model(spline, read_checkpoint(out / "spline"))
-        except CheckpointError as exc:
-            raise RunError(f"--resume: {exc}") from None
-        accel.set_logger(append_logger(out / "accel", accel.num_timesteps))
-        spline.set_logger(append_logger(out / "spline", spline.num_timesteps))
+        accel, bandit, spline = _resume_models(config, out, accel_venv)
     else:
-        accel = build_model(acfg, accel_venv)
-        if acfg.init_from:
-            load_weights(accel, Path(acfg.init_from))
-        bandit = make_bandit(config, accel)
-        spline = build_spline_model(config, bandit)
-        if config.spline_init_from:
-            src = Path(config.spline_init_from)
-            src = src / "spline" if (src / "spline").is_dir() else src
-            try:
-                restore_model(spline, read_checkpoint(src), optimizer=False)
-            except CheckpointError as exc:
-                raise RunError(f"--spline-init-from: {exc}") from None
-            spline.num_timesteps = spline._n_updates = 0
-        start_run_dir(out, config)
-        accel.set_logger(configure(str(out / "accel"), ["csv", "tensorboard"]))
-        spline.set_logger(configure(str(out / "spline"), ["csv"]))
+        state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}
+        accel, bandit, spline = _new_models(config, out, accel_venv)
     set_minibatching(accel, acfg, accel_venv.n_cars)
+    # each round's seeds follow from the round it starts at, so a resumed run goes on as it would have
     accel_venv.seed(acfg.seed + 1000 * state["round"])
     bandit_seed = acfg.seed + 10**6 + 1000 * state["round"]
     check_training_seeds(bandit_seed, bandit.num_envs)
@@ -270,28 +247,7 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
         if new_file:
             writer.writeheader()
         while state["round"] < config.rounds and state["wall_s"] < max_seconds and not stop.requested:
-            t0 = time.perf_counter()
-            stats = BanditStats()
-            spline.learn(config.spline_updates_per_round * spline.n_steps * bandit.num_envs,
-                         callback=stats, reset_num_timesteps=False)
-            picker.load(spline.policy)  # the acceleration stage drives the latest paths
-            metrics = RolloutMetrics(out / "accel", math.inf, state["wall_s"], state["agent_steps"],
-                                     checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False,
-                                     stop=stop)
-            accel.learn(config.accel_updates_per_round * accel.n_steps * accel_venv.num_envs,
-                        callback=metrics, reset_num_timesteps=False)
-            state = {"round": state["round"] + 1, "wall_s": state["wall_s"] + time.perf_counter() - t0,
-                     "agent_steps": metrics.agent_steps,
-                     "accel_decisions": accel.num_timesteps, "spline_samples": spline.num_timesteps}
-            a = getattr(metrics, "last_stats", {})
-            b = stats.stats
-            row = {"round": state["round"], "wall_s": round(state["wall_s"], 1),
-                   "agent_steps": state["agent_steps"], "bandit_return": b["bandit/return_mean"],
-                   "bandit_success": b["bandit/success_rate"], "bandit_collision": b["bandit/collision_rate"],
-                   "right_share": b["bandit/right_share"], "left_share": b["bandit/left_share"],
-                   "accel_success": a.get("rollout/success_rate", float("nan")),
-                   "accel_collision": a.get("rollout/collision_rate", float("nan")),
-                   "accel_violation": a.get("rollout/red_light_violation_rate", float("nan"))}
+            state, row = _one_round(config, out, accel, accel_venv, spline, bandit, picker, state, max_seconds, stop)
             writer.writerow(row)
             fh.flush()
             save_round(out, accel, spline, state, keep=state["round"] % config.checkpoint_every == 0)
@@ -306,3 +262,71 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
     if stop.requested:
         row = {**row, "interrupted_by_signal": stop.signum}
     return row
+
+
+def _new_models(config: BilevelConfig, out: Path, accel_venv: Any) -> tuple[PPO, SplineBanditVecEnv, PPO]:
+    """The acceleration model, the spline bandit and the spline model of a new run in ``out``
+    (from ``init_from`` / ``spline_init_from`` weights where given), with their loggers."""
+    acfg = config.accel
+    accel = build_model(acfg, accel_venv)
+    if acfg.init_from:
+        load_weights(accel, Path(acfg.init_from))
+    bandit = make_bandit(config, accel)
+    spline = build_spline_model(config, bandit)
+    if config.spline_init_from:
+        src = Path(config.spline_init_from)
+        src = src / "spline" if (src / "spline").is_dir() else src
+        try:
+            restore_model(spline, read_checkpoint(src), optimizer=False)
+        except CheckpointError as exc:
+            raise RunError(f"--spline-init-from: {exc}") from None
+        spline.num_timesteps = spline._n_updates = 0
+    start_run_dir(out, config)
+    accel.set_logger(configure(str(out / "accel"), ["csv", "tensorboard"]))
+    spline.set_logger(configure(str(out / "spline"), ["csv"]))
+    return accel, bandit, spline
+
+
+def _resume_models(config: BilevelConfig, out: Path, accel_venv: Any) -> tuple[PPO, SplineBanditVecEnv, PPO]:
+    """The three of :func:`_new_models` as the run in ``out`` last saved them (weights, optimiser
+    state, step counts), their logs continued."""
+    accel = build_model(resumed_config(out / "accel", config.accel), accel_venv)
+    bandit = make_bandit(config, accel)
+    spline = build_spline_model(config, bandit)
+    try:
+        restore_model(accel, read_checkpoint(out / "accel"))
+        restore_model(spline, read_checkpoint(out / "spline"))
+    except CheckpointError as exc:
+        raise RunError(f"--resume: {exc}") from None
+    accel.set_logger(append_logger(out / "accel", accel.num_timesteps))
+    spline.set_logger(append_logger(out / "spline", spline.num_timesteps))
+    return accel, bandit, spline
+
+
+def _one_round(config: BilevelConfig, out: Path, accel: PPO, accel_venv: Any, spline: PPO,
+               bandit: SplineBanditVecEnv, picker: SharedSplinePicker, state: dict, max_seconds: float,
+               stop: GracefulStop) -> tuple[dict, dict[str, Any]]:
+    """One round: the spline updates, then the acceleration updates on the paths they pick;
+    returns the run's new state and the round's row of ``rounds.csv``."""
+    t0 = time.perf_counter()
+    stats = BanditStats()
+    spline.learn(config.spline_updates_per_round * spline.n_steps * bandit.num_envs,
+                 callback=stats, reset_num_timesteps=False)
+    picker.load(spline.policy)  # the acceleration stage drives the latest paths
+    metrics = RolloutMetrics(out / "accel", math.inf, state["wall_s"], state["agent_steps"],
+                             checkpoint_every=10**9, max_seconds=max_seconds, show_bar=False, stop=stop)
+    accel.learn(config.accel_updates_per_round * accel.n_steps * accel_venv.num_envs,
+                callback=metrics, reset_num_timesteps=False)
+    state = {"round": state["round"] + 1, "wall_s": state["wall_s"] + time.perf_counter() - t0,
+             "agent_steps": metrics.agent_steps,
+             "accel_decisions": accel.num_timesteps, "spline_samples": spline.num_timesteps}
+    a = getattr(metrics, "last_stats", {})
+    b = stats.stats
+    row = {"round": state["round"], "wall_s": round(state["wall_s"], 1),
+           "agent_steps": state["agent_steps"], "bandit_return": b["bandit/return_mean"],
+           "bandit_success": b["bandit/success_rate"], "bandit_collision": b["bandit/collision_rate"],
+           "right_share": b["bandit/right_share"], "left_share": b["bandit/left_share"],
+           "accel_success": a.get("rollout/success_rate", float("nan")),
+           "accel_collision": a.get("rollout/collision_rate", float("nan")),
+           "accel_violation": a.get("rollout/red_light_violation_rate", float("nan"))}
+    return state, row
