@@ -396,3 +396,24 @@ def test_importing_osm_without_osmium_says_which_extra_to_install(tmp_path, monk
     assert cli(["import-osm", str(src), "--node", "1", "--out", str(tmp_path / "m.json")]) == 2
     err = capsys.readouterr().err
     assert ".[osm]" in err and "Traceback" not in err and not (tmp_path / "m.json").exists()
+
+
+def test_build_map_lays_out_a_hand_described_junction_and_leaves_its_arms_as_given():
+    """The builder an importer of one's own calls: a T junction from three straight arms (one lane
+    each way) gets every turn it allows, signals on request, and the caller's arms unchanged."""
+    from box2d_driving.maps.arm_spec import ArmSpec
+    from box2d_driving.maps.build import build_map
+
+    def road(heading_deg: float) -> np.ndarray:  # every 2.5 m: not the builder's own sampling
+        d = np.array([math.cos(math.radians(heading_deg)), math.sin(math.radians(heading_deg))])
+        return np.arange(0.0, 62.5, 2.5)[:, None] * d
+
+    arms = [ArmSpec(centreline=road(h), lanes_in=1, lanes_out=1, lane_width=3.5, name=n)
+            for h, n in ((0, "east"), (90, "north"), (180, "west"))]
+    given = [a.centreline.copy() for a in arms]
+    m = build_map(arms, ImportConfig(size_m=120), "t", {"kind": "hand-drawn"}, signalled=True)
+    assert len(m.lanes) == 6 and len(m.signals) == 3 and len(m.stop_lines) == 3
+    turns = {(m.arms[m.lanes[c.from_lane].arm].name, c.movement) for c in m.connectors}
+    assert turns == {("east", "straight"), ("east", "right"), ("west", "straight"), ("west", "left"),
+                     ("north", "left"), ("north", "right")}
+    assert all(np.array_equal(a.centreline, g) for a, g in zip(arms, given))

@@ -106,9 +106,8 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
     if len(specs) < 3:
         raise MapError(f"{name}: a junction needs at least 3 arms, found {len(specs)}")
     order = np.argsort([arm_angle(s.centreline) for s in specs])
-    specs = [specs[i] for i in order]
-    for s in specs:
-        s.centreline = geo.resample(s.centreline, cfg.sample_step)
+    # resampled copies: the caller's arm descriptions stay as they were
+    specs = [replace(specs[i], centreline=geo.resample(specs[i].centreline, cfg.sample_step)) for i in order]
     mouths = _mouths(specs, cfg)
     angles = [arm_angle(s.centreline) for s in specs]
     arms, lanes = _lay_lanes(specs, mouths, cfg)
