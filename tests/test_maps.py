@@ -417,3 +417,31 @@ def test_build_map_lays_out_a_hand_described_junction_and_leaves_its_arms_as_giv
     assert turns == {("east", "straight"), ("east", "right"), ("west", "straight"), ("west", "left"),
                      ("north", "left"), ("north", "right")}
     assert all(np.array_equal(a.centreline, g) for a, g in zip(arms, given))
+
+
+@pytest.mark.parametrize("field,value,message", [
+    ("lane_width", -3.5, "lane_width must be a positive number"),
+    ("lane_width", float("nan"), "lane_width must be a positive number"),
+    ("median", -1.0, "median must be a non-negative number"),
+    ("lanes_in", -1, "lanes_in must be a non-negative integer"),
+    ("lanes_out", 1.5, "lanes_out must be a non-negative integer"),
+    ("centreline", np.zeros((1, 2)), "two or more finite"),
+    ("centreline", np.full((20, 2), np.nan), "two or more finite"),
+    ("centreline", np.zeros((20, 3)), "two or more finite"),
+    ("centreline", "north", "centreline must be"),
+    ("turn_lanes", [{"sideways"}], "turn_lanes must be"),
+])
+@pytest.mark.parametrize("drive_on", ["right", "left"])
+def test_build_map_names_the_arm_and_field_it_cannot_use(field, value, message, drive_on):
+    from box2d_driving.maps.arm_spec import ArmSpec
+    from box2d_driving.maps.build import build_map
+
+    arms = [ArmSpec(centreline=np.arange(0.0, 60.0)[:, None] * [math.cos(h), math.sin(h)], lanes_in=1,
+                    lanes_out=1, lane_width=3.5, name=n) for h, n in ((0.0, "east"), (math.pi / 2, "north"),
+                                                                      (math.pi, "west"))]
+    setattr(arms[1], field, value)
+    with pytest.raises(MapError, match=f"arm 'north': .*{message}"):
+        build_map(arms, ImportConfig(drive_on=drive_on), "t", {})
+    arms[1] = ArmSpec(centreline=arms[0].centreline * [0.0, 1.0], lanes_in=0, lanes_out=0, lane_width=3.5)
+    with pytest.raises(MapError, match="arm 1: it has no lanes"):
+        build_map(arms, ImportConfig(drive_on=drive_on), "t", {})

@@ -8,12 +8,13 @@ is centred on the axis: inbound lanes to the left of ``split``, outbound lanes t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
 
 from box2d_driving.maps import geometry as geo
+from box2d_driving.maps.roadmap import MOVEMENTS, MapError
 
 
 @dataclass
@@ -68,6 +69,37 @@ class ArmSpec:
         if direction == "out":
             return self.split + self.median / 2 + (index + 0.5) * self.lane_width
         return self.split - self.median / 2 - (index + 0.5) * self.lane_width
+
+
+def checked_spec(spec: ArmSpec, index: int) -> ArmSpec:
+    """``spec`` as the builder needs it, its centre line as a float array; :class:`MapError` naming
+    the arm (``index`` or name) and the field when a value cannot describe a road: a centre line
+    that is not two or more finite ``(x, y)`` points, lane counts that are not non-negative
+    integers (or both zero), a lane width that is not a positive number, a negative median or
+    turn lanes with unknown movements."""
+    where = f"arm {spec.name or index!r}"
+    try:
+        line = np.asarray(spec.centreline, dtype=float)
+    except (TypeError, ValueError):
+        raise MapError(f"{where}: centreline must be (x, y) points in metres") from None
+    if line.ndim != 2 or line.shape[1] != 2 or len(line) < 2 or not np.isfinite(line).all():
+        raise MapError(f"{where}: centreline must be two or more finite (x, y) points, got shape {line.shape}")
+    for name in ("lanes_in", "lanes_out"):
+        value = getattr(spec, name)
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise MapError(f"{where}: {name} must be a non-negative integer, got {value!r}")
+    if spec.lanes_in + spec.lanes_out == 0:
+        raise MapError(f"{where}: it has no lanes (lanes_in and lanes_out both 0)")
+    for name, low in (("lane_width", 0.0), ("median", None)):
+        value = getattr(spec, name)
+        ok = isinstance(value, (int, float, np.number)) and not isinstance(value, bool) and math.isfinite(value)
+        if not ok or (value <= 0 if low is not None else value < 0):
+            allowed = "a positive number" if low is not None else "a non-negative number"
+            raise MapError(f"{where}: {name} must be {allowed} of metres, got {value!r}")
+    if spec.turn_lanes is not None and not all(isinstance(t, (set, frozenset)) and t <= set(MOVEMENTS)
+                                               for t in spec.turn_lanes):
+        raise MapError(f"{where}: turn_lanes must be, per inbound lane, a set of {MOVEMENTS}")
+    return replace(spec, centreline=line)
 
 
 def arm_angle(centreline: np.ndarray, at: float = 15.0) -> float:

@@ -20,7 +20,7 @@ from typing import Optional
 import numpy as np
 
 from box2d_driving.maps import geometry as geo
-from box2d_driving.maps.arm_spec import ArmSpec, arm_angle, strip
+from box2d_driving.maps.arm_spec import ArmSpec, arm_angle, checked_spec, strip
 from box2d_driving.maps.config import ImportConfig
 from box2d_driving.maps.connectors import TurnNaming, connect_lanes
 from box2d_driving.maps.mirror import FLIP_Y, mirror_map, swap_turn
@@ -64,8 +64,12 @@ def build_map(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict,
     ``cfg.drive_on``.
 
     ``signalled``: the junction has signals even if no arm found its own head (e.g. the junction
-    node itself is tagged); every approach then gets one.
+    node itself is tagged); every approach then gets one. :class:`MapError` names an arm whose
+    values cannot describe a road, or a junction that cannot be laid out.
     """
+    if len(specs) < 3:
+        raise MapError(f"{name}: a junction needs at least 3 arms, found {len(specs)}")
+    specs = [checked_spec(s, i) for i, s in enumerate(specs)]
     if cfg.drive_on == "left":  # the mirror image of a right-hand junction (maps/mirror.py)
         mirrored = _build([_mirror_spec(s) for s in specs], cfg, name, {**source, "drive_on": "left"},
                           signalled, notes, mirrored=True)
@@ -103,8 +107,6 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
     """:func:`build_map` for right-hand traffic; ``mirrored``: the specs are a left-hand
     junction's mirror image (notes then name turns and lanes as they are in reality)."""
     notes = list(notes or [])
-    if len(specs) < 3:
-        raise MapError(f"{name}: a junction needs at least 3 arms, found {len(specs)}")
     order = np.argsort([arm_angle(s.centreline) for s in specs])
     # resampled copies: the caller's arm descriptions stay as they were
     specs = [replace(specs[i], centreline=geo.resample(specs[i].centreline, cfg.sample_step)) for i in order]
