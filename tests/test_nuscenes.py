@@ -113,6 +113,30 @@ def test_bad_files_name_the_problem(tmp_path):
         import_patch(tmp_path / "none.json")
 
 
+
+@pytest.mark.parametrize("breakage", [
+    lambda d: d["lane"][0].pop("token"),
+    lambda d: d["node"][0].__setitem__("x", "abc"),
+    lambda d: d.__setitem__("connectivity", []),
+    lambda d: next(iter(d["arcline_path_3"].values()))[0].__setitem__("shape", "QQQ"),
+    lambda d: d["traffic_light"][0].__setitem__("pose", {"tx": "a", "ty": 1.0}),
+    lambda d: d["road_segment"][0].pop("polygon_token"),
+    lambda d: d["stop_line"][0].pop("polygon_token"),
+])
+def test_malformed_records_are_one_map_error_naming_the_file(tmp_path, breakage):
+    data = four_way_nuscenes()
+    breakage(data)
+    path = tmp_path / "city.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(MapError, match=r"city\.json: cannot import the intersection at \(501, 301\): malformed data"):
+        import_patch(path, centre=tuple(CENTRE + 1.0))
+
+
+@pytest.mark.parametrize("centre", [("a", "b"), (1.0, 2.0, 3.0), (math.nan, 1.0), 5])
+def test_a_centre_that_is_not_a_point_is_refused(centre):
+    with pytest.raises(MapError, match="centre must be \\(x, y\\)"):
+        import_patch(four_way_nuscenes(), centre=centre)
+
 def test_import_nuscenes_command(tmp_path, capsys):
     src = tmp_path / "map.json"
     src.write_text(json.dumps(four_way_nuscenes()))

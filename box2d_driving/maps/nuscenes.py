@@ -43,8 +43,40 @@ def import_patch(source: Union[str, Path, dict], centre: Union[tuple[float, floa
     """The junction of a nuScenes map-expansion file (or its parsed dict) at ``centre`` (x, y in
     the map's metres, or an intersection ``road_segment`` token; None if there is exactly one).
     :class:`MapError` names what is missing or malformed."""
-    cfg = cfg or ImportConfig()
     where = "nuScenes map" if isinstance(source, dict) else str(source)
+    if centre is not None and not isinstance(centre, str):
+        try:
+            point = np.asarray(centre, dtype=float)
+        except (TypeError, ValueError):
+            point = np.empty(0)
+        if point.shape != (2,) or not np.isfinite(point).all():
+            raise MapError(f"{where}: centre must be (x, y) in the map's metres or a road_segment token, "
+                           f"got {centre!r}")
+    try:
+        return _import_patch(source, where, centre, cfg or ImportConfig(), name)
+    except MapError:
+        raise
+    except (IndexError, KeyError, ValueError, TypeError, AttributeError, ZeroDivisionError,
+            FloatingPointError) as exc:
+        # records the checks along the way do not foresee: still one MapError naming the file
+        raise MapError(f"{where}: cannot import {_junction_asked(centre)}: malformed data "
+                       f"({type(exc).__name__}: {exc})") from None
+
+
+def _junction_asked(centre: Union[tuple[float, float], str, None]) -> str:
+    """The junction ``centre`` asks for, in words."""
+    if centre is None:
+        return "its intersection"
+    if isinstance(centre, str):
+        return f"intersection {centre!r}"
+    try:
+        return "the intersection at ({:g}, {:g})".format(*(float(v) for v in centre))
+    except (TypeError, ValueError, IndexError):
+        return f"the intersection at {centre!r}"
+
+
+def _import_patch(source: Union[str, Path, dict], where: str, centre: Union[tuple[float, float], str, None],
+                  cfg: ImportConfig, name: Optional[str]) -> RoadMap:
     data = source if isinstance(source, dict) else read_json(source, "nuScenes map file")
     layers = Layers(data, where)
     segment = pick_intersection(layers, centre)
