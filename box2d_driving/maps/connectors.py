@@ -97,6 +97,7 @@ def mark_conflicts(connectors: list[Connector]) -> None:
 
 
 def _wrap(a: float) -> float:
+    """Angle ``a`` (rad) in [-pi, pi)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
@@ -111,6 +112,9 @@ def classify_turn(turn: float, cfg: ImportConfig) -> str:
 
 
 def _default_turns(n: int) -> list[set[str]]:
+    """Movements per inbound lane (left to right) where the data gives none: a single lane serves
+    every movement; else the leftmost lane turns left or goes straight, the rightmost turns right
+    or goes straight, those between go straight."""
     if n == 1:
         return [{"left", "straight", "right"}]
     return [{"left", "straight"}] + [{"straight"}] * (n - 2) + [{"straight", "right"}]
