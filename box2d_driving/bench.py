@@ -33,6 +33,9 @@ _LARGE = {"slots_per_approach": 8, "road_length_range": (75.0, 100.0)}
 
 @dataclass
 class BenchResult:
+    """One row of the table: throughput at ``cars`` cars over ``seconds`` of stepping, and the
+    shares of that time spent casting LiDAR rays, in Box2D physics and in the rest (Python glue)."""
+
     cars: int
     agent_steps_per_s: float
     agent_steps: int
@@ -62,10 +65,13 @@ class _Timer:
 
 
 def env_overrides(cars: int) -> dict:
+    """Env settings for ``cars`` cars: past 16 the junction needs longer roads."""
     return dict(_LARGE) if cars > 16 else {}
 
 
 def run(cars: int, seconds: float, seed: int = 0) -> BenchResult:
+    """Step the intersection with ``cars`` cars and random actions for about ``seconds`` (after one
+    untimed warm-up step), resets included."""
     env = box2d_driving.make("intersection-v0", num_cars=cars, **env_overrides(cars))
     env.reset(seed=seed)  # first reset compiles/loads the Numba kernels; not timed
     env.step({a: 0 for a in env.agents})
@@ -123,6 +129,7 @@ def machine() -> str:
 
 
 def format_table(results: list[BenchResult]) -> str:
+    """The results as a markdown table."""
     lines = [
         "| cars | agent-steps/s | LiDAR | physics | glue | episodes |",
         "|---:|---:|---:|---:|---:|---:|",

@@ -26,6 +26,9 @@ from box2d_driving.cli_parser import OneLineParser
 
 @dataclass
 class MemoryResult:
+    """Resident memory of one env before and after ``resets`` resets of ``steps_per_reset``
+    steps each (MiB), and the growth per 1,000 resets."""
+
     env_id: str
     resets: int
     steps_per_reset: int

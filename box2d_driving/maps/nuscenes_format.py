@@ -82,6 +82,8 @@ class Layers:
 
 
 def pick_intersection(L: Layers, centre: Union[tuple[float, float], str, None]) -> dict:
+    """The intersection ``road_segment`` asked for: by token, the only one (``centre`` None), the
+    one containing the point ``centre``, else the one whose polygon's centroid is nearest it."""
     inters = [r for r in L.data["road_segment"] if r.get("is_intersection")]
     if not inters:
         raise MapError(f"{L.where}: no road_segment with is_intersection")

@@ -63,6 +63,9 @@ def message_pairs(table: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 
 def communication_metrics(table: dict[str, np.ndarray]) -> dict:
+    """Every message measure of the module docstring from a rollout table: the share of bit 1,
+    speaker consistency (bits), the two heading-change correlations, what each bit value says of
+    its sender (``by_bit``) and the turn-signal measures."""
     p = message_pairs(table)
     return {
         "samples": int(len(p["bit"])),

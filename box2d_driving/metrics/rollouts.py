@@ -98,10 +98,12 @@ def _num(value: Optional[float]) -> float:
 
 
 def save_table(table: dict[str, np.ndarray], path: Path) -> None:
+    """A rollout table as a compressed ``.npz`` (plain arrays only)."""
     np.savez_compressed(path, **table)
 
 
 def load_table(path: Path) -> dict[str, np.ndarray]:
+    """A rollout table saved by :func:`save_table`."""
     with np.load(path, allow_pickle=False) as data:  # a rollout file never unpickles
         return {k: data[k] for k in data.files}
 

@@ -40,6 +40,7 @@ class CheckpointError(ValueError):
 
 
 def legacy_message(path: Path) -> str:
+    """Why an SB3 ``model.zip`` at ``path`` is refused, and how its owner converts it."""
     return (f"{path} is an SB3 model.zip: it holds pickled Python objects, which can run any code "
             f"when loaded, so it is refused. Shipped and new checkpoints are {FILE} files. If this "
             f"file is your own (you trained it and nobody else could have changed it), convert it "
