@@ -100,6 +100,8 @@ class ScriptArgs(CommonArgs):
 
 
 def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
+    """The :class:`TrainConfig` a behaviour script's arguments ask for on ``env_id``: env settings
+    from the flags, the rest as given (``timesteps``: instead of ``args.timesteps``)."""
     overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
     overrides.update(args.env_overrides())
     if args.horizon is not None:
@@ -170,6 +172,9 @@ class BilevelArgs(CommonArgs):
 
 
 def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
+    """The :class:`~training.trainers.bilevel.BilevelConfig` of a spline behaviour's arguments:
+    the acceleration stage as :func:`config_from` builds it, the rounds and spline settings from
+    the flags."""
     from training.trainers.bilevel import BilevelConfig
 
     accel = config_from(env_id, args, timesteps=0)

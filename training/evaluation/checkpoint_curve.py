@@ -159,6 +159,7 @@ def late_change(decisions: np.ndarray, values: np.ndarray, share: float = LATE_S
 
 
 def write_rows(path: Path, rows: list[dict[str, Any]]) -> None:
+    """``rows`` as CSV at ``path``, the columns in the order they first appear."""
     fields: list[str] = []
     for r in rows:
         fields += [k for k in r if k not in fields]
@@ -169,6 +170,8 @@ def write_rows(path: Path, rows: list[dict[str, Any]]) -> None:
 
 
 def curve_of_run(run: Path, out: Path, episodes: int, seed: int) -> None:
+    """Every kept checkpoint of ``run`` evaluated on ``episodes`` episodes from ``seed``:
+    ``curve.csv`` and a plot of each metric against training progress in ``out``."""
     rows = run_curve(run, episodes, seed, log=lambda line: print(line, flush=True))
     write_rows(out / "curve.csv", rows)
     x = np.array([r["agent_steps"] for r in rows])

@@ -31,6 +31,8 @@ def add_collisions(metrics: dict, table: dict, out: Path) -> dict:
 
 def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                   make_env: Callable[..., Any]) -> dict:
+    """Traffic-light measures (which light value the cars stop at, violations, whether a violator
+    could have stopped) and their plots."""
     # the hardest braking a car has: whether a car that entered on the stop value could have stopped
     metrics = traffic_light_metrics(table, max_brake=-min(env.config.accelerations))
     plots.acceleration_by_light(table, out / "acceleration_by_light.png", metrics["stop_value"])
@@ -41,6 +43,9 @@ def lights_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, 
 
 def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                      make_env: Callable[..., Any]) -> dict:
+    """Pedestrian measures (the share of samples with room to stop before the nearest pedestrian
+    ahead, pedestrian collisions, speed against distance) and their plots, with the same policy's
+    episodes with pedestrians unseen as the control where it sees through LiDAR."""
     a_max = env.config.a_max
     metrics = crosswalk_metrics(table, a_max)
     s, control = pedestrian_samples(table), None
@@ -63,6 +68,8 @@ def crosswalk_report(table: dict, env: Any, policy: Any, out: Path, episodes: in
 
 def lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                  make_env: Callable[..., Any]) -> dict:
+    """The traffic-light report plus lane measures (which side of the road cars cross the junction
+    on, and how far off the axis) and the lane-position histogram."""
     metrics = lights_report(table, env, policy, out, episodes, seed, make_env)
     metrics["lanes"] = lane_metrics(table)
     plots.lane_histogram({"policy": junction_lane_samples(table)}, out / "lane_histogram.png")
@@ -71,6 +78,8 @@ def lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, s
 
 def fast_lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                       make_env: Callable[..., Any]) -> dict:
+    """Outcomes and fast-lane measures (lateral position against a car's speed rating) and their
+    plot."""
     metrics = outcome_rates(table)
     metrics["fast_lanes"] = fast_lane_metrics(table, env.config.road_width)
     plots.lateral_over_time(table, env.config.road_width, out / "lateral_by_rating.png")

@@ -52,10 +52,13 @@ def legacy_files(path: Path) -> list[Path]:
 
 
 def target(zip_path: Path) -> Path:
+    """Where the converted weights of ``zip_path`` go."""
     return zip_path.with_name(FILE) if zip_path.name == "model.zip" else zip_path.with_suffix(".safetensors")
 
 
 def convert(args: Args) -> list[Path]:
+    """Convert the SB3 ``model.zip`` files of a run folder (or one file) into safetensors files
+    beside them, only with ``--trust-pickle``; returns the files written."""
     path = Path(args.path)
     if not args.path or not path.exists():
         raise CheckpointError(f"no run folder or file at {args.path!r}")

@@ -125,6 +125,8 @@ def merge_curves(path: Path, rows: list[dict[str, Any]]) -> None:
 
 
 def curve_of_sweep(sweep: Path, out: Path, episodes: int, seed: int, finished_only: bool = False) -> None:
+    """The learning curve of every trial of ``sweep`` with checkpoints here (``finished_only``: of
+    finished trials only) into ``out/curves.csv``."""
     rows = sweep_curve_rows(sweep, episodes, seed, log=lambda line: print(line, flush=True),
                             finished_only=finished_only)
     if not rows:

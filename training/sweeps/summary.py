@@ -112,6 +112,8 @@ def extendable_runs(old_out: Path, spec: SweepSpec) -> dict[str, Path]:
 
 def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], error: str = "",
                 run: str = "") -> dict[str, Any]:
+    """One trial's row of the sweep summary: its name, seed, status and grid point, the training
+    budget it ran and every report metric (figures' counts nested under ``figures``)."""
     row = {"trial": trial["name"], "behaviour": trial["behaviour"], "seed": trial["seed"],
            "status": status, "error": error, "run": run or metrics.get("run", ""),
            "decisions": metrics.get("train/decisions"), "agent_steps": metrics.get("train/agent_steps"),

@@ -148,6 +148,8 @@ class BanditStats(BaseCallback):
 
 
 def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
+    """Check ``out``: with ``resume``, a bilevel run of the same acceleration settings; else new
+    or empty."""
     if resume:
         check_resumable(out, ("config.json", "state.json", f"accel/{FILE}", f"spline/{FILE}"))
         check_same_run(json.loads((out / "config.json").read_text())["accel"], config.accel)
@@ -164,6 +166,8 @@ def start_run_dir(out: Path, config: BilevelConfig) -> None:
 
 
 def make_bandit(config: BilevelConfig, accel_model: PPO) -> SplineBanditVecEnv:
+    """The spline stage as a one-step vectorised env whose inner episodes the live acceleration
+    policy drives greedily."""
     acfg = config.accel
 
     def factory():
@@ -177,6 +181,8 @@ def make_bandit(config: BilevelConfig, accel_model: PPO) -> SplineBanditVecEnv:
 
 
 def build_spline_model(config: BilevelConfig, bandit: SplineBanditVecEnv) -> PPO:
+    """PPO for the spline policy on ``bandit``: one-step episodes, so no discounting or GAE
+    (``gamma = gae_lambda = 0``)."""
     n_steps = max(1, math.ceil(config.spline_samples / bandit.num_envs))
     return PPO(
         "MlpPolicy", bandit, n_steps=n_steps, batch_size=min(config.spline_minibatch, n_steps * bandit.num_envs),
@@ -198,6 +204,8 @@ def make_picker(config: BilevelConfig) -> SharedSplinePicker:
 
 
 def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> None:
+    """Both policies and the run's state after a round; with ``keep``, a copy of both weights under
+    ``checkpoints/`` for the learning curve."""
     save_model(accel, out / "accel" / FILE)
     save_model(spline, out / "spline" / FILE)
     write_json_atomic(out / "state.json", state)

@@ -170,6 +170,8 @@ def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
 
 
 def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
+    """SB3 PPO with the centralised-critic policy on ``venv``, its rollout length and minibatch
+    from ``config`` for the env's car count."""
     probe = venv.probe.env
     n_cars = len(probe.possible_agents)
     n_steps = config.n_steps(n_cars)
