@@ -90,16 +90,19 @@ def checked_spec(spec: ArmSpec, index: int) -> ArmSpec:
             raise MapError(f"{where}: {name} must be a non-negative integer, got {value!r}")
     if spec.lanes_in + spec.lanes_out == 0:
         raise MapError(f"{where}: it has no lanes (lanes_in and lanes_out both 0)")
-    for name, low in (("lane_width", 0.0), ("median", None)):
-        value = getattr(spec, name)
-        ok = isinstance(value, (int, float, np.number)) and not isinstance(value, bool) and math.isfinite(value)
-        if not ok or (value <= 0 if low is not None else value < 0):
-            allowed = "a positive number" if low is not None else "a non-negative number"
-            raise MapError(f"{where}: {name} must be {allowed} of metres, got {value!r}")
+    if not _finite(spec.lane_width) or spec.lane_width <= 0:
+        raise MapError(f"{where}: lane_width must be a positive number of metres, got {spec.lane_width!r}")
+    if not _finite(spec.median) or spec.median < 0:
+        raise MapError(f"{where}: median must be a non-negative number of metres, got {spec.median!r}")
     if spec.turn_lanes is not None and not all(isinstance(t, (set, frozenset)) and t <= set(MOVEMENTS)
                                                for t in spec.turn_lanes):
         raise MapError(f"{where}: turn_lanes must be, per inbound lane, a set of {MOVEMENTS}")
     return replace(spec, centreline=line)
+
+
+def _finite(value: object) -> bool:
+    """A finite real number (not a bool)."""
+    return isinstance(value, (int, float, np.number)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def arm_angle(centreline: np.ndarray, at: float = 15.0) -> float:

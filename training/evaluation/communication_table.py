@@ -20,7 +20,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
 
 from box2d_driving.metrics.communication import rank_trend  # noqa: E402
-from training.common.cli_args import OneLineParser, prog_name  # noqa: E402
+from training.common.cli_args import OneLineParser, error, prog_name  # noqa: E402
 from training.evaluation import plots  # noqa: E402
 
 KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
@@ -59,13 +59,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("runs", nargs="+", help="NOISE=EVAL_FOLDER (with metrics.json)")
     parser.add_argument("--out", required=True, help="plot PNG to write")
     args = parser.parse_args(argv)
-    rows = []
-    for item in args.runs:
-        run, problem = _read_run(item)
-        if problem:
-            print(f"communication_table: error: {problem}", file=sys.stderr)
-            return 2
-        rows.append(run)
+    try:
+        rows = [_read_run(item) for item in args.runs]
+    except _Unreadable as exc:
+        return error(str(exc))
     rows.sort(key=lambda r: r[0])
     _print_tables(rows)
     _plot(rows, args.out)
@@ -73,27 +70,31 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _read_run(item: str) -> tuple[tuple[float, dict, str], str]:
-    """One ``NOISE=EVAL_FOLDER`` argument: (noise, its report, training seed), or what is wrong with
-    it in words."""
+class _Unreadable(ValueError):
+    """A ``NOISE=EVAL_FOLDER`` argument whose report cannot be compared (the message says why)."""
+
+
+def _read_run(item: str) -> tuple[float, dict, str]:
+    """One ``NOISE=EVAL_FOLDER`` argument: (noise, its report, training seed); :class:`_Unreadable`
+    saying what is wrong with it."""
     noise, sep, folder = item.partition("=")
     try:
         level = float(noise)
     except ValueError:
         level = float("nan")
     if not sep or not np.isfinite(level):
-        return (0.0, {}, ""), f"{item!r}: expected NOISE=EVAL_FOLDER, e.g. 0.5=runs/comm_n05/eval"
+        raise _Unreadable(f"{item!r}: expected NOISE=EVAL_FOLDER, e.g. 0.5=runs/comm_n05/eval")
     report = Path(folder) / "metrics.json"
     try:
         m = json.loads(report.read_text())
     except (OSError, ValueError) as exc:
-        return (0.0, {}, ""), f"{report}: cannot read the evaluation report ({type(exc).__name__})"
+        raise _Unreadable(f"{report}: cannot read the evaluation report ({type(exc).__name__})") from None
     if "communication" not in m:
-        return (0.0, {}, ""), f"{folder} was not evaluated with communication"
+        raise _Unreadable(f"{folder} was not evaluated with communication")
     if "by_bit" not in m["communication"]:
-        return (0.0, {}, ""), (f"{folder} predates the per-bit profile; re-evaluate it "
-                               "(training/evaluation/evaluate.py --overwrite)")
-    return (level, m, training_seed(Path(folder))), ""
+        raise _Unreadable(f"{folder} predates the per-bit profile; re-evaluate it "
+                          "(training/evaluation/evaluate.py --overwrite)")
+    return level, m, training_seed(Path(folder))
 
 
 def _print_tables(rows: list[tuple[float, dict, str]]) -> None:
