@@ -26,5 +26,6 @@ class ContactRecorder(b2ContactListener):
         self.events.append((contact.fixtureA.userData, contact.fixtureB.userData))
 
     def drain(self) -> list[tuple[tuple[str, int], tuple[str, int]]]:
+        """The contacts recorded since the last drain, oldest first; the record is emptied."""
         events, self.events = self.events, []
         return events

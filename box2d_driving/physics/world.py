@@ -79,6 +79,9 @@ class DrivingWorld:
 
     # -- building ------------------------------------------------------------------------------
     def reset(self, layout: Layout) -> None:
+        """Build a fresh ``b2World`` for ``layout``: one static body with a fixture per road edge,
+        a box body per car at the start of its path (standing, arc length 0) and per pedestrian
+        (moving at its velocity); the previous episode's world is released first."""
         cfg = self.config
         self.layout = layout
         self.release()

@@ -25,6 +25,8 @@ class Path:
 
     @staticmethod
     def from_points(points: np.ndarray) -> "Path":
+        """The polyline through ``points`` ``(P, 2)`` (m), repeated vertices dropped; ValueError
+        unless at least two distinct 2-D points remain."""
         pts = np.asarray(points, dtype=np.float64)
         if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
             raise ValueError(f"a path needs at least two 2-D points, got shape {pts.shape}")
@@ -58,6 +60,7 @@ class Path:
 
     @property
     def length(self) -> float:
+        """Total arc length (m)."""
         return float(self.cumlen[-1])
 
     def pose(self, s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:

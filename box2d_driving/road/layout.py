@@ -29,6 +29,8 @@ class LaneAxis:
         return np.array([self.direction[1], -self.direction[0]])
 
     def offset(self, positions: np.ndarray) -> np.ndarray:
+        """Signed normalised lane offset of each position ``(..., 2)`` (m): positive right of the
+        direction of travel, +-1 at the road edges."""
         return (np.asarray(positions) - self.origin) @ self.right / self.half_width
 
 
