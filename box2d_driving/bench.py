@@ -141,6 +141,8 @@ def format_table(results: list[BenchResult]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``box2d-driving bench``: the world table, or ``--memory`` / ``--train`` handed to their own
+    benchmarks; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if "--memory" in argv:  # memory growth over resets: its own table (box2d_driving/memcheck.py)
         from box2d_driving import memcheck

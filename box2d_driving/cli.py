@@ -146,6 +146,7 @@ def _map_output_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser of the world's own subcommands (the training ones are found by entry point)."""
     parser = OneLineParser(prog="box2d-driving",
                      description="Multi-agent Box2D driving worlds in which road rules emerge.")
     parser.add_argument("--version", action="version", version=f"box2d-driving {box2d_driving.__version__}")
@@ -246,6 +247,7 @@ def _delegate(argv: list[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``box2d-driving`` with ``argv`` (default the process's arguments); returns the exit status."""
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "bench":
         from box2d_driving import bench

@@ -73,6 +73,8 @@ def reset_growth(env_id: str, resets: int = 1000, steps: int = 3, warmup: int = 
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    """``box2d-driving bench --memory``: print (and optionally write) the growth table; returns the
+    exit status."""
     p = OneLineParser(prog="box2d-driving bench --memory", description=__doc__.split("\n\n")[0])
     p.add_argument("--resets", type=int, default=1000, help="measured resets per env (default 1000)")
     p.add_argument("--steps", type=int, default=3, help="random decisions after each reset (default 3)")

@@ -319,6 +319,9 @@ def default_summaries(folder: Path) -> list[Path]:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
+    """``box2d-driving reproduce``: with ``--run`` first run (or continue) the sections' sweeps; then
+    write the page and its figures (and, with ``--readme``, the README's results); returns the exit
+    status."""
     from training.common.cli_args import OneLineParser
 
     p = OneLineParser(prog="box2d-driving reproduce",

@@ -282,6 +282,7 @@ def _trial_name(trial) -> str:
 
 
 def build_parser():
+    """The parser of ``box2d-driving sweep`` (behaviour, grid, seeds, budget, Ray resources, output)."""
     from training.common.cli_args import OneLineParser
 
     from box2d_driving.plugins import behaviours
@@ -330,6 +331,7 @@ def spec_from_args(args: Any) -> tuple[SweepSpec, Optional[int]]:
 
 
 def main(argv: Optional[list[str]] = None) -> int:
+    """Run (or continue) a sweep on Ray Tune, then write its summary; returns the exit status."""
     args = build_parser().parse_args(argv)
     prog = "box2d-driving sweep"
     try:

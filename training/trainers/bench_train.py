@@ -51,6 +51,22 @@ from training.trainers.trainer import TrainConfig, build_model, make_vec_env, re
 
 @dataclass
 class TrainBenchRow:
+    """One measured setting of ``bench --train`` (the module docstring defines each figure).
+
+    Attributes:
+        num_cpus: env worker processes (0: the envs step in the learner's process).
+        device: torch device of the learner.
+        threads: torch threads.
+        agent_steps_per_s: live agent-steps per wall-clock second over the timed updates.
+        agent_steps: live agent-steps in the timed updates.
+        seconds: wall clock of the timed updates (s).
+        env_share, inference_share, update_share: the three parts of that wall clock.
+        update_gflop: counted floating-point work of one update (GFLOP).
+        update_gflops: that work over the update's own time (GFLOP/s).
+        bound_gflops: the same work over the time with the encoders replaced by free stand-ins.
+        matmul_gflops: a plain product of the update's widest layer, same device and threads.
+    """
+
     num_cpus: int
     device: str
     threads: int
@@ -205,6 +221,7 @@ def worker_counts(cores: int) -> list[int]:
 
 
 def format_table(rows: list[TrainBenchRow]) -> str:
+    """The markdown table ``bench --train`` prints, one row per measured setting."""
     lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
@@ -218,6 +235,8 @@ def format_table(rows: list[TrainBenchRow]) -> str:
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    """``box2d-driving bench --train``: measure every requested worker count and print the table;
+    returns the exit status."""
     p = OneLineParser(prog="box2d-driving bench --train", description=__doc__.split("\n\n")[0])
     p.add_argument("--cars", type=int, default=4, help="cars per instance (default 4)")
     p.add_argument("--lidar-noise", type=float, default=0.5, help="LiDAR noise (default 0.5)")
