@@ -52,6 +52,15 @@ class DecisionEvents:
     partner_halted: np.ndarray
     substep: np.ndarray
 
+    @staticmethod
+    def none(n: int) -> "DecisionEvents":
+        """No event for any of ``n`` cars."""
+        return DecisionEvents(
+            arrived=np.zeros(n, dtype=bool), collided=np.zeros(n, dtype=bool),
+            collided_with=[None] * n, partner=np.full(n, -1, dtype=np.int64),
+            partner_halted=np.zeros(n, dtype=bool), substep=np.zeros(n, dtype=np.int64),
+        )
+
 
 class DrivingWorld:
     """Owns the ``b2World`` of one episode and the cars' longitudinal state."""
@@ -160,26 +169,16 @@ class DrivingWorld:
 
     # -- stepping -----------------------------------------------------------------------------
     def advance(self, accel: np.ndarray) -> DecisionEvents:
-        """Hold accelerations ``accel`` (m/s^2, per car) for one decision."""
-        cfg = self.config
-        n, k_steps, dt = self.n_cars, cfg.substeps, cfg.dt
+        """Hold accelerations ``accel`` (m/s^2, per car) for one decision: the motion of every
+        moving car over the decision's physics steps is integrated exactly first
+        (:meth:`_plan_motion`), then Box2D runs the steps with those velocities, and a car halts
+        on the step of its first contact or stops on the step it reaches its goal."""
+        k_steps, dt = self.config.substeps, self.config.dt
         moving = self.status == ACTIVE
         self.accel = np.where(moving, accel, 0.0)
-
-        s_out = np.empty((n, k_steps + 1))
-        v_out = np.empty((n, k_steps + 1))
-        arrive = np.zeros(n, dtype=np.int64)
-        longitudinal_profile(self.s, self.speed, self.accel, self.v_lim, self.s_end, moving,
-                             dt, k_steps, s_out, v_out, arrive)
-        xy = np.empty((n, k_steps + 1, 2))
-        heading = np.empty((n, k_steps + 1))
-        path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
+        s_out, v_out, arrive, heading, velocity, always, never = self._plan_motion(moving)
         rows = np.flatnonzero(moving)
         live = rows.tolist()
-        # per moving car, its velocity at each physics step (m/s); the others get none
-        velocity = np.empty((len(rows), k_steps, 2))
-        always, never = np.empty(len(rows), dtype=bool), np.empty(len(rows), dtype=bool)
-        chord_velocities(xy, rows, dt, velocity, always, never)
         # only a path of more than one segment turns: a one-segment path's angular velocity is
         # exactly 0 at every step, the value its body has, so it is never written
         turning = [i for i in live if self._turns[i]]
@@ -189,11 +188,7 @@ class DrivingWorld:
         for i in rows[arrive[rows] > 0].tolist():
             arriving.setdefault(int(arrive[i]), []).append(i)
 
-        events = DecisionEvents(
-            arrived=np.zeros(n, dtype=bool), collided=np.zeros(n, dtype=bool),
-            collided_with=[None] * n, partner=np.full(n, -1, dtype=np.int64),
-            partner_halted=np.zeros(n, dtype=bool), substep=np.zeros(n, dtype=np.int64),
-        )
+        events = DecisionEvents.none(self.n_cars)
         bodies, standing, spin = self.car_bodies, self._standing, self._angular
         # A car standing still (waiting at a red light) keeps the zero velocity it has: no gravity
         # or damping acts on these bodies, so Box2D leaves it exactly as set, and a zero velocity
@@ -224,35 +219,68 @@ class DrivingWorld:
                     spin[i] = w
             self.world.Step(dt, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
             self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
+            # a car leaves the step loop's lists when it halts (first contact) or arrives
+            done_now = []
             if self.contacts.events:
                 for i in self._apply_contacts(self.contacts.drain(), events, k + 1):
                     self.s[i] = s_out[i, k + 1]
                     if i in live:
+                        done_now.append(i)
                         live.remove(i)
-                        driving, stopping = _without(driving, i), _without(stopping, i)
-                        if i in turning:
-                            turning.remove(i)
             for i in arriving.get(k + 1, ()):
                 if i in live:  # not halted by a contact earlier in this decision
+                    done_now.append(i)
                     live.remove(i)
-                    driving, stopping = _without(driving, i), _without(stopping, i)
-                    if i in turning:
-                        turning.remove(i)
-                    self.status[i] = ARRIVED
-                    events.arrived[i] = True
-                    events.substep[i] = k + 1
-                    self.s[i] = self.s_end[i]
-                    self.speed[i] = v_out[i, k + 1]
-                    bodies[i].linearVelocity = (0.0, 0.0)
-                    self._standing[i] = True
-                    bodies[i].angularVelocity = 0.0
-                    bodies[i].active = False
+                    self._arrive(i, events, k + 1, v_out[i, k + 1])
+            for i in done_now:
+                driving, stopping = _without(driving, i), _without(stopping, i)
+                if i in turning:
+                    turning.remove(i)
         for i in live:
             self.s[i] = s_out[i, k_steps]
             self.speed[i] = v_out[i, k_steps]
         self._turn_pedestrians()
         self.read_poses(rows)
         return events
+
+    def _plan_motion(self, moving: np.ndarray):
+        """The decision's motion of every car, integrated exactly by the compiled kernels.
+
+        Returns arc length ``s_out`` and speed ``v_out`` ``(N, K + 1)`` at each physics step's end
+        (column 0: now), ``arrive`` ``(N,)`` the 1-based step a car reaches its goal (0: not in
+        this decision), ``heading`` ``(N, K + 1)``, and for the moving cars (in index order)
+        ``velocity`` ``(M, K, 2)`` (m/s) to give Box2D at each step, with ``always`` / ``never``
+        (``(M,)``) whether that velocity is non-zero at every step / at none.
+        """
+        cfg = self.config
+        n, k_steps, dt = self.n_cars, cfg.substeps, cfg.dt
+        s_out = np.empty((n, k_steps + 1))
+        v_out = np.empty((n, k_steps + 1))
+        arrive = np.zeros(n, dtype=np.int64)
+        longitudinal_profile(self.s, self.speed, self.accel, self.v_lim, self.s_end, moving,
+                             dt, k_steps, s_out, v_out, arrive)
+        xy = np.empty((n, k_steps + 1, 2))
+        heading = np.empty((n, k_steps + 1))
+        path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
+        rows = np.flatnonzero(moving)
+        velocity = np.empty((len(rows), k_steps, 2))
+        always, never = np.empty(len(rows), dtype=bool), np.empty(len(rows), dtype=bool)
+        chord_velocities(xy, rows, dt, velocity, always, never)
+        return s_out, v_out, arrive, heading, velocity, always, never
+
+    def _arrive(self, i: int, events: DecisionEvents, substep: int, speed: float) -> None:
+        """Car ``i`` reached its goal on physics step ``substep`` at ``speed`` (m/s): it stops
+        there and its body leaves the world."""
+        self.status[i] = ARRIVED
+        events.arrived[i] = True
+        events.substep[i] = substep
+        self.s[i] = self.s_end[i]
+        self.speed[i] = speed
+        body = self.car_bodies[i]
+        body.linearVelocity = (0.0, 0.0)
+        self._standing[i] = True
+        body.angularVelocity = 0.0
+        body.active = False
 
     def _apply_contacts(self, contacts, events: DecisionEvents, substep: int) -> list[int]:
         """Mark first collisions; returns the cars that collided now."""
