@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from box2d_driving.road.geometry import Path, catmull_rom, spline_path, wrap_angle
+from box2d_driving.road.geometry import Path, catmull_rom, catmull_rom_many, spline_path, spline_paths, wrap_angle
 
 
 CONTROL = np.array([[0.0, 0.0], [10.0, 4.0], [25.0, -3.0], [40.0, 8.0]])
@@ -37,6 +37,54 @@ def test_centripetal_spline_has_no_cusp_with_uneven_spacing():
     heading = np.arctan2(*np.diff(pts, axis=0)[:, ::-1].T)
     turn = np.abs(wrap_angle(np.diff(heading)))
     assert turn.max() < 0.5  # smooth: no reversal within a segment
+
+
+def _catmull_rom_by_segment(control, alpha, samples):
+    """The spline one segment at a time (Barry and Goldman's pyramid of blends with scalar knots):
+    the reference the array version must match to the bit."""
+    p = np.asarray(control, dtype=np.float64)
+    ext = np.vstack([2 * p[0] - p[1], p, 2 * p[-1] - p[-2]])
+    out = [p[:1]]
+    u = np.linspace(0.0, 1.0, samples + 1)[1:, None]
+    for i in range(len(p) - 1):
+        p0, p1, p2, p3 = ext[i], ext[i + 1], ext[i + 2], ext[i + 3]
+        t0 = 0.0
+        t1 = t0 + max(np.linalg.norm(p1 - p0), 1e-9) ** alpha
+        t2 = t1 + max(np.linalg.norm(p2 - p1), 1e-9) ** alpha
+        t3 = t2 + max(np.linalg.norm(p3 - p2), 1e-9) ** alpha
+        t = t1 + u * (t2 - t1)
+        a1 = (t1 - t) / (t1 - t0) * p0 + (t - t0) / (t1 - t0) * p1
+        a2 = (t2 - t) / (t2 - t1) * p1 + (t - t1) / (t2 - t1) * p2
+        a3 = (t3 - t) / (t3 - t2) * p2 + (t - t2) / (t3 - t2) * p3
+        b1 = (t2 - t) / (t2 - t0) * a1 + (t - t0) / (t2 - t0) * a2
+        b2 = (t3 - t) / (t3 - t1) * a2 + (t - t1) / (t3 - t1) * a3
+        c = (t2 - t) / (t2 - t1) * b1 + (t - t1) / (t2 - t1) * b2
+        c[-1] = p2
+        out.append(c)
+    return np.vstack(out)
+
+
+def test_splines_sampled_together_are_each_spline_by_segment_to_the_bit():
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        n, k = int(rng.integers(1, 9)), int(rng.integers(2, 6))
+        control = rng.normal(size=(n, k, 2)) * rng.uniform(0.05, 200)
+        if rng.random() < 0.2:
+            control[:, 1] = control[:, 0]  # a repeated control point (the 1e-9 knot floor)
+        alpha, samples = float(rng.choice([0.0, 0.5, 1.0])), int(rng.integers(1, 70))
+        together = catmull_rom_many(control, alpha, samples)
+        assert together.shape == (n, 1 + (k - 1) * samples, 2)
+        for i in range(n):
+            alone = _catmull_rom_by_segment(control[i], alpha, samples)
+            assert np.array_equal(together[i], alone)
+            assert np.array_equal(catmull_rom(control[i], alpha, samples), alone)
+    paths = spline_paths(control)
+    for path, c in zip(paths, control):
+        single = spline_path(c)
+        assert np.array_equal(path.points, single.points) and np.array_equal(path.cumlen, single.cumlen)
+    assert catmull_rom_many(np.zeros((0, 3, 2))).shape == (0, 129, 2)
+    with pytest.raises(ValueError, match="control points"):
+        catmull_rom_many(np.zeros((3, 1, 2)))
 
 
 def test_path_pose_and_projection():

@@ -19,7 +19,7 @@ from gymnasium import spaces
 from box2d_driving.config import require
 from box2d_driving.envs.highway import HighwayConfig, HighwayEnv
 from box2d_driving.envs.spline import SplineStageMixin
-from box2d_driving.road.geometry import spline_path
+from box2d_driving.road.geometry import spline_paths
 from box2d_driving.road.layout import Layout
 
 
@@ -77,9 +77,11 @@ class HighwaySplineEnv(SplineStageMixin, HighwayEnv):
     def apply_spline(self, layout: Layout, actions: np.ndarray) -> Layout:
         cfg: HighwaySplineConfig = self.config
         targets = self.lateral_targets(actions)
-        cars = []
-        for car, y in zip(layout.cars, targets):
-            start, goal = car.path.points[0], car.path.points[-1]
-            control = np.array([start, [start[0] + cfg.lane_change_distance, y], [goal[0], y]])
-            cars.append(dataclasses.replace(car, path=spline_path(control, samples_per_segment=cfg.spline_samples)))
+        starts = np.array([car.path.points[0] for car in layout.cars]).reshape(-1, 2)
+        goal_x = np.array([car.path.points[-1][0] for car in layout.cars])
+        # per car: its start, the point one lane-change distance on at its target, the goal's x there
+        control = np.stack([starts, np.column_stack([starts[:, 0] + cfg.lane_change_distance, targets]),
+                            np.column_stack([goal_x, targets])], axis=1)
+        paths = spline_paths(control, samples_per_segment=cfg.spline_samples)
+        cars = [dataclasses.replace(car, path=path) for car, path in zip(layout.cars, paths)]
         return dataclasses.replace(layout, cars=cars)

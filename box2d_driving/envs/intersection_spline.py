@@ -29,7 +29,7 @@ from gymnasium import spaces
 from box2d_driving.config import require
 from box2d_driving.envs.intersection import IntersectionConfig, IntersectionEnv
 from box2d_driving.envs.spline import SplineStageMixin
-from box2d_driving.road.geometry import spline_path
+from box2d_driving.road.geometry import spline_paths
 from box2d_driving.road.layout import Layout
 
 N_WAYPOINTS = 3
@@ -127,6 +127,6 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
         offsets = self.decode_offsets(actions)
         half = np.array([c.lane_axis.half_width for c in layout.cars])
         control = wps + (offsets * half[:, None])[:, :, None] * rights[:, None, :]
-        cars = [dataclasses.replace(car, path=spline_path(control[i], samples_per_segment=cfg.spline_samples))
-                for i, car in enumerate(layout.cars)]
+        paths = spline_paths(control, samples_per_segment=cfg.spline_samples)
+        cars = [dataclasses.replace(car, path=path) for car, path in zip(layout.cars, paths)]
         return dataclasses.replace(layout, cars=cars)

@@ -5,6 +5,7 @@ All coordinates are metres in the world frame; headings are radians counter-cloc
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,41 +87,69 @@ class Path:
 
 
 def catmull_rom(control: np.ndarray, alpha: float = 0.5, samples_per_segment: int = 64) -> np.ndarray:
-    """Sample a Catmull-Rom spline through ``control`` points.
+    """Sample a Catmull-Rom spline through ``control`` points ``(K, 2)`` (m).
 
     ``alpha = 0.5`` is the centripetal parameterisation (no cusps or self-intersections within a
     segment). The curve passes through every control point; the end segments use mirrored
     phantom points so that it starts at the first and ends at the last control point.
 
-    Returns ``(samples, 2)`` points, the control points included exactly.
+    Returns ``(1 + (K - 1) * samples_per_segment, 2)`` points, the control points included exactly.
     """
     p = np.asarray(control, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 2 or len(p) < 2:
         raise ValueError(f"catmull_rom needs at least two 2-D control points, got {p.shape}")
-    ext = np.vstack([2 * p[0] - p[1], p, 2 * p[-1] - p[-2]])
-    out = [p[:1]]
+    return catmull_rom_many(p[None], alpha, samples_per_segment)[0]
+
+
+def catmull_rom_many(control: np.ndarray, alpha: float = 0.5, samples_per_segment: int = 64) -> np.ndarray:
+    """:func:`catmull_rom` of ``N`` splines at once: control points ``(N, K, 2)`` (m) to samples
+    ``(N, 1 + (K - 1) * samples_per_segment, 2)``.
+
+    Every sample is the same sequence of floating-point operations as one spline's segment by
+    segment (the knot spacings are scalar ``norm ** alpha`` per control-point gap, the blends are
+    elementwise), so a spline's samples do not depend on which others it is computed with; one
+    pass of array operations over all splines and segments instead of a few dozen small ones per
+    segment (a spline env's reset builds a path per car).
+    """
+    p = np.asarray(control, dtype=np.float64)
+    if p.ndim != 3 or p.shape[2] != 2 or p.shape[1] < 2:
+        raise ValueError(f"catmull_rom_many needs (N, K >= 2, 2) control points, got {p.shape}")
+    n, k = p.shape[:2]
+    if n == 0:
+        return np.empty((0, 1 + (k - 1) * samples_per_segment, 2))
+    ext = np.concatenate([2 * p[:, :1] - p[:, 1:2], p, 2 * p[:, -1:] - p[:, -2:-1]], axis=1)
+    gaps = ext[:, 1:] - ext[:, :-1]  # (N, K + 1, 2)
+    # knot increments |gap| ** alpha as scalars, as np.linalg.norm of one 2-vector computes the
+    # length (sqrt of its dot product) and Python's pow raises it: the array versions may round
+    # differently (numpy takes sqrt for ** 0.5 and may fuse the dot's products)
+    inc = np.array([[max(math.sqrt(g.dot(g)), 1e-9) ** alpha for g in row] for row in gaps])
+    # knots t0 = 0 < t1 < t2 < t3 of segment i, each (N, K - 1, 1, 1)
+    t1 = 0.0 + inc[:, :-2]
+    t2 = t1 + inc[:, 1:-1]
+    t3 = t2 + inc[:, 2:]
+    t1, t2, t3 = (t[:, :, None, None] for t in (t1, t2, t3))
+    p0, p1, p2, p3 = (ext[:, j:j + k - 1, None, :] for j in range(4))  # (N, K - 1, 1, 2)
     u = np.linspace(0.0, 1.0, samples_per_segment + 1)[1:, None]
-    for i in range(len(p) - 1):
-        p0, p1, p2, p3 = ext[i], ext[i + 1], ext[i + 2], ext[i + 3]
-        t0 = 0.0
-        t1 = t0 + max(np.linalg.norm(p1 - p0), 1e-9) ** alpha
-        t2 = t1 + max(np.linalg.norm(p2 - p1), 1e-9) ** alpha
-        t3 = t2 + max(np.linalg.norm(p3 - p2), 1e-9) ** alpha
-        t = t1 + u * (t2 - t1)
-        a1 = (t1 - t) / (t1 - t0) * p0 + (t - t0) / (t1 - t0) * p1
-        a2 = (t2 - t) / (t2 - t1) * p1 + (t - t1) / (t2 - t1) * p2
-        a3 = (t3 - t) / (t3 - t2) * p2 + (t - t2) / (t3 - t2) * p3
-        b1 = (t2 - t) / (t2 - t0) * a1 + (t - t0) / (t2 - t0) * a2
-        b2 = (t3 - t) / (t3 - t1) * a2 + (t - t1) / (t3 - t1) * a3
-        c = (t2 - t) / (t2 - t1) * b1 + (t - t1) / (t2 - t1) * b2
-        c[-1] = p2  # exact at the control point
-        out.append(c)
-    return np.vstack(out)
+    t = t1 + u * (t2 - t1)  # (N, K - 1, S, 1)
+    a1 = (t1 - t) / t1 * p0 + t / t1 * p1
+    a2 = (t2 - t) / (t2 - t1) * p1 + (t - t1) / (t2 - t1) * p2
+    a3 = (t3 - t) / (t3 - t2) * p2 + (t - t2) / (t3 - t2) * p3
+    b1 = (t2 - t) / t2 * a1 + t / t2 * a2
+    b2 = (t3 - t) / (t3 - t1) * a2 + (t - t1) / (t3 - t1) * a3
+    c = (t2 - t) / (t2 - t1) * b1 + (t - t1) / (t2 - t1) * b2
+    c[:, :, -1] = p2[:, :, 0]  # exact at the control point
+    return np.concatenate([p[:, :1], c.reshape(n, -1, 2)], axis=1)
 
 
 def spline_path(control: np.ndarray, alpha: float = 0.5, samples_per_segment: int = 64) -> Path:
     """A :class:`Path` along the centripetal Catmull-Rom spline through ``control``."""
     return Path.from_points(catmull_rom(control, alpha, samples_per_segment))
+
+
+def spline_paths(control: np.ndarray, alpha: float = 0.5, samples_per_segment: int = 64) -> list[Path]:
+    """:func:`spline_path` of each of ``N`` control-point sets ``(N, K, 2)``, the same paths
+    (sampled together by :func:`catmull_rom_many`)."""
+    return [Path.from_points(pts) for pts in catmull_rom_many(control, alpha, samples_per_segment)]
 
 
 def pack_paths(paths: list[Path]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
