@@ -67,6 +67,24 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     assert now.startswith(f"**{UNDECIDED}**")
 
 
+def test_a_larger_run_that_speaks_to_one_part_of_a_claim_does_not_yet_replace_one_that_speaks_to_all():
+    two_parts = Claim("Lanes with 8 cars, none with 4", ("big", "small"),
+                      (Reading(r"- offset \(8\b", "one side"), Reading(r"- offset \(4\b", "on the axis")), "v", "v")
+    small = _result(["- offset (8): 0.41 ± 0.2: one side.", "- offset (4): 0.33 ± 0.02: one side."], title="Small run")
+    found = {"big": _result(["- offset (8): 0.36 ± 0.46: neither shown."], seeds=(0, 1)), "small": small}
+    words, paper, ours, now, said = claim_row(two_parts, found)
+    assert ours.startswith("[Small run](#small-run): ") and now.startswith(f"**{NOT_REPRODUCED}**")
+    assert said == "offset (8): 0.41 ± 0.2: one side.<br>offset (4): 0.33 ± 0.02: one side."
+    # once the larger run has a statement on both parts, it decides, whatever it says
+    found["big"].lines.append("- offset (4): 0.34 ± 0.5: neither shown.")
+    words, paper, ours, now, said = claim_row(two_parts, found)
+    assert ours.startswith("[Big run](#big-run): ") and now.startswith(f"**{UNDECIDED}**")
+    # a larger run with a statement on one part, and no smaller run: that part is what it shows
+    del found["small"]
+    found["big"].lines.pop()
+    assert claim_row(two_parts, found)[4] == "offset (8): 0.36 ± 0.46: neither shown."
+
+
 def test_the_plateau_reading_counts_grid_points_by_verdict():
     # noise 0: every seed still climbs 0.01 per M decisions; noise 1.0: flat
     rising = _curves({"0": [0.01, 0.011, 0.009], "1.0": [0.0, 0.0, 0.0]})

@@ -131,11 +131,19 @@ def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Read
     return [(line, r) for r in claim.readings for line in result.lines if re.match(r.pattern, line)]
 
 
+def _speaks_to_every_part(claim: Claim, result: SectionResult) -> bool:
+    """Whether ``result`` has a statement for each of the claim's readings: a larger run that so
+    far speaks to one part only (say the 8-car lanes, not yet the 4-car ones) does not yet replace a
+    smaller run that speaks to all of them."""
+    return all(any(re.match(r.pattern, line) for line in result.lines) for r in claim.readings)
+
+
 def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     """The table's cells for ``claim``, from the sections found on the page (by key): the first of
-    its sections (largest budget first) whose statements decide it, else the first with trials (a
-    larger run whose trials are still too few for an interval). A claim none of whose sections has
-    trials yet names the paper's run and the page section (:data:`SECTIONS`) that will test it."""
+    its sections (largest budget first) with a statement for every part of the claim (each of its
+    readings), else the first with any statement on it, else the first with trials (a larger run
+    whose trials are still too few for an interval). A claim none of whose sections has trials yet
+    names the paper's run and the page section (:data:`SECTIONS`) that will test it."""
     tried = [k for k in claim.sections if k in found]
     if not tried:
         try:
@@ -144,7 +152,8 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
         except KeyError:  # a claim whose section is not on the page
             paper, where = "", ""
         return [claim.words, paper, f"{where}not run yet", f"**{UNDECIDED}**; not run yet", "no trials yet"]
-    key = next((k for k in tried if _deciding_lines(claim, found[k])), tried[0])
+    key = next((k for k in tried if _speaks_to_every_part(claim, found[k])),
+               next((k for k in tried if _deciding_lines(claim, found[k])), tried[0]))
     result = found[key]
     lines = _deciding_lines(claim, result)
     verdicts = {reading_verdict(line, r) for line, r in lines}

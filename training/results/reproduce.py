@@ -249,7 +249,9 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
 def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
     """The table of where the page stands on each of the paper's claims, with how to read it."""
     return ["## Where the page stands on the paper's claims", "",
-            "Each claim this page tests at the paper's own settings, read from its largest run so far: *reproduced* "
+            "Each claim this page tests at the paper's own settings, read from its largest run so far that speaks to "
+            "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
+            "section below): *reproduced* "
             "where that section's statements agree with the paper, *not reproduced* where one of them does not (an "
             "effect the paper reports that we do not show, or the opposite), *not decided* where an interval "
             "straddles the comparison; and whether the claim's measure had stopped moving by the end of training "
