@@ -135,7 +135,7 @@ def _speaks_to_every_part(claim: Claim, result: SectionResult) -> bool:
     """Whether ``result`` has a statement for each of the claim's readings: a larger run that so
     far speaks to one part only (say the 8-car lanes, not yet the 4-car ones) does not yet replace a
     smaller run that speaks to all of them."""
-    return all(any(re.match(r.pattern, line) for line in result.lines) for r in claim.readings)
+    return {r for _, r in _deciding_lines(claim, result)} == set(claim.readings)
 
 
 def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
