@@ -9,18 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from box2d_driving.maps import MapError, RoadMap, load_map
-from box2d_driving.maps.osm import import_junction
-from tests.osm_fixtures import four_way
+from box2d_driving.maps import MapError, load_map
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = sorted((ROOT / "assets" / "maps").glob("*.json"))
-
-
-@pytest.fixture(scope="module")
-def junction(tmp_path_factory) -> RoadMap:
-    """A four-way junction imported from a hand-built OpenStreetMap file."""
-    return import_junction(four_way(tmp_path_factory.mktemp("osm") / "four.osm"), 1)
 
 
 # ---- the JSON format -------------------------------------------------------------------------------

@@ -21,11 +21,6 @@ ROOT = Path(__file__).resolve().parent.parent
 PBF = ROOT / "assets" / "maps" / "source" / "Helsinki.osm.pbf"
 
 
-@pytest.fixture(scope="module")
-def junction(tmp_path_factory) -> RoadMap:
-    return import_junction(four_way(tmp_path_factory.mktemp("osm") / "four.osm"), 1)
-
-
 def arm(m: RoadMap, name: str):
     return next(a for a in m.arms if a.name == name)
 
