@@ -95,7 +95,7 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("Lanes more consistent with LiDAR noise than with perfect perception", ("lanes-noise",),
           (Reading(r"- num_cars=\d+, one-sided offset: noise 0 "),), "lanes.one_sided_offset", "one-sided offset"),
     Claim("Turn signals: speaker consistency and |Pearson(heading change, bit)| rise with LiDAR noise",
-          ("communication-paper-16M", "communication-paper"),
+          ("communication-paper-32M", "communication-paper-16M", "communication-paper"),
           (Reading(r"- speaker consistency \(bits\): noise "), Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
           "communication.speaker_consistency_bits", "speaker consistency"),
     Claim("98.45 % of following samples keep the speed-matching distance", ("right-of-way",),
