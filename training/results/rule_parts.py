@@ -18,7 +18,7 @@ __all__ = ["AGAINST_NOISE", "COMMUNICATION_BUDGET", "COMMUNICATION_CLAIM", "COMM
            "COMMUNICATION_METRICS", "COMMUNICATION_STATEMENTS", "DENSER_BUDGET", "FAST_LANES_R", "LANE_SIDE_LEVEL",
            "LANES_BUDGET", "LANES_CURVE_EXTRA", "LANES_FIGURE", "LANES_METRICS", "LANES_NOISE_METRICS",
            "LANES_PAPER_CLAIM", "LIGHTS_METRICS", "LIGHTS_NOISE_BUDGET", "ONE_SIDED", "ONE_SIDED_WORDS", "PEARSON",
-           "SUCCESS_LOST_UNHEARD", "SWEEP", "lanes_4_vs_8", "lanes_statements"]
+           "SUCCESS_LOST_UNHEARD", "SWEEP", "lanes_4_vs_8", "lanes_statements", "turn_signals_12_cars"]
 
 
 SWEEP = "box2d-driving sweep"
@@ -42,12 +42,12 @@ ONE_SIDED = Size(Preferred("lanes.one_sided_offset",
 AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency (bits)"),
                  (PEARSON, "|Pearson(heading change, bit)|"),
                  (SUCCESS_LOST_UNHEARD, "success lost with messages unheard"))
-# the turn-signal rules' table columns, the paper's claim and its runs (both turn-signal sections)
+# the turn-signal rules' table columns, the paper's claim and its runs (every turn-signal section)
 COMMUNICATION_METRICS = (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2])
 COMMUNICATION_CLAIM = ("Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
                        "more on the message when their perception is less reliable.")
 COMMUNICATION_BUDGET = "12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"
-# both turn-signal sections' figure and statements: the trend with noise, then whether the
+# every turn-signal section's figure and statements: the trend with noise, then whether the
 # listeners rely on the message at each noise level
 COMMUNICATION_FIGURE = against_noise_figure(AGAINST_NOISE)
 COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
@@ -115,3 +115,12 @@ def lanes_4_vs_8(key: str, title: str, match: tuple[tuple[str, str], ...], comma
     return Section(key, title, "lanes", match, LANES_METRICS, LANES_PAPER_CLAIM, command, setting=setting,
                    figure=LANES_FIGURE, statements=lanes_statements("4", paper_counts=True),
                    curve_extra=LANES_CURVE_EXTRA, paper_budget=LANES_BUDGET, **extra)
+
+
+def turn_signals_12_cars(key: str, title: str, match: tuple[tuple[str, str], ...], command: str, setting: str,
+                         **extra: Any) -> Section:
+    """A turn-signal section at the paper's 12 cars: the paper's claim, the communication table,
+    figure and statements, the paper's budget; ``extra``: other :class:`Section` fields (headlines)."""
+    return Section(key, title, "real-junction", (("communication", "true"), ("num_cars", "12"), *match),
+                   COMMUNICATION_METRICS, COMMUNICATION_CLAIM, command, setting=setting, figure=COMMUNICATION_FIGURE,
+                   statements=COMMUNICATION_STATEMENTS, paper_budget=COMMUNICATION_BUDGET, **extra)

@@ -19,8 +19,8 @@ from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLA
                                          COMMUNICATION_METRICS, COMMUNICATION_STATEMENTS, DENSER_BUDGET, FAST_LANES_R,
                                          LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
                                          LANES_NOISE_METRICS, LIGHTS_METRICS, LIGHTS_NOISE_BUDGET, ONE_SIDED,
-                                         ONE_SIDED_WORDS, PEARSON, SUCCESS_LOST_UNHEARD, SWEEP, lanes_4_vs_8,
-                                         lanes_statements)
+                                         ONE_SIDED_WORDS, PEARSON, SUCCESS_LOST_UNHEARD, SWEEP, lanes_4_vs_8, lanes_statements,
+                                         turn_signals_12_cars)
 from training.results.statements import (above_statement, level_change_statement, lights_statement,
                                          noise_trend_statement, paper_comparison, reference_statement,
                                          unlearnt_statement)
@@ -226,10 +226,7 @@ SECTIONS: tuple[Section, ...] = (
                                      f"`real-junction-v0`, 8 cars, 1-bit message, LiDAR noise {noise}",
                                      (("lidar_noise", noise),), ("communication.speaker_consistency_bits", PEARSON))
                             for noise in ("0", "0.25", "0.5", "0.75"))),
-    Section("communication-paper", "Turn signals at the paper's car count (12 cars)", "real-junction",
-            (("communication", "true"), ("num_cars", "12")),
-            COMMUNICATION_METRICS,
-            COMMUNICATION_CLAIM,
+    turn_signals_12_cars("communication-paper", "Turn signals at the paper's car count (12 cars)", (),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 3 --timesteps 5887232 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars",
@@ -238,14 +235,9 @@ SECTIONS: tuple[Section, ...] = (
                     "to the 1-bit message and trains 12 cars for as many decisions as the 8-car trials "
                     "(the paper: 32 M). The same training seeds run at every noise level, so the trend is "
                     "tested paired by seed; the trials run one after the other, a whole set of noise "
-                    "levels per seed, so a summary holds the seeds finished so far.",
-            figure=COMMUNICATION_FIGURE,
-            statements=COMMUNICATION_STATEMENTS,
-            paper_budget=COMMUNICATION_BUDGET),
-    Section("communication-paper-16M", "Turn signals, 12 cars, half the paper's budget (16 M decisions)",
-            "real-junction", (("communication", "true"), ("num_cars", "12"), ("timesteps", "16000000")),
-            COMMUNICATION_METRICS,
-            COMMUNICATION_CLAIM,
+                    "levels per seed, so a summary holds the seeds finished so far."),
+    turn_signals_12_cars("communication-paper-16M", "Turn signals, 12 cars, half the paper's budget (16 M decisions)",
+            (("timesteps", "16000000"),),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 6 --timesteps 16000000 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-16M",
@@ -256,19 +248,14 @@ SECTIONS: tuple[Section, ...] = (
                     "holds the trials finished so far. Seeds 0-2 ran first; seeds 3-5 were added because "
                     "with three the paired interval of |Pearson(heading change, bit)| straddled zero, at a "
                     "spread about six seeds would decide.",
-            figure=COMMUNICATION_FIGURE,
-            statements=COMMUNICATION_STATEMENTS,
-            paper_budget=COMMUNICATION_BUDGET,
             # the README shows the largest run of the paper's settings (the 5.9 M sweep stays on the page)
             headlines=tuple(Headline("turn signals, the paper's 12 cars",
                                      f"`real-junction-v0`, 12 cars, 1-bit message, LiDAR noise {noise}, 16 M decisions",
                                      (("lidar_noise", noise),),
                                      ("communication.speaker_consistency_bits", PEARSON, SUCCESS_LOST_UNHEARD))
                             for noise in ("0", "0.75"))),
-    Section("communication-paper-32M", "Turn signals, 12 cars, the paper's budget (32 M decisions)",
-            "real-junction", (("communication", "true"), ("num_cars", "12"), ("timesteps", "32000000")),
-            COMMUNICATION_METRICS,
-            COMMUNICATION_CLAIM,
+    turn_signals_12_cars("communication-paper-32M", "Turn signals, 12 cars, the paper's budget (32 M decisions)",
+            (("timesteps", "32000000"),),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 3 --timesteps 32000000 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-32M",
@@ -277,10 +264,7 @@ SECTIONS: tuple[Section, ...] = (
                     "seeds, with learning curves, because at 16 M the speaker consistency was still too noisy "
                     "to call settled. Each trial trains from the base policy again (the 16 M trials' run "
                     "folders were not kept to continue). The trials run one after the other, a whole set of "
-                    "noise levels per seed, so a summary holds the trials finished so far.",
-            figure=COMMUNICATION_FIGURE,
-            statements=COMMUNICATION_STATEMENTS,
-            paper_budget=COMMUNICATION_BUDGET),
+                    "noise levels per seed, so a summary holds the trials finished so far."),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             ((FAST_LANES_R, "Pearson(rating, lateral), size"),
              ("fast_lanes.pearson_r", "Pearson(rating, lateral), signed (below 0: fast cars on the right)"),
