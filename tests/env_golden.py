@@ -13,6 +13,12 @@ To add the platform of the machine at hand, run on code known to be right (a com
 matched the recorded fingerprints on a recorded platform), keeping the others::
 
     python -m tests.env_golden --add-platform
+
+A signature may hold more than one set of fingerprints: two machines with the same numpy CPU
+dispatch can still round some values differently (seen on 2026-12-02: an AMD EPYC with the
+dispatch of an earlier recording gave that recording's observations and rewards but other
+``real-junction`` infos, which matched a third machine's). ``--add-platform`` then adds this
+machine's set beside the others under its signature; a run matches if it equals one of them.
 """
 
 from __future__ import annotations
@@ -94,8 +100,9 @@ def fingerprint(env_id: str, overrides: dict, decisions: int = DECISIONS, seed: 
     return {part: h.hexdigest() for part, h in hashes.items()}
 
 
-def recorded() -> dict[str, dict[str, dict[str, str]]]:
-    """platform signature -> case name -> fingerprint, as written in :data:`FILE`."""
+def recorded() -> dict[str, list[dict[str, dict[str, str]]]]:
+    """platform signature -> the fingerprint sets recorded under it (each: case name ->
+    fingerprint), as written in :data:`FILE`."""
     return json.loads(FILE.read_text())["platforms"] if FILE.exists() else {}
 
 
@@ -104,10 +111,13 @@ def main(argv: list[str]) -> int:
         print(__doc__)
         return 2
     platforms = recorded() if argv == ["--add-platform"] else {}
-    platforms[platform_signature()] = {name: fingerprint(env_id, overrides) for name, env_id, overrides in CASES}
+    now = {name: fingerprint(env_id, overrides) for name, env_id, overrides in CASES}
+    sets = platforms.setdefault(platform_signature(), [])
+    if now not in sets:
+        sets.append(now)
     FILE.parent.mkdir(exist_ok=True)
     FILE.write_text(json.dumps({"platforms": platforms}, indent=1) + "\n")
-    print(f"wrote {FILE}: {len(platforms)} platform(s)")
+    print(f"wrote {FILE}: {len(platforms)} platform(s), {sum(map(len, platforms.values()))} fingerprint set(s)")
     return 0
 
 
