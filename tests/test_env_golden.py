@@ -22,8 +22,9 @@ def test_env_steps_bit_for_bit_as_recorded(name, env_id, overrides):
     if now in sets:
         return
     changed = [part for part in now if all(now[part] != fp[part] for fp in sets)]
-    assert False, (f"{name}: differs from every fingerprint set recorded for {here} in "
-                   f"tests/data/env_golden.json ({changed or 'no single part'} match none)")
+    why = f"{changed} match none" if changed else "each part matches some set, no set matches all"
+    pytest.fail(f"{name}: differs from every fingerprint set recorded for {here} in "
+                f"tests/data/env_golden.json ({why})")
 
 
 def test_every_recorded_platform_has_every_case():
