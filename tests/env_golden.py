@@ -19,13 +19,18 @@ dispatch can still round some values differently (seen on 2026-12-02: an AMD EPY
 dispatch of an earlier recording gave that recording's observations and rewards but other
 ``real-junction`` infos, which matched a third machine's). ``--add-platform`` then adds this
 machine's set beside the others under its signature; a run matches if it equals one of them.
+
+Each set says where it came from (``recorded``: the commit whose env code it hashed, the CPU model,
+the date), so that a stale set can be told from a machine variant by the file alone.
 """
 
 from __future__ import annotations
 
+import datetime
 import hashlib
 import json
 import platform
+import subprocess
 import sys
 from pathlib import Path
 
@@ -102,19 +107,52 @@ def fingerprint(env_id: str, overrides: dict, decisions: int = DECISIONS, seed: 
 
 def recorded() -> dict[str, list[dict[str, dict[str, str]]]]:
     """platform signature -> the fingerprint sets recorded under it (each: case name ->
-    fingerprint), as written in :data:`FILE`."""
+    fingerprint), as written in :data:`FILE` (their provenance left out: :func:`recorded_sets`)."""
+    return {sig: [entry["cases"] for entry in entries] for sig, entries in recorded_sets().items()}
+
+
+def recorded_sets() -> dict[str, list[dict]]:
+    """platform signature -> its entries as written, each ``{"recorded": provenance, "cases":
+    case name -> fingerprint}``."""
     return json.loads(FILE.read_text())["platforms"] if FILE.exists() else {}
+
+
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo`` where there is one), for the record only: the
+    signature stays numpy's dispatch, the model says which machine a set came from."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def provenance() -> dict[str, str]:
+    """Where a set recorded now comes from: the commit checked out (``+changes`` when the
+    working tree differs from it in the package), the CPU model, today's date (UTC)."""
+    root = Path(__file__).resolve().parent.parent
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True,
+                                text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "box2d_driving"], cwd=root,
+                               capture_output=True, text=True, check=True).stdout.strip()
+        commit += "+changes" if dirty else ""
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown (no git checkout)"
+    return {"env_code": commit, "cpu": cpu_model(), "date": datetime.datetime.now(datetime.timezone.utc).date().isoformat()}
 
 
 def main(argv: list[str]) -> int:
     if argv not in (["--write"], ["--add-platform"]):
         print(__doc__)
         return 2
-    platforms = recorded() if argv == ["--add-platform"] else {}
+    platforms = recorded_sets() if argv == ["--add-platform"] else {}
     now = {name: fingerprint(env_id, overrides) for name, env_id, overrides in CASES}
-    sets = platforms.setdefault(platform_signature(), [])
-    if now not in sets:
-        sets.append(now)
+    entries = platforms.setdefault(platform_signature(), [])
+    if all(entry["cases"] != now for entry in entries):
+        entries.append({"recorded": provenance(), "cases": now})
     FILE.parent.mkdir(exist_ok=True)
     FILE.write_text(json.dumps({"platforms": platforms}, indent=1) + "\n")
     print(f"wrote {FILE}: {len(platforms)} platform(s), {sum(map(len, platforms.values()))} fingerprint set(s)")

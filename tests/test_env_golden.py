@@ -6,7 +6,7 @@ dispatch that still round differently); a run must equal one of them in every pa
 
 import pytest
 
-from tests.env_golden import CASES, fingerprint, platform_signature, recorded
+from tests.env_golden import CASES, fingerprint, platform_signature, provenance, recorded, recorded_sets
 
 GOLDEN = recorded()
 
@@ -33,6 +33,16 @@ def test_every_recorded_platform_has_every_case():
         assert sets, signature
         for cases in sets:
             assert sorted(cases) == sorted(name for name, _, _ in CASES), signature
+
+
+def test_every_recorded_set_says_where_it_came_from():
+    for signature, entries in recorded_sets().items():
+        for entry in entries:
+            assert sorted(entry) == ["cases", "recorded"], signature
+            assert sorted(entry["recorded"]) == ["cpu", "date", "env_code"], signature
+            assert all(entry["recorded"].values()), signature
+    now = provenance()
+    assert now["env_code"] and now["cpu"] and len(now["date"]) == 10
 
 
 def test_fingerprint_sees_a_changed_trajectory():
