@@ -110,15 +110,21 @@ def peak_memory_mib() -> float:
     return kib / 1024 if sys.platform != "darwin" else kib / 2**20
 
 
-def machine() -> str:
-    """This machine in one line (CPU model, cores, memory, Python): every benchmark prints it, so
-    a published number says where it was measured."""
+def cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo`` where there is one, else what ``platform`` says)."""
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as fh:
             cpu = next((ln.split(":", 1)[1].strip() for ln in fh if ln.startswith("model name")), cpu)
     except OSError:
         pass
+    return cpu
+
+
+def machine() -> str:
+    """This machine in one line (CPU model, cores, memory, Python): every benchmark prints it, so
+    a published number says where it was measured."""
+    cpu = cpu_model()
     memory = ""
     try:
         pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")

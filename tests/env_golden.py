@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 import box2d_driving
+from box2d_driving.bench import cpu_model
 
 FILE = Path(__file__).resolve().parent / "data" / "env_golden.json"
 DECISIONS = 1_000
@@ -117,21 +118,10 @@ def recorded_sets() -> dict[str, list[dict]]:
     return json.loads(FILE.read_text())["platforms"] if FILE.exists() else {}
 
 
-def cpu_model() -> str:
-    """The CPU's model name (``/proc/cpuinfo`` where there is one), for the record only: the
-    signature stays numpy's dispatch, the model says which machine a set came from."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def provenance() -> dict[str, str]:
     """Where a set recorded now comes from: the commit checked out (``+changes`` when the
-    working tree differs from it in the package), the CPU model, today's date (UTC)."""
+    working tree differs from it in the package), the CPU model (for the record only: the
+    signature stays numpy's dispatch), today's date (UTC)."""
     root = Path(__file__).resolve().parent.parent
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True,
