@@ -93,9 +93,14 @@ def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
     rows = [r for r in _curve_rows(folder / "curves" / "tiny.csv") if r["trial"] == "lights_num_cars=1_seed=0"]
     assert [r["decisions"] for r in rows] == ["100", "200", "300"]
 
-    # a trial stopped part-way (the sweep was interrupted) is copied: the page lists it as not finished
+    # a trial stopped part-way (the sweep was interrupted) is left out like a pending one: the next
+    # run of the sweep continues it; a failed trial is kept (the page lists it as not finished)
     stopped = json.loads((out / "summary.json").read_text())
     stopped["trials"][1]["status"] = "stopped"
+    (out / "summary.json").write_text(json.dumps(stopped))
+    assert lander.copy_summary()
+    assert json.loads((folder / "tiny.json").read_text()) == {"sweep": stopped["sweep"], "trials": stopped["trials"][:1]}
+    stopped["trials"][1]["status"] = "error"
     (out / "summary.json").write_text(json.dumps(stopped))
     assert lander.copy_summary()
     assert json.loads((folder / "tiny.json").read_text()) == stopped

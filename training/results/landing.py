@@ -3,8 +3,9 @@
 A rule's sweep may run for many hours, longer than the machine it runs on may stay up. So that
 what finished is never lost with the machine, :class:`TrialLander` watches the sweep folder while
 Ray Tune trains: each time a trial finishes, the sweep's summary is copied into the summaries
-folder (``assets/sweeps/NAME.json`` and ``.csv``; its trials that have not started yet are left
-out, so a summary committed mid-sweep holds no empty rows) and that trial's learning curve (every kept
+folder (``assets/sweeps/NAME.json`` and ``.csv``; only its finished and failed trials: those not
+started yet, and those stopped part-way when the sweep was interrupted, are left out, so a summary
+committed mid-sweep holds no empty rows and no row that the next run of the sweep replaces) and that trial's learning curve (every kept
 checkpoint on selection episodes) is drawn and merged into ``curves/NAME.csv``, while the next
 trial trains. A trial whose curve the curves file already holds, drawn from the same checkpoints
 on the same episodes, is not drawn again.
@@ -20,7 +21,9 @@ from typing import Callable, Optional
 from training.evaluation.checkpoint_curve import CurveError
 from training.sweeps.summary import write_summary_files
 
-__all__ = ["TrialLander"]
+__all__ = ["LANDED", "TrialLander"]
+
+LANDED = ("done", "error")  # the trial statuses a landed summary keeps
 
 
 class TrialLander:
@@ -44,15 +47,16 @@ class TrialLander:
         return self.folder / "curves" / f"{self.name}.csv"
 
     def copy_summary(self) -> bool:
-        """The sweep's summary into the summaries folder, less its pending trials (not started:
-        nothing of them to keep); False when the sweep has no summary yet. Finished, failed and
-        stopped trials are all copied."""
+        """The sweep's summary into the summaries folder, its finished (``done``) and failed
+        (``error``) trials only; False when the sweep has no summary yet. Pending trials (not
+        started) and stopped ones (interrupted part-way: the next run of the sweep continues them
+        from their run folder, which a committed summary does not carry) have no result to keep."""
         if not (self.out / "summary.json").exists():
             return False
         saved = json.loads((self.out / "summary.json").read_text())
         self.folder.mkdir(parents=True, exist_ok=True)
         write_summary_files(self.folder, self.name, saved["sweep"],
-                            [r for r in saved["trials"] if r.get("status") != "pending"])
+                            [r for r in saved["trials"] if r.get("status") in LANDED])
         return True
 
     def land(self) -> list[str]:
