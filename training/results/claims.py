@@ -98,10 +98,11 @@ CLAIMS: tuple[Claim, ...] = (
           ("communication-paper-32M", "communication-paper-16M", "communication-paper"),
           (Reading(r"- speaker consistency \(bits\): noise "), Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
           "communication.speaker_consistency_bits", "speaker consistency"),
-    Claim("98.45 % of following samples keep the speed-matching distance", ("right-of-way",),
+    Claim("98.45 % of following samples keep the speed-matching distance", ("right-of-way-paper-32M", "right-of-way"),
           (Reading(r"- safety_distance\.safe_share ", "lies inside our interval"),),
           "safety_distance.safe_share", "safe-distance share"),
-    Claim("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time", ("right-of-way",),
+    Claim("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time",
+          ("right-of-way-paper-32M", "right-of-way"),
           (Reading(r"- right_of_way\.fifo_share ", "our mean is inside that spread"),),
           "right_of_way.fifo_share", "FIFO share"),
 )
