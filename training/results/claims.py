@@ -128,8 +128,15 @@ def _plateau(result: SectionResult, metric: str, label: str) -> str:
     return f"{label} {first} at {n} of {len(verdicts)} grid points, " + ", ".join(f"{v} at {k}" for v, k in rest)
 
 
+# how an estimate from one training seed prints (Estimate.format): such a line decides nothing
+ONE_SEED = "(1 seed)"
+
+
 def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Reading]]:
-    return [(line, r) for r in claim.readings for line in result.lines if re.match(r.pattern, line)]
+    """The section's statements on ``claim``, less those on one training seed (no interval: a
+    32 M run with its first seed finished does not yet replace a smaller run with intervals)."""
+    return [(line, r) for r in claim.readings for line in result.lines
+            if re.match(r.pattern, line) and ONE_SEED not in line]
 
 
 def _speaks_to_every_part(claim: Claim, result: SectionResult) -> bool:
