@@ -19,6 +19,7 @@ from training.results.curves import late_changes, plateau_verdict
 from training.results.data import Group
 from training.results.markdown import anchor, row, separator
 from training.results.sections import section
+from training.results.stats import ONE_SEED
 
 __all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "reading_verdict"]
 
@@ -128,13 +129,10 @@ def _plateau(result: SectionResult, metric: str, label: str) -> str:
     return f"{label} {first} at {n} of {len(verdicts)} grid points, " + ", ".join(f"{v} at {k}" for v, k in rest)
 
 
-# how an estimate from one training seed prints (Estimate.format): such a line decides nothing
-ONE_SEED = "(1 seed)"
-
-
 def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Reading]]:
-    """The section's statements on ``claim``, less those on one training seed (no interval: a
-    32 M run with its first seed finished does not yet replace a smaller run with intervals)."""
+    """The section's statements on ``claim``, less those on one training seed (an estimate printed
+    with :data:`~training.results.stats.ONE_SEED`, no interval: a 32 M run with its first seed
+    finished does not yet replace a smaller run with intervals)."""
     return [(line, r) for r in claim.readings for line in result.lines
             if re.match(r.pattern, line) and ONE_SEED not in line]
 

@@ -10,6 +10,10 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
+# how an estimate from one training seed prints after its mean (no interval): the claims table
+# finds single-seed statements by it
+ONE_SEED = "(1 seed)"
+
 # two-sided 95 % quantiles of Student's t, by degrees of freedom (standard table values)
 _T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
         10: 2.228, 11: 2.201, 12: 2.179, 13: 2.160, 14: 2.145, 15: 2.131, 16: 2.120, 17: 2.110,
@@ -44,7 +48,7 @@ class Estimate:
 
     def format(self, digits: int = 3) -> str:
         if self.low is None:
-            return f"{self.mean:.{digits}f} (1 seed)"
+            return f"{self.mean:.{digits}f} {ONE_SEED}"
         half = (self.high - self.low) / 2
         return f"{self.mean:.{digits}f} ± {half:.{digits}f}"
 
