@@ -4,11 +4,14 @@ sweep (:mod:`training.evaluation.checkpoint_curve` draws one run's).
     box2d-driving curve runs/real_junction --episodes 20          # one run: RUN/checkpoint_curve/
     box2d-driving curve runs/sweep-lights-paper --episodes 100    # every trial: OUT/curves.csv
     box2d-driving curve runs/sweep-lanes-paper --finished         # only the trials done so far
+    box2d-driving curve assets/sweeps/curves/lanes-paper.csv --readings   # read a drawn curve
 
 A sweep's ``curves.csv`` has one row per kept checkpoint of every trial whose run folder is on
 this machine: the trial, its seed and grid values, decisions, agent-steps and the scenario's
 curve metrics. ``box2d-driving reproduce --run`` draws them after each flat sweep and keeps them
 beside the summary (``assets/sweeps/curves/NAME.csv``), where the results page reads them.
+``--readings`` draws nothing: it prints a table of where each trial's drawn curve started,
+ranged and ended (:mod:`training.evaluation.curve_readings`).
 """
 
 from __future__ import annotations
@@ -140,7 +143,16 @@ def main(argv: Optional[list[str]] = None) -> int:
                           "(sweep.json: every trial's run)")
     parser.add_argument("--finished", action="store_true",
                         help="a sweep: only the trials its summary lists as done (not those still running)")
+    parser.add_argument("--readings", action="store_true",
+                        help="draw nothing: print a table of readings of the curve already drawn (RUN may then "
+                             "also be a curve CSV such as assets/sweeps/curves/NAME.csv)")
+    parser.add_argument("--metric", action="append", metavar="NAME",
+                        help="with --readings: only this metric (repeatable; default every metric of the file)")
     args = parser.parse_args(argv)
+    if args.readings:
+        return print_readings(args)
+    if args.metric:
+        return error("--metric: only with --readings")
     is_sweep = (args.run / "sweep.json").exists()
     if args.finished and not is_sweep:
         return error(f"--finished: {args.run} is not a sweep folder (no sweep.json)")
@@ -150,6 +162,26 @@ def main(argv: Optional[list[str]] = None) -> int:
         return draw_into(out, lambda folder: curve_of_sweep(args.run, folder, args.episodes, args.seed,
                                                             finished_only=args.finished))
     return draw_into(out, lambda folder: curve_of_run(args.run, folder, args.episodes, args.seed))
+
+
+def print_readings(args: Any) -> int:
+    """``curve --readings``: the readings table of a drawn curve file; flags that only drawing
+    uses are refused rather than ignored."""
+    from training.evaluation.curve_readings import curve_file, read_curve_file, readings_table
+
+    for flag, given in (("--out", args.out is not None), ("--overwrite", args.overwrite),
+                        ("--finished", args.finished)):
+        if given:
+            return error(f"{flag}: --readings draws nothing (it reads the curve file already drawn)")
+    try:
+        path = curve_file(args.run)
+        trials, columns = read_curve_file(path)
+        lines = readings_table(trials, columns, args.metric)
+    except CurveError as exc:
+        return error(str(exc))
+    print(f"{path} (selection episodes; one row per trial and metric)\n")
+    print("\n".join(lines))
+    return 0
 
 
 if __name__ == "__main__":
