@@ -105,7 +105,8 @@ def test_bad_readings_input_gets_one_clear_error(tmp_path, capsys):
     _write(path, _sweep_rows())
     assert curves.main([str(path), "--readings", "--metric", "nope"]) == 2
     assert "--metric nope: not a column" in capsys.readouterr().err
-    for flag in (["--overwrite"], ["--finished"], ["--out", str(tmp_path / "o")]):
+    for flag in (["--overwrite"], ["--finished"], ["--out", str(tmp_path / "o")], ["--episodes", "20"],
+                 ["--seed", "1000000000"]):
         assert curves.main([str(path), "--readings", *flag]) == 2
         assert "--readings draws nothing" in capsys.readouterr().err
     assert curves.main([str(tmp_path), "--metric", "success_rate"]) == 2

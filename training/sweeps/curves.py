@@ -148,9 +148,14 @@ def main(argv: Optional[list[str]] = None) -> int:
                              "also be a curve CSV such as assets/sweeps/curves/NAME.csv)")
     parser.add_argument("--metric", action="append", metavar="NAME",
                         help="with --readings: only this metric (repeatable; default every metric of the file)")
+    # None until given, so that --readings can refuse drawing's flags instead of ignoring them
+    defaults = {"episodes": parser.get_default("episodes"), "seed": parser.get_default("seed")}
+    parser.set_defaults(episodes=None, seed=None)
     args = parser.parse_args(argv)
     if args.readings:
         return print_readings(args)
+    for name, value in defaults.items():
+        setattr(args, name, value if getattr(args, name) is None else getattr(args, name))
     if args.metric:
         return error("--metric: only with --readings")
     is_sweep = (args.run / "sweep.json").exists()
@@ -170,7 +175,8 @@ def print_readings(args: Any) -> int:
     from training.evaluation.curve_readings import curve_file, read_curve_file, readings_table
 
     for flag, given in (("--out", args.out is not None), ("--overwrite", args.overwrite),
-                        ("--finished", args.finished)):
+                        ("--finished", args.finished), ("--episodes", args.episodes is not None),
+                        ("--seed", args.seed is not None)):
         if given:
             return error(f"{flag}: --readings draws nothing (it reads the curve file already drawn)")
     try:
