@@ -87,8 +87,8 @@ def readings(decisions: np.ndarray, values: np.ndarray, windows: ReadingWindows 
         "checkpoints": float(len(d)),
         "first": float(v[0]),
         "early_low": float(early.min()),
-        "settled_low": float(settled.min()) if len(settled) else nan,
-        "settled_high": float(settled.max()) if len(settled) else nan,
+        "settled_low": float(settled.min()),  # never empty: the last checkpoint is in it
+        "settled_high": float(settled.max()),
         "half_mean": float(half.mean()) if len(half) else nan,
         "end_mean": float(v[-width:].mean()),
         "late_change": late_change(d, v),

@@ -7,8 +7,8 @@ folder (``assets/sweeps/NAME.json`` and ``.csv``; only its finished and failed t
 started yet, and those stopped part-way when the sweep was interrupted, are left out, so a summary
 committed mid-sweep holds no empty rows and no row that the next run of the sweep replaces) and
 that trial's learning curve (every kept checkpoint on selection episodes) is drawn and merged
-into ``curves/NAME.csv``, while the next trial trains. A trial whose curve the curves file already holds, drawn from the same checkpoints
-on the same episodes, is not drawn again.
+into ``curves/NAME.csv``, while the next trial trains. A trial whose curve the curves file
+already holds, drawn from the same checkpoints on the same episodes, is not drawn again.
 """
 
 from __future__ import annotations
