@@ -21,6 +21,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from training.common.markdown import row
 from training.evaluation.checkpoint_curve import COMMUNICATION, CurveError, late_change
 
 __all__ = ["READING_COLUMNS", "ReadingWindows", "SIGN_FREE", "curve_file", "read_curve_file", "readings",
@@ -149,15 +150,15 @@ def readings_table(trials: dict[str, list[dict[str, Any]]], columns: list[str],
         columns = list(metrics)
     shares = {k: f"{getattr(windows, k) * 100:g} %" for k in ("early", "settled", "window")}
     heads = ["trial", "metric"] + [h.format(**shares) for h in READING_COLUMNS.values()]
-    lines = ["| " + " | ".join(heads) + " |", "|" + "---|" * 2 + "---:|" * len(READING_COLUMNS)]
+    lines = [row(heads), "|" + "---|" * 2 + "---:|" * len(READING_COLUMNS)]  # numbers right-aligned
     for trial, rows in trials.items():
         d = np.array([r["decisions"] for r in rows])
         for metric in columns:
             v = np.array([r.get(metric, math.nan) for r in rows])
-            name = f"\\|{metric}\\|" if metric in SIGN_FREE else metric
+            name = f"|{metric}|" if metric in SIGN_FREE else metric  # row() escapes the bars
             read = readings(d, np.abs(v) if metric in SIGN_FREE else v, windows)
             cells = [f"{int(read['checkpoints'])}"] + [_cell(read[k], k) for k in READING_COLUMNS if k != "checkpoints"]
-            lines.append("| " + " | ".join([trial, name] + cells) + " |")
+            lines.append(row([trial, name] + cells))
     return lines
 
 

@@ -17,7 +17,7 @@ from typing import Any, Optional
 
 from training.results.curves import late_changes, plateau_verdict
 from training.results.data import Group
-from training.results.markdown import anchor, row, separator
+from training.common.markdown import anchor, row, separator
 from training.results.sections import section
 from training.results.stats import ONE_SEED
 

@@ -1,21 +1,6 @@
-"""Markdown pieces the results page and the README table share."""
+"""The Markdown helpers, kept importable here (they live in :mod:`training.common.markdown`, low
+enough for every trainer sub-package to use)."""
 
-from __future__ import annotations
+from training.common.markdown import anchor, row, separator
 
 __all__ = ["anchor", "row", "separator"]
-
-
-def row(cells: list[str]) -> str:
-    """One Markdown table row; a ``|`` inside a cell (as in ``|Pearson|``) is escaped, else it would
-    split the cell."""
-    return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
-
-
-def separator(columns: int) -> str:
-    """The row under a Markdown table's header."""
-    return "|" + "---|" * columns
-
-
-def anchor(title: str) -> str:
-    """The heading's link anchor as GitHub makes it (lower case, punctuation dropped, spaces to -)."""
-    return "".join(c for c in title.lower() if c.isalnum() or c in " -_").replace(" ", "-")

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any, Optional
 
-from training.results.markdown import anchor, row, separator
+from training.common.markdown import anchor, row, separator
 from training.results.claims import SectionResult, claims_table
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.data import Group, Metric, ResultsError, as_number, grid_product, groups_of, load_summary
