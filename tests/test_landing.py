@@ -42,10 +42,11 @@ def drawn(monkeypatch):
     """Fake curve drawing: one row per kept checkpoint; records which runs were drawn."""
     calls = []
 
-    def fake_run_curve(run, episodes, seed, log=lambda line: None):
+    def fake_run_curve(run, episodes, seed, log=lambda line: None, skip=()):
         calls.append(run.parent.name)
         return [{"decisions": c["decisions"], "agent_steps": float("nan"), "episodes": episodes,
-                 "first_seed": seed, "success_rate": 0.25} for c in curves.kept_checkpoints(run)]
+                 "first_seed": seed, "success_rate": 0.25} for c in curves.kept_checkpoints(run)
+                if c["decisions"] not in skip]
 
     monkeypatch.setattr(curves, "run_curve", fake_run_curve)
     return calls
@@ -142,7 +143,7 @@ def test_background_passes_land_trials_while_the_sweep_runs_and_log_failures(tmp
 
     # a curve that cannot be drawn: logged by the background pass (the sweep goes on), raised by
     # the final pass in the caller's thread
-    def broken(run, episodes, seed, log=lambda line: None):
+    def broken(run, episodes, seed, log=lambda line: None, skip=()):
         raise CurveError(f"no checkpoints in {run}")
 
     monkeypatch.setattr(curves, "run_curve", broken)
@@ -176,3 +177,97 @@ def test_a_finished_trial_is_read_from_its_last_checkpoint_not_the_synced_trial_
     summary["trials"][0]["run"] = str(tmp_path / "elsewhere" / "checkpoint_000002")  # e.g. a reused row
     (out / "summary.json").write_text(json.dumps(summary))
     assert curves.sweep_trials(out)[0]["run"] == out / "tune" / name / "run"
+
+
+def _stop_part_way(out, name, checkpoints=(100, 200), number=1):
+    """Mark trial ``name`` of the sweep in ``out`` stopped part-way, its last checkpoint folder a
+    run folder (seed 0) with kept checkpoints, logs and TensorBoard files; returns that folder."""
+    final = out / "tune" / name / f"checkpoint_{number:06d}"
+    (final / "checkpoints").mkdir(parents=True)
+    (final / "tb").mkdir()
+    for d in checkpoints:
+        (final / "checkpoints" / f"model_{d}.safetensors").write_bytes(b"kept")
+    (final / "config.json").write_text(json.dumps({"seed": 0, "timesteps": 1000}))
+    (final / "state.json").write_text(json.dumps({"decisions": checkpoints[-1]}))
+    (final / "model.safetensors").write_bytes(b"latest")
+    (final / "progress.csv").write_text("time/decisions\n100\n200\n")
+    (final / "events.out.tfevents.1.vm").write_bytes(b"tb")
+    summary = json.loads((out / "summary.json").read_text())
+    for r in summary["trials"]:
+        if r["trial"] == name:
+            r["status"], r["run"] = "stopped", str(final)
+    (out / "summary.json").write_text(json.dumps(summary))
+    return final
+
+
+def test_a_trial_stopped_part_way_is_carried_with_its_curve_so_far_and_removed_once_it_lands(tmp_path, drawn):
+    from training.sweeps.carry import carried_runs
+
+    out, spec = _sweep(tmp_path)
+    folder = tmp_path / "assets"
+    name = "lights_num_cars=2_seed=0"
+    _stop_part_way(out, name)
+    lander = TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None)
+    lander.land()
+    assert lander.carry() == [name]
+    carried = folder / "carried" / "tiny" / name
+    # the resumable part travels; kept checkpoints, TensorBoard logs stay behind
+    assert sorted(p.name for p in carried.iterdir()) == ["config.json", "model.safetensors", "progress.csv",
+                                                        "state.json"]
+    assert (carried / "model.safetensors").read_bytes() == b"latest"
+    assert carried_runs(lander.carried_folder, spec) == {name: carried}
+    # its curve so far is drawn (from its last checkpoint folder), but the stopped trial has no
+    # summary row to commit
+    rows = [r for r in _curve_rows(lander.curves_path) if r["trial"] == name]
+    assert [r["decisions"] for r in rows] == ["100", "200"]
+    assert [r["trial"] for r in json.loads((folder / "tiny.json").read_text())["trials"]] == [
+        "lights_num_cars=1_seed=0"]
+
+    # carried again after more training: its newer run replaces the old carry, only the new
+    # checkpoint is drawn
+    drawn.clear()
+    _stop_part_way(out, name, checkpoints=(100, 200, 300), number=2)
+    assert TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None).carry() == [name]
+    assert json.loads((carried / "state.json").read_text()) == {"decisions": 300}
+    assert not list(carried.parent.glob("*.partial"))
+    assert [r["decisions"] for r in _curve_rows(lander.curves_path) if r["trial"] == name] == ["100", "200", "300"]
+
+    # continued on another machine from the carried run: the new run has only the checkpoints after
+    # the carry; its curve keeps the rows drawn before, and once the trial lands the carry goes
+    later = tmp_path / "later"
+    out3, _ = _sweep(later, done=("num_cars=1", "num_cars=2"), checkpoints=(400, 500))
+    assert TrialLander(out3, folder, "tiny", EPISODES, SEED, log=lambda line: None).land() == [
+        "lights_num_cars=1_seed=0", name]
+    rows = [r for r in _curve_rows(lander.curves_path) if r["trial"] == name]
+    assert [r["decisions"] for r in rows] == ["100", "200", "300", "400", "500"]
+    assert not carried.exists()
+
+
+def test_a_stopped_trial_without_a_checkpoint_is_not_carried_and_a_bad_carry_is_refused(tmp_path, drawn):
+    from training.sweeps.carry import carried_runs, carry_run
+    from training.sweeps.spec import SweepError
+
+    out, spec = _sweep(tmp_path)
+    summary = json.loads((out / "summary.json").read_text())
+    summary["trials"][1]["status"] = "stopped"  # stopped before its first checkpoint
+    (out / "summary.json").write_text(json.dumps(summary))
+    lander = TrialLander(out, tmp_path / "assets", "tiny", EPISODES, SEED, log=lambda line: None)
+    assert lander.carry() == [] and not lander.carried_folder.exists()
+    assert carried_runs(lander.carried_folder, spec) == {}  # none: nothing to continue
+    with pytest.raises(SweepError, match="not a run folder to carry"):
+        carry_run(out / "tune" / "lights_num_cars=2_seed=0" / "run", tmp_path / "c" / "x")
+
+    final = _stop_part_way(out, "lights_num_cars=2_seed=0")
+    folder = tmp_path / "carried"
+    carry_run(final, folder / "lights_num_cars=2_seed=0")
+    assert list(carried_runs(folder, spec)) == ["lights_num_cars=2_seed=0"]
+    carry_run(final, folder / "lights_num_cars=8_seed=0")
+    with pytest.raises(SweepError, match="lights_num_cars=8_seed=0 is not a trial of this sweep"):
+        carried_runs(folder, spec)
+    (folder / "lights_num_cars=8_seed=0").rename(folder / "lights_num_cars=2_seed=1")
+    with pytest.raises(SweepError, match="trained with seed 0, the trial's seed is 1"):
+        carried_runs(folder, dataclasses.replace(spec, seeds=2))
+    (folder / "lights_num_cars=2_seed=1").rename(folder / "lights_num_cars=1_seed=0")
+    (folder / "lights_num_cars=1_seed=0" / "state.json").write_text("{not json")
+    with pytest.raises(SweepError, match="lights_num_cars=1_seed=0: not a run folder"):
+        carried_runs(folder, spec)

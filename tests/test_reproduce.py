@@ -187,6 +187,10 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
         assert "**Learning curves**" in text
 
         # another machine: no sweep folder, only the kept summary -> nothing is trained again
+        from training.sweeps.carry import carry_run
+
+        name = "lights_num_cars=2_seed=0"
+        saved = carry_run(Path(next(r for r in first if r["trial"] == name)["run"]), tmp_path / "saved" / name)
         shutil.rmtree(runs)
         assert reproduce.main(argv) == 0
         assert not list((runs / "sweep-tiny" / "tune").glob("*/checkpoint_*"))
@@ -194,6 +198,23 @@ def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_f
         key = lambda rows: {r["trial"]: (r["success_rate"], r["red_light_violation_rate"], r["run"]) for r in rows}  # noqa: E731
         assert key(again) == key(first)
         assert (folder / "curves" / "tiny.csv").read_text() == curves  # kept: no run folder here to redraw them
+
+        # a trial carried from a machine that went away before it landed: continued from its
+        # carried run (here it had reached its budget: evaluated, not trained again); the carry
+        # goes once the trial lands, the curve drawn before the carry stays
+        kept = json.loads((folder / "tiny.json").read_text())
+        kept["trials"] = [r for r in kept["trials"] if r["trial"] != name]
+        (folder / "tiny.json").write_text(json.dumps(kept))
+        shutil.copytree(saved, folder / "carried" / "tiny" / name)
+        shutil.rmtree(runs)
+        assert reproduce.main(argv) == 0
+        rows = {r["trial"]: r for r in json.loads((folder / "tiny.json").read_text())["trials"]}
+        assert rows[name]["status"] == "done" and rows[name]["decisions"] == 160
+        assert rows[name]["success_rate"] == key(first)[name][0]  # the same policy on the same report seeds
+        continued = Path(rows[name]["run"])
+        assert json.loads((continued / "state.json").read_text()) == json.loads((saved / "state.json").read_text())
+        assert not (folder / "carried" / "tiny" / name).exists()
+        assert (folder / "curves" / "tiny.csv").read_text() == curves
     finally:
         ray.shutdown()
 
@@ -219,6 +240,13 @@ def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, m
     code = reproduce.main(["--run", "--summaries", str(folder), "--runs", str(tmp_path / "runs"),
                            "--out", str(tmp_path / "results.md"), "--readme", str(tmp_path / "README.md")])
     assert code == 2 and "--readme" in capsys.readouterr().err and not (tmp_path / "runs").exists()
+    # a carried run that is not one of the sweep's trials: refused before training too
+    (folder / "carried" / "tiny" / "lights_num_cars=9_seed=0").mkdir(parents=True)
+    code = reproduce.main(["--run", "--summaries", str(folder), "--runs", str(tmp_path / "runs"),
+                           "--out", str(tmp_path / "results.md")])
+    err = capsys.readouterr().err
+    assert code == 2 and "lights_num_cars=9_seed=0 is not a trial of this sweep" in err, err
+    assert not (tmp_path / "runs").exists()
     with pytest.raises(SystemExit) as exit_:
         reproduce.main(["--only", "traffic-lights"])  # without --run
     assert exit_.value.code == 2 and "--only goes with --run" in capsys.readouterr().err

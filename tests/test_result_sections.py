@@ -65,6 +65,15 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
     assert f"lidar_noise 1.0 {falls.format()} (still falling)" in line
     assert (tmp_path / "docs" / "images" / "results" / "traffic-lights-paper_curves.png").stat().st_size > 10_000
     assert "of the 6 finished trials" not in mine  # the curves cover every finished trial
+    # a trial carried part-way has curve rows but no summary row yet: the page reads finished trials only
+    with open(tmp_path / "curves" / "lights-paper.csv", "a", newline="") as f:
+        w = csv.writer(f)
+        for k in range(1, 5):
+            w.writerow(["lights_lidar_noise=0.25_seed=3", 3, "0.25", 320_000 * k, 0, 100, SELECTION.start,
+                        0.9, 0.1, 0.9 - 0.2 * k])
+    before = page.read_text()
+    assert main([str(grid), str(paper), "--out", str(page)]) == 0
+    assert page.read_text() == before
     # curves of only some trials (the others finished on a machine that kept no checkpoints) say which
     path = tmp_path / "curves" / "lights-paper.csv"
     lines = path.read_text().splitlines()
@@ -151,7 +160,7 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
             for seed in range(3):
                 for k in range(1, 16):
                     d = 320_000 * k
-                    w.writerow({"trial": f"t{n}{seed}", "seed": seed, "num_cars": n, "decisions": d,
+                    w.writerow({"trial": f"lanes_num_cars={n}_seed={seed}", "seed": seed, "num_cars": n, "decisions": d,
                                 "agent_steps": d // 2, "episodes": 100, "first_seed": SELECTION.start,
                                 "success_rate": 0.9, "collision_rate": 0.1, "red_light_violation_rate": 0.1,
                                 "lanes.majority_share": 1.0, "lanes.time_share_majority": 1.0,

@@ -103,6 +103,27 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     stopped = {r["trial"]: r["status"] for r in csv.DictReader((out / "summary.csv").open())}
     assert stopped[good] == "stopped" and sorted(stopped.values()) == ["pending", "stopped"], stopped
 
+    # the machine goes away: the stopped trial, carried to a new folder, continues from where it was
+    from training.sweeps.carry import carry_run
+
+    last = Path(next(r for r in csv.DictReader((out / "summary.csv").open()) if r["trial"] == good)["run"])
+    at = json.loads((last / "state.json").read_text())["decisions"]
+    carry_run(last, tmp_path / "carried" / good)
+    assert not (tmp_path / "carried" / good / "checkpoints").exists()
+    moved = tmp_path / "carried-to"
+    cont = subprocess.run(_sweep(moved, BUDGET) + ["--carried", str(tmp_path / "carried")], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=400)
+    assert "1 of 2 trials done" in cont.stdout, cont.stdout[-3000:] + cont.stderr[-3000:]
+    row = next(r for r in csv.DictReader((moved / "summary.csv").open()) if r["trial"] == good)
+    assert row["status"] == "done" and int(row["decisions"]) == BUDGET
+    assert [p.name for p in Path(row["run"]).glob("config.resumed_*.json")] == [f"config.resumed_{at:012d}.json"]
+    # a carried folder that is not this sweep's is refused before anything runs
+    (tmp_path / "carried" / "lights_seed=7").mkdir()
+    bad_carry = subprocess.run(_sweep(tmp_path / "never", BUDGET) + ["--carried", str(tmp_path / "carried")],
+                               cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert bad_carry.returncode == 2 and "lights_seed=7 is not a trial of this sweep" in bad_carry.stderr
+    assert not (tmp_path / "never").exists()
+
     run = subprocess.run(_sweep(out, BUDGET), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
     assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-3000:]  # one trial failed
     assert "1 of 2 trials done" in run.stdout

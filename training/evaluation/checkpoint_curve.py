@@ -22,7 +22,7 @@ import json
 import re
 import sys
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Collection, Optional
 
 import numpy as np
 
@@ -115,14 +115,15 @@ def agent_steps_at(run: Path, decisions: np.ndarray) -> np.ndarray:
     return np.interp(decisions, progress["time/total_timesteps"], progress["time/agent_steps"])
 
 
-def run_curve(run: Path, episodes: int, seed: int,
-              log: Callable[[str], None] = lambda line: None) -> list[dict[str, Any]]:
-    """One row per kept checkpoint of ``run``: decisions, agent-steps and the scenario's curve
-    metrics on ``episodes`` episodes from selection seed ``seed`` (the same episodes for every
-    checkpoint, so the curve's steps are the policy's, not the episodes')."""
+def run_curve(run: Path, episodes: int, seed: int, log: Callable[[str], None] = lambda line: None,
+              skip: Collection[int] = ()) -> list[dict[str, Any]]:
+    """One row per kept checkpoint of ``run`` (less those at the decisions in ``skip``, drawn
+    already): decisions, agent-steps and the scenario's curve metrics on ``episodes`` episodes
+    from selection seed ``seed`` (the same episodes for every checkpoint, so the curve's steps are
+    the policy's, not the episodes')."""
     from training.runs.inference import load_bilevel_round, load_policy
 
-    ckpts = kept_checkpoints(run)
+    ckpts = [c for c in kept_checkpoints(run) if c["decisions"] not in set(skip)]
     steps = agent_steps_at(run, np.array([c["decisions"] for c in ckpts], dtype=float))
     rows = []
     for c, agent_steps in zip(ckpts, steps):

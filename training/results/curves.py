@@ -36,9 +36,10 @@ def curves_path(summary_path: Path) -> Path:
     return summary_path.parent / "curves" / f"{summary_path.stem}.csv"
 
 
-def load_curves(path: Path, keys: list[str]) -> Optional[list[dict[str, Any]]]:
-    """The curve rows of a sweep (None where none are committed), numbers as floats, the grid
-    values (``keys``) as typed; :class:`ResultsError` for a file that is not a sweep's curves."""
+def load_curves(path: Path, keys: list[str], trials: Optional[set[str]] = None) -> Optional[list[dict[str, Any]]]:
+    """The curve rows of a sweep (None where none are committed, or none of ``trials`` when it is
+    given), numbers as floats, the grid values (``keys``) as typed; :class:`ResultsError` for a
+    file that is not a sweep's curves."""
     if not Path(path).exists():
         return None
     with open(path, newline="") as f:
@@ -46,6 +47,12 @@ def load_curves(path: Path, keys: list[str]) -> Optional[list[dict[str, Any]]]:
     missing = [k for k in ("seed", "decisions", *keys) if rows and k not in rows[0]]
     if not rows or missing:
         raise ResultsError(f"{path}: not a sweep's curves (missing columns: {', '.join(missing) or 'all rows'})")
+    if trials is not None:
+        if "trial" not in rows[0]:
+            raise ResultsError(f"{path}: not a sweep's curves (missing columns: trial)")
+        rows = [r for r in rows if r["trial"] in trials]
+        if not rows:
+            return None
     out = []
     for r in rows:
         row: dict[str, Any] = {k: r[k] for k in keys}

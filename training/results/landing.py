@@ -9,11 +9,18 @@ committed mid-sweep holds no empty rows and no row that the next run of the swee
 that trial's learning curve (every kept checkpoint on selection episodes) is drawn and merged
 into ``curves/NAME.csv``, while the next trial trains. A trial whose curve the curves file
 already holds, drawn from the same checkpoints on the same episodes, is not drawn again.
+
+When the sweep stops with trials part-way (Ctrl-C, the session's time running out),
+:meth:`TrialLander.carry` lets them travel with the summaries: each stopped trial's curve so far
+is drawn into the curves file and its resumable run (:mod:`training.sweeps.carry`) copied to
+``carried/NAME/<trial>/``, where the next ``reproduce --run``, on any machine, continues it. The
+carried run is removed once its trial lands.
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 import threading
 from pathlib import Path
 from typing import Callable, Optional
@@ -72,12 +79,53 @@ class TrialLander:
             name = trial["trial"]
             if name in self.drawn or not trial["done"] or not trial["run"].is_dir():
                 continue
-            if not curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
-                curves.merge_curves(self.curves_path,
-                                    curves.trial_curve_rows(trial, self.episodes, self.seed, log=self.log))
+            if self._draw_missing(trial):
                 drawn.append(name)
             self.drawn.add(name)
+            if (self.carried_folder / name).is_dir():  # continued from a carried run: it has landed now
+                shutil.rmtree(self.carried_folder / name)
         return drawn
+
+    @property
+    def carried_folder(self) -> Path:
+        from training.sweeps.carry import carried_folder
+
+        return carried_folder(self.folder, self.name)
+
+    def _draw_missing(self, trial: dict) -> bool:
+        """Draw the trial's kept checkpoints the curves file has no row of (on these episodes)
+        and merge them in; False when there were none."""
+        from training.sweeps import curves
+
+        if curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
+            return False
+        skip = curves.drawn_decisions(self.curves_path, trial["trial"], self.episodes, self.seed)
+        curves.merge_curves(self.curves_path,
+                            curves.trial_curve_rows(trial, self.episodes, self.seed, log=self.log, skip=skip))
+        return True
+
+    def carry(self) -> list[str]:
+        """After the sweep stopped: for every trial stopped part-way with a checkpoint here, draw
+        its curve so far into the curves file and copy its resumable run to
+        ``carried/NAME/<trial>/`` (replacing an earlier carry of it); returns those trials."""
+        from training.sweeps import curves
+        from training.sweeps.carry import carry_run
+
+        if not (self.out / "summary.json").exists():
+            return []
+        stopped = {r["trial"] for r in json.loads((self.out / "summary.json").read_text())["trials"]
+                   if r.get("status") == "stopped"}
+        carried = []
+        for trial in curves.sweep_trials(self.out):
+            if trial["trial"] not in stopped or not (trial["run"] / "state.json").exists():
+                continue  # stopped before its first checkpoint: it starts over, nothing to carry
+            try:
+                self._draw_missing(trial)
+            except CurveError as exc:  # no kept checkpoint yet: the run still travels
+                self.log(f"{trial['trial']}: no curve drawn before carrying it ({exc})")
+            carry_run(trial["run"], self.carried_folder / trial["trial"])
+            carried.append(trial["trial"])
+        return carried
 
     def _watch(self, every_s: float) -> None:
         import torch

@@ -208,7 +208,9 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     if Path(summary["path"]).stem == section.summary_name:
         seeds = max(seeds, section.seeds)
     planned = len(grid_product([summary["grid"][k] for k in keys])) * seeds
-    curves = load_curves(curves_path(summary["path"]), keys)
+    # finished trials only: a trial carried part-way has curve rows before it has a summary row
+    curves = load_curves(curves_path(summary["path"]), keys,
+                         trials={r["trial"] for r in trials if r.get("status") == "done"})
     parts = [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
              f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
              f"{summary['sweep']['episodes']} report episodes each). {section.setting}"

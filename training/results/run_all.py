@@ -10,6 +10,9 @@ summary is copied then, and the trial's learning curve (every kept checkpoint, o
 episodes) is merged into ``curves/NAME.csv`` beside it while the next trial trains, so a machine
 that goes away mid-sweep loses only the trial in training. A sweep that stops before all its
 trials finish (Ctrl-C, the machine going away) ends the run there: the same command continues it.
+A trial stopped part-way (Ctrl-C) is carried: its curve so far is drawn and its resumable run
+copied into ``carried/NAME/<trial>/`` in the summaries folder, so that the same command, on this
+machine or a fresh one, continues it from there rather than from scratch.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     from training.common.seeds import SELECTION
     from training.sweeps import curves
     from training.sweeps.spec import SweepError, check_spec
+    from training.sweeps.carry import carried_folder, carried_runs
     from training.sweeps.summary import reusable_rows
 
     # check every rule before hours of training: its command, and that its summary is its own
@@ -56,6 +60,7 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
             check_spec(spec)
             if summary.exists():
                 reusable_rows(summary, spec)
+            carried_runs(carried_folder(folder, section.summary_name), spec)
         except SweepError as exc:
             raise ReproduceError(f"{section.key}: {exc}") from None
         plans.append((section, spec, threads, summary if summary.exists() else None))
@@ -69,12 +74,17 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
                              log=lambda line: print(line, flush=True))
         lander.start(LAND_EVERY_S)
         try:
-            rows = run_sweep(spec, out, cpus_per_trial, gpus_per_trial, address, max_concurrent, reuse, threads)
+            rows = run_sweep(spec, out, cpus_per_trial, gpus_per_trial, address, max_concurrent, reuse, threads,
+                             carried=lander.carried_folder)
         except SweepError as exc:
             raise ReproduceError(f"{section.key}: {exc}") from None
         finally:
             lander.stop()
         lander.land()  # the final summary, and the curves of trials that finished since the last pass
+        carried = lander.carry()  # trials stopped part-way travel with the summary
+        if carried:
+            print(f"== {section.title}: {len(carried)} trial(s) stopped part-way carried to {lander.carried_folder} "
+                  "(commit it with the summary: the same command continues them on any machine)", flush=True)
         counts = {s: sum(r["status"] == s for r in rows) for s in ("done", "error", "stopped", "pending")}
         print(f"== {section.title}: {counts['done']} of {len(rows)} trials done"
               + "".join(f", {n} {s}" for s, n in counts.items() if s != "done" and n)

@@ -19,14 +19,14 @@ from __future__ import annotations
 import csv
 import json
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Collection, Optional
 
 from training.common.cli_args import error
 from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, draw_into,
                                                   kept_checkpoints, run_curve, write_rows)
 from training.sweeps.spec import SweepSpec
 
-__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "main", "merge_curves",
+__all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "drawn_decisions", "main", "merge_curves",
            "run_folder", "sweep_curve_rows", "sweep_trials", "trial_curve_rows"]
 
 # selection episodes per checkpoint when ``reproduce --run`` draws a sweep's curves
@@ -47,13 +47,13 @@ def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
 
 
 def run_folder(sweep: Path, name: str, row: Optional[dict[str, Any]]) -> Path:
-    """Where trial ``name``'s checkpoints are read. A finished trial: its last checkpoint folder in
-    this sweep (``row["run"]``, from the summary), which Ray Tune writes once, when the trial reports
-    it. Otherwise the trial folder's ``run/``: that is a copy Ray Tune re-syncs from the trial's
+    """Where trial ``name``'s checkpoints are read. A finished trial, or one stopped part-way: its
+    last checkpoint folder in this sweep (``row["run"]``, from the summary), which Ray Tune writes
+    once, when the trial reports it. Otherwise the trial folder's ``run/``: that is a copy Ray Tune re-syncs from the trial's
     staging folder every few minutes and once more after the trial ends, rewriting its files in
     place, so it is only read while nothing better exists."""
     live = sweep / "tune" / name / "run"
-    if row and row.get("status") == "done" and row.get("run"):
+    if row and row.get("status") in ("done", "stopped") and row.get("run"):
         final = Path(row["run"])
         if final.parent == live.parent and (final / "state.json").exists():
             return final
@@ -89,41 +89,57 @@ def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str],
 
 
 def trial_curve_rows(trial: dict[str, Any], episodes: int, seed: int,
-                     log: Callable[[str], None] = print) -> list[dict[str, Any]]:
+                     log: Callable[[str], None] = print, skip: Collection[int] = ()) -> list[dict[str, Any]]:
     """One trial's curve rows (``trial``: an entry of :func:`sweep_trials`), each headed by the
-    trial's name, seed and grid values."""
+    trial's name, seed and grid values; checkpoints at the decisions in ``skip`` are not drawn."""
     log(f"{trial['trial']}:")
     return [{"trial": trial["trial"], "seed": trial["seed"], **trial["point"], **row}
-            for row in run_curve(trial["run"], episodes, seed, log=lambda line: log("  " + line))]
+            for row in run_curve(trial["run"], episodes, seed, log=lambda line: log("  " + line), skip=skip)]
+
+
+def drawn_decisions(path: Path, name: str, episodes: int, seed: int) -> set[int]:
+    """The decisions at which the curves file ``path`` holds a row of trial ``name`` drawn on
+    ``episodes`` episodes from ``seed`` (rows drawn on other episodes do not count)."""
+    if not path.exists():
+        return set()
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r.get("trial") == name]
+    try:
+        return {int(float(r["decisions"])) for r in rows
+                if int(float(r["episodes"])) == episodes and int(float(r["first_seed"])) == seed}
+    except (KeyError, ValueError):
+        return set()
 
 
 def drawn_already(path: Path, trial: dict[str, Any], episodes: int, seed: int) -> bool:
     """Whether the curves file ``path`` already holds ``trial``'s curve as its run folder here
     would draw it: a row for every kept checkpoint, on the same episodes (a trial continued to a
-    larger budget has more checkpoints, so it is drawn again)."""
-    if not path.exists():
-        return False
-    with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r.get("trial") == trial["trial"]]
+    larger budget has more checkpoints, so it is drawn again; rows drawn before the trial was
+    carried to this machine count, though their checkpoints stayed behind; a carried run that
+    kept no checkpoint since has nothing more to draw)."""
+    drawn = drawn_decisions(path, trial["trial"], episodes, seed)
     try:
         kept = {c["decisions"] for c in kept_checkpoints(trial["run"])}
-        return (bool(rows) and {int(float(r["decisions"])) for r in rows} == kept
-                and all(int(float(r["episodes"])) == episodes and int(float(r["first_seed"])) == seed for r in rows))
-    except (CurveError, KeyError, ValueError):
-        return False
+    except CurveError:
+        return bool(drawn)
+    return kept <= drawn
 
 
 def merge_curves(path: Path, rows: list[dict[str, Any]]) -> None:
-    """Write ``rows`` into the curves file ``path``, keeping the rows of trials ``rows`` has none
-    of (the trials of a continued sweep that ran on another machine)."""
-    mine = {r["trial"] for r in rows}
+    """Write ``rows`` into the curves file ``path``: a row replaces the row of the same trial at
+    the same decisions, every other row is kept (the trials of a continued sweep that ran on
+    another machine; a carried trial's rows from before it was carried). Rows stay in training
+    order within each trial."""
+    mine = {(r["trial"], int(float(r["decisions"]))) for r in rows}
     kept: list[dict[str, Any]] = []
     if path.exists():
         with open(path, newline="") as f:
-            kept = [r for r in csv.DictReader(f) if r.get("trial") not in mine]
+            kept = [r for r in csv.DictReader(f) if (r.get("trial"), int(float(r["decisions"]))) not in mine]
+    order = {name: i for i, name in enumerate(dict.fromkeys(r["trial"] for r in kept + rows))}
+    merged = sorted(kept + rows, key=lambda r: (order[r["trial"]], int(float(r["decisions"]))))
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".partial")
-    write_rows(tmp, kept + rows)
+    write_rows(tmp, merged)
     tmp.replace(path)
 
 

@@ -50,7 +50,8 @@ class SweepSpec:
         are options that do not change what is learnt (``--threads``)."""
         return [{"behaviour": self.behaviour, "point": point, "seed": seed,
                  "argv": self.trial_argv(point, seed) + list(extra_argv), "episodes": self.episodes,
-                 "name": trial_name(self.behaviour, point, seed), "reuse": None, "extend": None}
+                 "name": trial_name(self.behaviour, point, seed), "reuse": None, "extend": None,
+                 "carried": None}
                 for seed in range(self.seeds) for point in self.points()]  # a whole grid per seed first
 
     def trial_argv(self, point: dict[str, str], seed: int) -> list[str]:

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from training.runs.run_dir import write_json_atomic
+from training.sweeps.carry import carried_runs
 from training.sweeps.spec import (SweepError, SweepSpec, check_spec, is_bilevel, parse_pairs, script_module,
                                  spec_differences)
 from training.sweeps.summary import (extendable_runs, final_metrics, first_line, metrics_from_row, reusable_rows,
@@ -73,6 +74,8 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
     if checkpoint is not None:
         with checkpoint.as_directory() as saved:
             shutil.copytree(saved, run)
+    elif trial.get("carried"):  # stopped part-way on another machine (--carried): continued from there
+        shutil.copytree(trial["carried"], run)
     elif trial.get("extend"):  # finished by a smaller-budget sweep (--extend): continued, not restarted
         start = Path(trial["extend"])
         shutil.copytree(start, run, ignore=lambda folder, names: ["eval"] if Path(folder) == start else [])
@@ -206,11 +209,13 @@ def kept_concurrency(out: Path, asked: Optional[int]) -> str:
 def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_trial: float = 0,
               address: Optional[str] = None, max_concurrent: Optional[int] = None,
               reuse: Optional[Path] = None, threads: Optional[int] = None,
-              extend: Optional[Path] = None) -> list[dict[str, Any]]:
+              extend: Optional[Path] = None, carried: Optional[Path] = None) -> list[dict[str, Any]]:
     """Run (or continue) the sweep in ``out``; returns the summary rows. Trials that ``reuse`` (a
     summary of this same sweep) lists as done are reported from it, not trained again. Trials
     that ``extend`` (a sweep folder of the same settings at a smaller budget) finished are
-    continued from their last checkpoint to this sweep's budget instead of starting over.
+    continued from their last checkpoint to this sweep's budget instead of starting over. Trials
+    with a run in ``carried`` (stopped part-way on another machine, :mod:`training.sweeps.carry`)
+    continue from it when this folder holds no later checkpoint of theirs.
     ``threads``: torch threads per trial (default: the trial's CPU cores)."""
     import ray
     from ray import tune
@@ -223,6 +228,7 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     reused = reusable_rows(reuse, spec) if reuse is not None else {}
     extends = extended_sweep(out, extend)
     started = extendable_runs(extends, spec) if extends is not None else {}
+    carried_here = carried_runs(carried, spec)
     restoring = prepare_out(out, spec)
     if extends is not None:
         write_json_atomic(out / EXTEND_FILE, {"extends": str(extends)})
@@ -239,6 +245,7 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     for name, trial in trials.items():
         trial["reuse"] = reused.get(name)
         trial["extend"] = str(started[name]) if name in started else None
+        trial["carried"] = str(carried_here[name].resolve()) if name in carried_here else None
     # Ray Tune's config holds only the trial's name (a short column in the progress table); the
     # descriptions reach the trials through the object store
     trainable = tune.with_resources(tune.with_parameters(run_trial, trials=trials),
@@ -313,6 +320,9 @@ def build_parser():
                    help="a sweep folder of the same settings at a smaller budget (--timesteps, or --set "
                         "rounds=N): its finished trials continue from their last checkpoint to this budget "
                         "instead of starting over (their runs must be on this machine)")
+    p.add_argument("--carried", metavar="FOLDER",
+                   help="run folders of trials stopped part-way on another machine, one per trial name "
+                        "(see docs/sweeps.md): those trials continue from there instead of starting over")
     p.add_argument("--out", required=True, help="sweep folder; rerun with the same folder to continue")
     return p
 
@@ -344,7 +354,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         spec, threads = spec_from_args(args)
         rows = run_sweep(spec, Path(args.out), args.cpus_per_trial, args.gpus_per_trial, args.address,
                          args.max_concurrent, Path(args.reuse) if args.reuse else None, threads,
-                         Path(args.extend) if args.extend else None)
+                         Path(args.extend) if args.extend else None, Path(args.carried) if args.carried else None)
     except SweepError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
