@@ -97,9 +97,9 @@ class TrialLander:
         and merge them in; False when there were none."""
         from training.sweeps import curves
 
-        if curves.drawn_already(self.curves_path, trial, self.episodes, self.seed):
-            return False
         skip = curves.drawn_decisions(self.curves_path, trial["trial"], self.episodes, self.seed)
+        if curves.drawn_already(self.curves_path, trial, self.episodes, self.seed, drawn=skip):
+            return False
         curves.merge_curves(self.curves_path,
                             curves.trial_curve_rows(trial, self.episodes, self.seed, log=self.log, skip=skip))
         return True
@@ -113,11 +113,9 @@ class TrialLander:
 
         if not (self.out / "summary.json").exists():
             return []
-        stopped = {r["trial"] for r in json.loads((self.out / "summary.json").read_text())["trials"]
-                   if r.get("status") == "stopped"}
         carried = []
         for trial in curves.sweep_trials(self.out):
-            if trial["trial"] not in stopped or not (trial["run"] / "state.json").exists():
+            if trial["status"] != "stopped" or not (trial["run"] / "state.json").exists():
                 continue  # stopped before its first checkpoint: it starts over, nothing to carry
             try:
                 self._draw_missing(trial)

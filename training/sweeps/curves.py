@@ -34,14 +34,16 @@ SWEEP_CURVE_EPISODES = 100
 
 
 def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
-    """Every trial of a sweep folder: its name, seed, grid point, whether the sweep's summary lists
-    it as done, and its run folder (:func:`run_folder`), all from one reading of the summary."""
+    """Every trial of a sweep folder: its name, seed, grid point, its status in the sweep's summary
+    (None before it has a row) and whether that is done, and its run folder (:func:`run_folder`),
+    all from one reading of the summary."""
     try:
         spec = SweepSpec(**json.loads((sweep / "sweep.json").read_text()))
     except (OSError, ValueError, TypeError) as exc:
         raise CurveError(f"{sweep}: not a sweep folder ({exc})") from None
     rows = _summary_rows(sweep)
     return [{"trial": t["name"], "seed": t["seed"], "point": t["point"],
+             "status": rows.get(t["name"], {}).get("status"),
              "done": rows.get(t["name"], {}).get("status") == "done",
              "run": run_folder(sweep, t["name"], rows.get(t["name"]))} for t in spec.trials()]
 
@@ -49,9 +51,9 @@ def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
 def run_folder(sweep: Path, name: str, row: Optional[dict[str, Any]]) -> Path:
     """Where trial ``name``'s checkpoints are read. A finished trial, or one stopped part-way: its
     last checkpoint folder in this sweep (``row["run"]``, from the summary), which Ray Tune writes
-    once, when the trial reports it. Otherwise the trial folder's ``run/``: that is a copy Ray Tune re-syncs from the trial's
-    staging folder every few minutes and once more after the trial ends, rewriting its files in
-    place, so it is only read while nothing better exists."""
+    once, when the trial reports it. Otherwise the trial folder's ``run/``: that is a copy Ray Tune
+    re-syncs from the trial's staging folder every few minutes and once more after the trial ends,
+    rewriting its files in place, so it is only read while nothing better exists."""
     live = sweep / "tune" / name / "run"
     if row and row.get("status") in ("done", "stopped") and row.get("run"):
         final = Path(row["run"])
@@ -111,13 +113,16 @@ def drawn_decisions(path: Path, name: str, episodes: int, seed: int) -> set[int]
         return set()
 
 
-def drawn_already(path: Path, trial: dict[str, Any], episodes: int, seed: int) -> bool:
+def drawn_already(path: Path, trial: dict[str, Any], episodes: int, seed: int,
+                  drawn: Optional[set[int]] = None) -> bool:
     """Whether the curves file ``path`` already holds ``trial``'s curve as its run folder here
     would draw it: a row for every kept checkpoint, on the same episodes (a trial continued to a
     larger budget has more checkpoints, so it is drawn again; rows drawn before the trial was
     carried to this machine count, though their checkpoints stayed behind; a carried run that
-    kept no checkpoint since has nothing more to draw)."""
-    drawn = drawn_decisions(path, trial["trial"], episodes, seed)
+    kept no checkpoint since has nothing more to draw). ``drawn``: :func:`drawn_decisions` of
+    that file, where the caller has read it already."""
+    if drawn is None:
+        drawn = drawn_decisions(path, trial["trial"], episodes, seed)
     try:
         kept = {c["decisions"] for c in kept_checkpoints(trial["run"])}
     except CurveError:
