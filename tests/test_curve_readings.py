@@ -112,3 +112,35 @@ def test_bad_readings_input_gets_one_clear_error(tmp_path, capsys):
     assert curves.main([str(tmp_path), "--metric", "success_rate"]) == 2
     assert "only with --readings" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_trials_the_summary_does_not_list_as_done_are_marked_part_way(tmp_path, capsys):
+    """A committed curve file may hold the curve so far of a trial stopped and carried: its
+    readings are shares of where it stopped, so the table marks it (by the summary beside it)."""
+    import json
+
+    path = tmp_path / "curves" / "my-sweep.csv"
+    path.parent.mkdir()
+    _write(path, _sweep_rows())
+    summary = tmp_path / "my-sweep.json"
+    summary.write_text(json.dumps({"sweep": {}, "trials": [{"trial": "t_noise=0_seed=0", "status": "done"}]}))
+    assert cr.summary_of(path) == summary
+    assert cr.unfinished_trials(summary, ["t_noise=0_seed=0", "t_noise=0.5_seed=0"]) == {"t_noise=0.5_seed=0"}
+    assert curves.main([str(path), "--readings", "--metric", "success_rate"]) == 0
+    out = capsys.readouterr().out
+    assert "| t_noise=0_seed=0 | success_rate |" in out
+    assert "| t_noise=0.5_seed=0 (part-way) | success_rate |" in out and f"not done by {summary}" in out
+    # once it lands, nothing is marked
+    summary.write_text(json.dumps({"sweep": {}, "trials": [{"trial": t, "status": "done"}
+                                                           for t in ("t_noise=0_seed=0", "t_noise=0.5_seed=0")]}))
+    assert curves.main([str(path), "--readings"]) == 0
+    assert "part-way" not in capsys.readouterr().out
+    # a sweep folder's curves.csv reads its summary.json; a run's curve has none
+    sweep = tmp_path / "sweep"
+    sweep.mkdir()
+    assert cr.summary_of(sweep / "curves.csv") is None
+    (sweep / "summary.json").write_text("[]")
+    assert cr.summary_of(sweep / "curves.csv") == sweep / "summary.json"
+    with pytest.raises(CurveError, match="not a sweep summary"):
+        cr.unfinished_trials(sweep / "summary.json", ["a"])
+    assert cr.unfinished_trials(None, ["a"]) == set()

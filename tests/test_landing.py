@@ -243,6 +243,26 @@ def test_a_trial_stopped_part_way_is_carried_with_its_curve_so_far_and_removed_o
     assert not carried.exists()
 
 
+def test_a_carry_left_behind_by_a_trial_that_landed_elsewhere_is_removed(tmp_path, drawn):
+    """A trial continued from its carry and finished on another machine, whose summary was
+    committed with the carry still beside it: here the trial is done with no run folder (taken
+    from the committed summary), and its stale carry goes, while a running trial's carry stays."""
+    import shutil
+
+    from training.sweeps.carry import carry_run
+
+    out, _ = _sweep(tmp_path, done=("num_cars=1",))
+    folder = tmp_path / "assets"
+    final = _stop_part_way(out, "lights_num_cars=2_seed=0")
+    lander = TrialLander(out, folder, "tiny", EPISODES, SEED, log=lambda line: None)
+    for name in ("lights_num_cars=1_seed=0", "lights_num_cars=2_seed=0"):
+        carry_run(final, lander.carried_folder / name)
+    shutil.rmtree(out / "tune" / "lights_num_cars=1_seed=0")  # done, taken from a committed summary
+    assert lander.land() == []
+    assert not (lander.carried_folder / "lights_num_cars=1_seed=0").exists()
+    assert (lander.carried_folder / "lights_num_cars=2_seed=0").is_dir()  # not done: still carried
+
+
 def test_a_stopped_trial_without_a_checkpoint_is_not_carried_and_a_bad_carry_is_refused(tmp_path, drawn):
     from training.sweeps.carry import carried_runs, carry_run
     from training.sweeps.spec import SweepError

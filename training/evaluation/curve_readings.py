@@ -14,10 +14,11 @@ from the curve file ``box2d-driving curve`` wrote (on selection seeds).
 from __future__ import annotations
 
 import csv
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Collection, Optional
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from training.common.markdown import row
 from training.evaluation.checkpoint_curve import COMMUNICATION, CurveError, late_change
 
 __all__ = ["READING_COLUMNS", "ReadingWindows", "SIGN_FREE", "curve_file", "read_curve_file", "readings",
-           "readings_table"]
+           "readings_table", "summary_of", "unfinished_trials"]
 
 # metrics whose sign is a convention of the run, not a property of the policy: which bit value
 # a speaker uses for "turning" is its own choice, so the curve is read as a magnitude
@@ -137,12 +138,41 @@ def read_curve_file(path: Path) -> tuple[dict[str, list[dict[str, Any]]], list[s
     return trials, metrics
 
 
+def summary_of(path: Path) -> Optional[Path]:
+    """The sweep summary that says which trials of the curve file ``path`` have finished:
+    ``FOLDER/NAME.json`` for a committed ``FOLDER/curves/NAME.csv``, ``SWEEP/summary.json`` for a
+    sweep folder's ``curves.csv``; None where there is none (a single run's curve)."""
+    path = Path(path)
+    candidates = []
+    if path.parent.name == "curves":
+        candidates.append(path.parent.parent / f"{path.stem}.json")
+    if path.name == "curves.csv":
+        candidates.append(path.parent / "summary.json")
+    return next((c for c in candidates if c.is_file()), None)
+
+
+def unfinished_trials(summary: Optional[Path], trials: Collection[str]) -> set[str]:
+    """Those of ``trials`` that ``summary`` does not list as done: still training, or stopped
+    part-way and carried (a committed summary holds finished trials only), so their curves end
+    short of the budget. None without a summary; :class:`CurveError` for a file that is not one."""
+    if summary is None:
+        return set()
+    try:
+        rows = json.loads(Path(summary).read_text())["trials"]
+        done = {r["trial"] for r in rows if r.get("status") == "done"}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise CurveError(f"{summary}: not a sweep summary ({exc})") from None
+    return {t for t in trials if t not in done}
+
+
 def readings_table(trials: dict[str, list[dict[str, Any]]], columns: list[str],
-                   metrics: Optional[list[str]] = None, windows: ReadingWindows = ReadingWindows()) -> list[str]:
+                   metrics: Optional[list[str]] = None, windows: ReadingWindows = ReadingWindows(),
+                   unfinished: Collection[str] = ()) -> list[str]:
     """A Markdown table of the readings, one row per trial and metric: ``trials`` and its metric
     ``columns`` as :func:`read_curve_file` returns them; ``metrics`` a subset (all by default;
     :class:`CurveError` naming one the file lacks). Shares and bits to two decimals, the late
-    change to three; :data:`SIGN_FREE` metrics read as ``|metric|``."""
+    change to three; :data:`SIGN_FREE` metrics read as ``|metric|``. The trials in
+    ``unfinished`` are marked "(part-way)": their windows are shares of where they stopped."""
     if metrics:
         missing = [m for m in metrics if m not in columns]
         if missing:
@@ -158,7 +188,8 @@ def readings_table(trials: dict[str, list[dict[str, Any]]], columns: list[str],
             name = f"|{metric}|" if metric in SIGN_FREE else metric  # row() escapes the bars
             read = readings(d, np.abs(v) if metric in SIGN_FREE else v, windows)
             cells = [f"{int(read['checkpoints'])}"] + [_cell(read[k], k) for k in READING_COLUMNS if k != "checkpoints"]
-            lines.append(row([trial, name] + cells))
+            label = f"{trial} (part-way)" if trial in unfinished else trial
+            lines.append(row([label, name] + cells))
     return lines
 
 

@@ -69,7 +69,8 @@ class TrialLander:
     def land(self) -> list[str]:
         """One pass: the summary copied, and the curve of every trial finished (by the summary)
         since the last pass whose run folder is here; returns the trials whose curves it drew.
-        A trial taken from a committed summary has no run folder here and keeps its rows."""
+        A trial taken from a committed summary has no run folder here and keeps its rows. A
+        finished trial's carried run, if any, is removed: the trial has landed."""
         from training.sweeps import curves
 
         if not self.copy_summary():
@@ -77,12 +78,15 @@ class TrialLander:
         drawn = []
         for trial in curves.sweep_trials(self.out):
             name = trial["trial"]
-            if name in self.drawn or not trial["done"] or not trial["run"].is_dir():
+            if name in self.drawn or not trial["done"]:
                 continue
-            if self._draw_missing(trial):
-                drawn.append(name)
-            self.drawn.add(name)
-            if (self.carried_folder / name).is_dir():  # continued from a carried run: it has landed now
+            if trial["run"].is_dir():
+                if self._draw_missing(trial):
+                    drawn.append(name)
+                self.drawn.add(name)
+            # continued from a carried run, here or (a summary committed with its carry left
+            # behind) elsewhere: the carry is stale now
+            if (self.carried_folder / name).is_dir():
                 shutil.rmtree(self.carried_folder / name)
         return drawn
 

@@ -193,7 +193,8 @@ def main(argv: Optional[list[str]] = None) -> int:
 def print_readings(args: Any) -> int:
     """``curve --readings``: the readings table of a drawn curve file; flags that only drawing
     uses are refused rather than ignored."""
-    from training.evaluation.curve_readings import curve_file, read_curve_file, readings_table
+    from training.evaluation.curve_readings import (curve_file, read_curve_file, readings_table, summary_of,
+                                                    unfinished_trials)
 
     for flag, given in (("--out", args.out is not None), ("--overwrite", args.overwrite),
                         ("--finished", args.finished), ("--episodes", args.episodes is not None),
@@ -203,11 +204,16 @@ def print_readings(args: Any) -> int:
     try:
         path = curve_file(args.run)
         trials, columns = read_curve_file(path)
-        lines = readings_table(trials, columns, args.metric)
+        summary = summary_of(path)
+        unfinished = unfinished_trials(summary, trials)
+        lines = readings_table(trials, columns, args.metric, unfinished=unfinished)
     except CurveError as exc:
         return error(str(exc))
     print(f"{path} (selection episodes; one row per trial and metric)\n")
     print("\n".join(lines))
+    if unfinished:
+        print(f"\n(part-way): not done by {summary} (still training, or stopped and carried); its windows "
+              "are shares of where it stopped, so its late change is no verdict on the whole budget")
     return 0
 
 
