@@ -99,6 +99,11 @@ def trial_curve_rows(trial: dict[str, Any], episodes: int, seed: int,
             for row in run_curve(trial["run"], episodes, seed, log=lambda line: log("  " + line), skip=skip)]
 
 
+def _count(row: dict[str, Any], column: str) -> int:
+    """A count column of a curve row, read back from CSV text ("3.2e+07" or "32000000") or as drawn."""
+    return int(float(row[column]))
+
+
 def drawn_decisions(path: Path, name: str, episodes: int, seed: int) -> set[int]:
     """The decisions at which the curves file ``path`` holds a row of trial ``name`` drawn on
     ``episodes`` episodes from ``seed`` (rows drawn on other episodes do not count)."""
@@ -107,8 +112,8 @@ def drawn_decisions(path: Path, name: str, episodes: int, seed: int) -> set[int]
     with open(path, newline="") as f:
         rows = [r for r in csv.DictReader(f) if r.get("trial") == name]
     try:
-        return {int(float(r["decisions"])) for r in rows
-                if int(float(r["episodes"])) == episodes and int(float(r["first_seed"])) == seed}
+        return {_count(r, "decisions") for r in rows
+                if _count(r, "episodes") == episodes and _count(r, "first_seed") == seed}
     except (KeyError, ValueError):
         return set()
 
@@ -135,13 +140,13 @@ def merge_curves(path: Path, rows: list[dict[str, Any]]) -> None:
     the same decisions, every other row is kept (the trials of a continued sweep that ran on
     another machine; a carried trial's rows from before it was carried). Rows stay in training
     order within each trial."""
-    mine = {(r["trial"], int(float(r["decisions"]))) for r in rows}
+    mine = {(r["trial"], _count(r, "decisions")) for r in rows}
     kept: list[dict[str, Any]] = []
     if path.exists():
         with open(path, newline="") as f:
-            kept = [r for r in csv.DictReader(f) if (r.get("trial"), int(float(r["decisions"]))) not in mine]
+            kept = [r for r in csv.DictReader(f) if (r.get("trial"), _count(r, "decisions")) not in mine]
     order = {name: i for i, name in enumerate(dict.fromkeys(r["trial"] for r in kept + rows))}
-    merged = sorted(kept + rows, key=lambda r: (order[r["trial"]], int(float(r["decisions"]))))
+    merged = sorted(kept + rows, key=lambda r: (order[r["trial"]], _count(r, "decisions")))
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".partial")
     write_rows(tmp, merged)
