@@ -252,6 +252,28 @@ def test_run_refuses_a_kept_summary_of_another_sweep_before_training(tmp_path, m
     assert exit_.value.code == 2 and "--only goes with --run" in capsys.readouterr().err
 
 
+def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(tmp_path, monkeypatch, capsys):
+    import time
+
+    from training.results import reproduce
+    from training.results.run_all import run_sections
+    from training.sweeps.deadline import Deadline
+
+    monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
+    with pytest.raises(SystemExit) as exit_:
+        reproduce.main(["--time-limit", "30"])
+    assert exit_.value.code == 2 and "--time-limit goes with --run" in capsys.readouterr().err
+    code = reproduce.main(["--run", "--time-limit", "0", "--summaries", str(tmp_path / "sweeps"),
+                           "--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "results.md")])
+    assert code == 2 and "--time-limit: 0.0 is not a positive number of minutes" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "results.md").exists()
+    # past the limit before a rule's sweep starts: it does not start, and the run says how to go on
+    code = run_sections(reproduce.SECTIONS, tmp_path / "sweeps", tmp_path / "runs",
+                        deadline=Deadline(time.monotonic() - 1.0))
+    out = capsys.readouterr().out
+    assert code == 1 and "not started, --time-limit reached" in out and not (tmp_path / "runs").exists()
+
+
 def test_readme_table_shows_each_rules_headline_over_seeds_and_links_its_section(tmp_path, capsys):
     from training.results.reproduce import README_END, README_START
 

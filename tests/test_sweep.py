@@ -177,6 +177,29 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert rows4[next(n for n in rows4 if n != good)]["status"] == "error"
 
 
+def test_a_time_limit_stops_the_sweep_as_ctrl_c_would(tmp_path):
+    """``--time-limit``: the sweep stops itself once the limit has passed (here before a trial
+    can finish: each would train 100 times the interrupted test's budget), through Ray Tune's own
+    stop, so nothing is marked done, the summary holds every trial and the command says how to go
+    on; bad limits are refused before anything is written."""
+    out = tmp_path / "sweep"
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "RAY_DEDUP_LOGS": "0"}
+    started = time.monotonic()
+    run = subprocess.run(_sweep(out, 100 * BUDGET) + ["--max-concurrent", "1", "--time-limit", "0.25"], cwd=ROOT,
+                         env=env, capture_output=True, text=True, timeout=300)
+    log = run.stdout[-3000:] + run.stderr[-3000:]
+    assert run.returncode == 1 and "--time-limit reached" in run.stderr and "Traceback" not in log, log
+    assert time.monotonic() - started < 240, log
+    statuses = {r["trial"]: r["status"] for r in csv.DictReader((out / "summary.csv").open())}
+    assert len(statuses) == 2 and "done" not in statuses.values(), statuses
+    assert "run the same command again to continue" in run.stdout
+    for bad in ("0", "-3", "nan"):
+        refused = subprocess.run(_sweep(tmp_path / "never", BUDGET) + ["--time-limit", bad], cwd=ROOT, env=env,
+                                 capture_output=True, text=True, timeout=120)
+        assert refused.returncode == 2 and "--time-limit: " in refused.stderr and "minutes" in refused.stderr
+    assert not (tmp_path / "never").exists()
+
+
 def test_a_continued_sweep_says_it_keeps_the_concurrency_it_started_with(tmp_path):
     from training.sweeps.sweep import CONCURRENCY_FILE, kept_concurrency
 

@@ -354,17 +354,30 @@ def main(argv: Optional[list[str]] = None) -> int:
     run.add_argument("--gpus-per-trial", type=float, default=0, help="GPUs per trial (default 0)")
     run.add_argument("--max-concurrent", type=int, help="at most this many trials at once")
     run.add_argument("--address", help="a running Ray cluster (default: this machine)")
+    run.add_argument("--time-limit", type=float, metavar="MINUTES",
+                     help="stop after this many minutes of wall-clock time, as Ctrl-C would (trials part-way are "
+                          "carried beside the summaries; leave time for their curves to be drawn): for a "
+                          "machine lent for a fixed time")
     args = p.parse_args(argv)
     prog = "box2d-driving reproduce"
     if args.only and not args.run:
         p.error("--only goes with --run")
     if args.run and args.summaries:
         p.error("--run reads and writes the summaries in --summaries; give no summary files")
+    if args.time_limit is not None and not args.run:
+        p.error("--time-limit goes with --run")
     figures = args.figures or args.out.parent / "images" / "results"
     status = 0
     if args.run:
         from training.results.run_all import ReproduceError, run_sections
+        from training.sweeps.deadline import Deadline
+        from training.sweeps.spec import SweepError
 
+        try:
+            deadline = Deadline.after_minutes(args.time_limit)  # counted from the start of the command
+        except SweepError as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 2
         if args.readme is not None:  # a README it cannot write is found before hours of training
             try:
                 readme_text(args.readme)
@@ -375,7 +388,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         try:
             status = run_sections([s for s in SECTIONS if not args.only or s.key in args.only], args.folder,
                                   args.runs, args.cpus_per_trial, args.gpus_per_trial, args.max_concurrent,
-                                  args.address)
+                                  args.address, deadline)
         except ReproduceError as exc:
             print(f"{prog}: error: {exc}", file=sys.stderr)
             return 2

@@ -12,16 +12,21 @@ that goes away mid-sweep loses only the trial in training. A sweep that stops be
 trials finish (Ctrl-C, the machine going away) ends the run there: the same command continues it.
 A trial stopped part-way (Ctrl-C) is carried: its curve so far is drawn and its resumable run
 copied into ``carried/NAME/<trial>/`` in the summaries folder, so that the same command, on this
-machine or a fresh one, continues it from there rather than from scratch.
+machine or a fresh one, continues it from there rather than from scratch. With a time limit
+(``--time-limit``) the run stops itself that way once the limit has passed, and no later rule's
+sweep starts.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import TYPE_CHECKING, Optional, Sequence
 
 from training.results.landing import TrialLander
 from training.results.sections import Section
+
+if TYPE_CHECKING:
+    from training.sweeps.deadline import Deadline
 
 __all__ = ["ReproduceError", "run_sections"]
 
@@ -36,9 +41,10 @@ LAND_EVERY_S = 60.0
 
 def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per_trial: float = 1,
                  gpus_per_trial: float = 0, max_concurrent: Optional[int] = None,
-                 address: Optional[str] = None) -> int:
+                 address: Optional[str] = None, deadline: Optional["Deadline"] = None) -> int:
     """Run (or continue) each section's sweep in turn; returns the exit status: 0 all trials done,
-    1 a trial failed or a sweep was stopped before its end (the same call continues it)."""
+    1 a trial failed or a sweep was stopped before its end (the same call continues it).
+    ``deadline``: past it, the sweep in progress stops as on Ctrl-C and no further one starts."""
     try:
         import ray  # noqa: F401
     except ImportError as exc:
@@ -68,6 +74,10 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     status = 0
     for section, spec, threads, reuse in plans:
         out = Path(runs) / section.out.name
+        if deadline is not None and deadline.passed():
+            print(f"== {section.title}: not started, --time-limit reached; run the same command again to go on",
+                  flush=True)
+            return 1
         print(f"== {section.title}: {section.command}" + (f" (continuing {reuse})" if reuse else ""), flush=True)
         # each trial lands as it finishes (summary and learning curve), while the next one trains
         lander = TrialLander(out, folder, section.summary_name, curves.SWEEP_CURVE_EPISODES, SELECTION.start,
@@ -75,7 +85,7 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
         lander.start(LAND_EVERY_S)
         try:
             rows = run_sweep(spec, out, cpus_per_trial, gpus_per_trial, address, max_concurrent, reuse, threads,
-                             carried=lander.carried_folder)
+                             carried=lander.carried_folder, deadline=deadline)
         except SweepError as exc:
             raise ReproduceError(f"{section.key}: {exc}") from None
         finally:

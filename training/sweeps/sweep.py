@@ -28,11 +28,13 @@ import math
 import os
 import shutil
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, Optional
 
 from training.runs.run_dir import write_json_atomic
 from training.sweeps.carry import carried_runs
+from training.sweeps.deadline import Deadline
 from training.sweeps.spec import (SweepError, SweepSpec, check_spec, is_bilevel, parse_pairs, script_module,
                                  spec_differences)
 from training.sweeps.summary import (extendable_runs, final_metrics, first_line, metrics_from_row, reusable_rows,
@@ -209,14 +211,16 @@ def kept_concurrency(out: Path, asked: Optional[int]) -> str:
 def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_trial: float = 0,
               address: Optional[str] = None, max_concurrent: Optional[int] = None,
               reuse: Optional[Path] = None, threads: Optional[int] = None,
-              extend: Optional[Path] = None, carried: Optional[Path] = None) -> list[dict[str, Any]]:
+              extend: Optional[Path] = None, carried: Optional[Path] = None,
+              deadline: Optional[Deadline] = None) -> list[dict[str, Any]]:
     """Run (or continue) the sweep in ``out``; returns the summary rows. Trials that ``reuse`` (a
     summary of this same sweep) lists as done are reported from it, not trained again. Trials
     that ``extend`` (a sweep folder of the same settings at a smaller budget) finished are
     continued from their last checkpoint to this sweep's budget instead of starting over. Trials
     with a run in ``carried`` (stopped part-way on another machine, :mod:`training.sweeps.carry`)
     continue from it when this folder holds no later checkpoint of theirs.
-    ``threads``: torch threads per trial (default: the trial's CPU cores)."""
+    ``threads``: torch threads per trial (default: the trial's CPU cores). ``deadline``: past it,
+    the sweep stops as on Ctrl-C (:mod:`training.sweeps.deadline`)."""
     import ray
     from ray import tune
 
@@ -267,7 +271,11 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
                 checkpoint_config=tune.CheckpointConfig(num_to_keep=1),
                 callbacks=[SummaryCallback(out, spec, trials)]),
         )
-    results = tuner.fit()
+    with deadline.armed() if deadline is not None else nullcontext():
+        results = tuner.fit()
+    if deadline is not None and deadline.fired:
+        print("--time-limit reached: the sweep stopped as on Ctrl-C (run the same command again to continue)",
+              file=sys.stderr)
     rows = {}
     for result in results:
         if not result.config:  # a trial that never started (the sweep was stopped first)
@@ -323,6 +331,10 @@ def build_parser():
     p.add_argument("--carried", metavar="FOLDER",
                    help="run folders of trials stopped part-way on another machine, one per trial name "
                         "(see docs/sweeps.md): those trials continue from there instead of starting over")
+    p.add_argument("--time-limit", type=float, metavar="MINUTES",
+                   help="stop the sweep after this many minutes of wall-clock time, as Ctrl-C would (trials "
+                        "in training keep their last checkpoint; the same command continues them): for a "
+                        "machine lent for a fixed time")
     p.add_argument("--out", required=True, help="sweep folder; rerun with the same folder to continue")
     return p
 
@@ -351,10 +363,12 @@ def main(argv: Optional[list[str]] = None) -> int:
               f"({exc})", file=sys.stderr)
         return 2
     try:
+        deadline = Deadline.after_minutes(args.time_limit)  # counted from the start of the command
         spec, threads = spec_from_args(args)
         rows = run_sweep(spec, Path(args.out), args.cpus_per_trial, args.gpus_per_trial, args.address,
                          args.max_concurrent, Path(args.reuse) if args.reuse else None, threads,
-                         Path(args.extend) if args.extend else None, Path(args.carried) if args.carried else None)
+                         Path(args.extend) if args.extend else None, Path(args.carried) if args.carried else None,
+                         deadline)
     except SweepError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
