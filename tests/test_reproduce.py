@@ -274,6 +274,46 @@ def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(
     assert code == 1 and "not started, --time-limit reached" in out and not (tmp_path / "runs").exists()
 
 
+def test_a_time_limit_reached_mid_trial_carries_the_trial_with_its_curve_so_far(tmp_path, monkeypatch):
+    """A real sweep stopped by its deadline: here the deadline "passes" once the trial in training
+    has reported its first checkpoint (a time in minutes would make the test depend on this
+    machine's speed), and the run then does what it does on Ctrl-C: the trial is carried with its
+    curve so far, it has no summary row yet, and the command says how to go on."""
+    import dataclasses
+
+    import ray
+
+    from training.results.run_all import run_sections
+    from training.sweeps import curves
+    from training.sweeps.deadline import Deadline
+
+    class AtFirstCheckpoint(Deadline):
+        def passed(self) -> bool:
+            return any(p.read_text().strip() for p in (tmp_path / "runs").glob("sweep-tiny/tune/*/result.json"))
+
+        def left_s(self) -> float:
+            return -1.0 if self.passed() else 3600.0
+
+    tiny = _tiny_section()
+    long = dataclasses.replace(tiny, command=tiny.command.replace("--grid num_cars=1,2", "--grid num_cars=2")
+                               .replace("--timesteps 160", "--timesteps 2000000"))
+    monkeypatch.setattr(curves, "SWEEP_CURVE_EPISODES", 2)
+    folder = tmp_path / "sweeps"
+    deadline = AtFirstCheckpoint(end=0.0, poll_s=0.2)
+    try:
+        assert run_sections([long], folder, tmp_path / "runs", max_concurrent=1, deadline=deadline) == 1
+    finally:
+        ray.shutdown()
+    assert deadline.fired
+    name = "lights_num_cars=2_seed=0"
+    carried = folder / "carried" / "tiny" / name
+    state = json.loads((carried / "state.json").read_text())
+    assert 0 < state["decisions"] < 2_000_000
+    rows = [r for r in (folder / "curves" / "tiny.csv").read_text().splitlines()[1:] if r.startswith(name + ",")]
+    assert rows  # the curve so far, drawn before the carry
+    assert json.loads((folder / "tiny.json").read_text())["trials"] == []  # nothing finished: no row to commit
+
+
 def test_readme_table_shows_each_rules_headline_over_seeds_and_links_its_section(tmp_path, capsys):
     from training.results.reproduce import README_END, README_START
 
