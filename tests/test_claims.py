@@ -118,7 +118,8 @@ def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tm
     table = text.split("## Where the page stands on the paper's claims")[1].split("\n## ")[0]
     rows = [line for line in table.splitlines() if line.startswith("| ") and not line.startswith("| the paper's")]
     assert len(rows) == len(CLAIMS)
-    from training.results.reproduce import groups_of, section_summaries
+    from training.results.data import groups_of
+    from training.results.matching import section_summaries
 
     ran = {s.key for s in SECTIONS if section_summaries(s, summaries)}
     # sections whose every grid point has one seed so far: no interval, so no statement yet

@@ -315,7 +315,7 @@ def test_a_time_limit_reached_mid_trial_carries_the_trial_with_its_curve_so_far(
 
 
 def test_readme_table_shows_each_rules_headline_over_seeds_and_links_its_section(tmp_path, capsys):
-    from training.results.reproduce import README_END, README_START
+    from training.results.readme import README_END, README_START
 
     summary = lights_summary(tmp_path / "lights.json", {**VIOLATIONS, ("0.5", "4"): [0.05, 0.07]})
     readme = tmp_path / "README.md"
@@ -344,14 +344,8 @@ def test_the_committed_page_and_readme_table_match_the_committed_summaries(tmp_p
     import shutil
     from pathlib import Path
 
-    from training.results.reproduce import (
-        README_END,
-        README_START,
-        default_summaries,
-        load_summary,
-        readme_table,
-        write_page,
-    )
+    from training.results.readme import README_END, README_START, readme_table
+    from training.results.reproduce import default_summaries, load_summary, write_page
 
     root = Path(__file__).resolve().parent.parent
     monkeypatch.chdir(root)

@@ -14,17 +14,18 @@ episodes is refused.
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 from typing import Any, Optional
 
-from training.common.markdown import anchor, row, separator
+from training.common.markdown import row, separator
 from training.results.claims import SectionResult, claims_table
+from training.results.matching import grid_order, joined_groups, reference, section_summaries
+from training.results.readme import README_START, readme_table, readme_text, update_readme
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
-from training.results.data import Group, Metric, ResultsError, as_number, grid_product, groups_of, load_summary
+from training.results.data import Group, ResultsError, grid_product, groups_of, load_summary
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
-from training.results.sections import IN_GRID, SECTIONS, PaperValue, Section, section as section_by_key, statements
+from training.results.sections import SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
 from training.results.stats import Estimate
 
@@ -49,76 +50,6 @@ def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
     record(env, policy, episodes=1, video=path, seed=seed, overwrite=True)
     env.close()
     return path
-
-
-def _matches(section: Section, summary: dict[str, Any]) -> bool:
-    """Whether ``summary`` has ``section``'s behaviour and fixed options."""
-    sweep = summary["sweep"]
-    # the trial budget counts too: the same settings at a larger budget may be a rule of its own
-    settings = {"timesteps": sweep.get("timesteps"), **sweep.get("fixed", {}), **{k: IN_GRID for k in summary["grid"]}}
-    return sweep["behaviour"] == section.behaviour and \
-        all(str(settings.get(k, "false")).lower() == v for k, v in section.match)
-
-
-def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The summaries that measure ``section``: its behaviour, its fixed options. A summary that
-    two sections match goes to the more specific one (more fixed options), so the paper-settings
-    lights sweep (4 cars fixed) is not also shown under the lights grid."""
-    return [s for s in summaries if _matches(section, s)
-            and not any(len(other.match) > len(section.match) and _matches(other, s) for other in SECTIONS)]
-
-
-def joined_groups(section: Section, summaries: list[dict[str, Any]], summary: dict[str, Any],
-                  metrics: list[Metric]) -> tuple[list[Group], list[str]]:
-    """The grid points ``section.joins`` adds to ``summary`` (one of ``section``'s): the joined
-    section's trials, their fixed value of the joined option added to their point. Only summaries
-    of the same settings join: the same budget and fixed options but the joined one, and a grid of
-    the same keys less that option. Also returns those summaries' paths."""
-    if section.joins is None:
-        return [], []
-    key, option = section.joins
-    other = section_by_key(key)
-    mine = summary["sweep"]
-    groups, paths = [], []
-    for theirs in section_summaries(other, summaries):
-        sweep = theirs["sweep"]
-        fixed = dict(sweep.get("fixed", {}))
-        value = fixed.pop(option, None)
-        if value is None or sorted([*theirs["grid"], option]) != sorted(summary["grid"]) or \
-                fixed != mine.get("fixed", {}) or sweep.get("timesteps") != mine.get("timesteps"):
-            continue
-        paths.append(theirs["path"])
-        groups += [Group({**g.point, option: str(value)}, g.seeds, g.estimates, g.figures)
-                   for g in groups_of(theirs, metrics)]
-    return groups, paths
-
-
-def _grid_order(groups: list[Group], keys: list[str]) -> list[Group]:
-    """``groups`` sorted by their grid values, key by key, numbers by value."""
-    def value(v: str) -> tuple[int, float, str]:
-        number = as_number(v)
-        return (0, number, "") if math.isfinite(number) else (1, 0.0, v)
-    return sorted(groups, key=lambda g: tuple(value(str(g.point[k])) for k in keys))
-
-
-def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[Metric],
-             point: tuple[tuple[str, str], ...]) -> Optional[Group]:
-    """``section``'s trials at the grid ``point`` (the summary with most seeds there), with
-    ``metrics`` estimated; None if not measured."""
-    found = [g for s in section_summaries(section, summaries) for g in groups_of(s, metrics)
-             if all(str(g.point.get(k)) == v for k, v in point)]
-    return max(found, key=lambda g: len(g.seeds)) if found else None
-
-
-def reference(section: Section, summaries: list[dict[str, Any]]) -> tuple[Optional[Group], str]:
-    """The grid point ``section.compare_with`` names, from the summaries (None if not measured or
-    none named), and its name in words."""
-    if section.compare_with is None:
-        return None, ""
-    key, point = section.compare_with
-    other = section_by_key(key)
-    label = f"the row {', '.join(f'{k}={v}' for k, v in point)} of {other.title}"
-    return group_at(other, summaries, [m for m, _ in other.metrics], point), label
 
 
 def _estimate_cell(e: Estimate) -> str:
@@ -200,7 +131,7 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     keys = list(summary["grid"])
     joined, joined_paths = joined_groups(section, summaries, summary, metrics)
     own = groups_of(summary, metrics)
-    groups = _grid_order(own + joined, keys) if joined else own
+    groups = grid_order(own + joined, keys) if joined else own
     trials = summary["trials"]
     done = sum(r.get("status") == "done" for r in trials)
     # seeds the command now asks for count as planned before a run adds them to the summary
@@ -260,55 +191,6 @@ def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
             "(its learning curves on selection episodes; the section says how each was read).", "",
             *claims_table(found_sections), ""]
 
-
-
-README_START = "<!-- results over training seeds: written by box2d-driving reproduce --readme -->"
-README_END = "<!-- end of results over training seeds -->"
-
-
-def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md") -> str:
-    """The README's results table: each rule's headline grid points as mean ± 95 % half-width over
-    training seeds, with the number of seeds and a link to the rule's section of ``page``."""
-    header = ["rule", "setting", "ours on report episodes: mean ± 95 % half-width over training seeds", "seeds",
-              "details"]
-    lines = [row(header), separator(len(header))]
-    for section in SECTIONS:
-        labels = dict(section.metrics)
-        for h in section.headlines:
-            g = group_at(section, summaries, list(h.metrics), h.point)
-            if g is not None:
-                result = "; ".join(f"{labels.get(m, m)} {_headline_value(g.estimates[m])}" for m in h.metrics)
-                seeds = str(len(g.seeds))
-            else:
-                result, seeds = "not run yet", "0"
-            lines.append(row([h.rule, h.setting, result, seeds, f"[{section.title}]({page}#{anchor(section.title)})"]))
-    return "\n".join(lines)
-
-
-def _headline_value(e: Estimate) -> str:
-    if e.n == 0:
-        return "n/a"
-    return e.format() if e.low is not None else f"{e.mean:.3f}"  # the seeds column says "1"
-
-
-def readme_text(path: Path) -> str:
-    """The README's text; :class:`ResultsError` unless it has the two result markers in order."""
-    try:
-        text = Path(path).read_text()
-    except OSError as exc:
-        raise ResultsError(f"--readme {path}: {exc.strerror}") from None
-    if text.count(README_START) != 1 or text.count(README_END) != 1 or text.index(README_START) > text.index(README_END):
-        raise ResultsError(f"--readme {path}: needs one line {README_START!r} and, after it, one line {README_END!r}")
-    return text
-
-
-def update_readme(path: Path, table: str) -> None:
-    """Replace the text between the README's two result markers with ``table``."""
-    head, rest = readme_text(path).split(README_START)
-    tail = rest.split(README_END)[1]
-    tmp = Path(path).with_name(Path(path).name + ".partial")
-    tmp.write_text(f"{head}{README_START}\n{table}\n{README_END}{tail}")
-    tmp.replace(path)
 
 
 def _relative(target: Path, start: Path) -> str:
