@@ -192,7 +192,6 @@ def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
             *claims_table(found_sections), ""]
 
 
-
 def _relative(target: Path, start: Path) -> str:
     import os
 
