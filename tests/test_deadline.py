@@ -65,3 +65,22 @@ def test_a_run_that_ends_before_its_deadline_is_not_signalled():
         assert calls == [] and not d.fired
     finally:
         signal.signal(signal.SIGUSR1, original)
+
+
+def test_outside_the_main_thread_the_deadline_refuses_to_arm():
+    """Ray Tune installs its stop handler only in the main thread: elsewhere a limit would never fire."""
+    import threading
+
+    caught: list[Exception] = []
+
+    def arm() -> None:
+        try:
+            with Deadline(time.monotonic() + 60).armed():
+                pass
+        except SweepError as exc:
+            caught.append(exc)
+
+    t = threading.Thread(target=arm)
+    t.start()
+    t.join()
+    assert len(caught) == 1 and "main thread" in str(caught[0])
