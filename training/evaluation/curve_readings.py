@@ -26,7 +26,7 @@ from training.common.markdown import row
 from training.evaluation.checkpoint_curve import COMMUNICATION, CurveError, late_change
 
 __all__ = ["READING_COLUMNS", "ReadingWindows", "SIGN_FREE", "curve_file", "read_curve_file", "readings",
-           "readings_table", "summary_of", "unfinished_trials"]
+           "readings_table", "summary_of", "summary_rows", "unfinished_trials"]
 
 # metrics whose sign is a convention of the run, not a property of the policy: which bit value
 # a speaker uses for "turning" is its own choice, so the curve is read as a magnitude
@@ -157,12 +157,20 @@ def unfinished_trials(summary: Optional[Path], trials: Collection[str]) -> set[s
     short of the budget. None without a summary; :class:`CurveError` for a file that is not one."""
     if summary is None:
         return set()
+    rows = summary_rows(summary)
+    return {t for t in trials if rows.get(t, {}).get("status") != "done"}
+
+
+def summary_rows(path: Path) -> dict[str, dict[str, Any]]:
+    """Trial name -> its row of the sweep summary ``path`` (none where the file does not exist);
+    :class:`CurveError` for a file that is not a summary."""
+    path = Path(path)
+    if not path.exists():
+        return {}
     try:
-        rows = json.loads(Path(summary).read_text())["trials"]
-        done = {r["trial"] for r in rows if r.get("status") == "done"}
+        return {r["trial"]: r for r in json.loads(path.read_text())["trials"]}
     except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise CurveError(f"{summary}: not a sweep summary ({exc})") from None
-    return {t for t in trials if t not in done}
+        raise CurveError(f"{path}: not a sweep summary ({exc})") from None
 
 
 def readings_table(trials: dict[str, list[dict[str, Any]]], columns: list[str],

@@ -24,6 +24,7 @@ from typing import Any, Callable, Collection, Optional
 from training.common.cli_args import error
 from training.evaluation.checkpoint_curve import (CurveError, build_parser, checked_out, curve_of_run, draw_into,
                                                   kept_checkpoints, run_curve, write_rows)
+from training.evaluation.curve_readings import summary_rows
 from training.sweeps.spec import SweepSpec
 
 __all__ = ["SWEEP_CURVE_EPISODES", "curve_of_sweep", "drawn_already", "drawn_decisions", "main", "merge_curves",
@@ -41,7 +42,7 @@ def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
         spec = SweepSpec(**json.loads((sweep / "sweep.json").read_text()))
     except (OSError, ValueError, TypeError) as exc:
         raise CurveError(f"{sweep}: not a sweep folder ({exc})") from None
-    rows = _summary_rows(sweep)
+    rows = summary_rows(sweep / "summary.json")
     return [{"trial": t["name"], "seed": t["seed"], "point": t["point"],
              "status": rows.get(t["name"], {}).get("status"),
              "done": rows.get(t["name"], {}).get("status") == "done",
@@ -60,16 +61,6 @@ def run_folder(sweep: Path, name: str, row: Optional[dict[str, Any]]) -> Path:
         if final.parent == live.parent and (final / "state.json").exists():
             return final
     return live
-
-
-def _summary_rows(sweep: Path) -> dict[str, dict[str, Any]]:
-    path = sweep / "summary.json"
-    if not path.exists():
-        return {}
-    try:
-        return {r["trial"]: r for r in json.loads(path.read_text())["trials"]}
-    except (ValueError, KeyError, TypeError) as exc:
-        raise CurveError(f"{path}: not a sweep summary ({exc})") from None
 
 
 def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print,
