@@ -84,3 +84,27 @@ def test_outside_the_main_thread_the_deadline_refuses_to_arm():
     t.start()
     t.join()
     assert len(caught) == 1 and "main thread" in str(caught[0])
+
+
+def test_a_sweep_outside_the_main_thread_refuses_its_limit_before_writing_anything(tmp_path):
+    """The refusal comes before the sweep folder or Ray is started (programmatic callers in a
+    worker thread), not after hours of setup."""
+    import threading
+
+    from training.sweeps.spec import SweepSpec
+    from training.sweeps.sweep import run_sweep
+
+    out = tmp_path / "sweep"
+    caught: list[Exception] = []
+
+    def run() -> None:
+        try:
+            run_sweep(SweepSpec("lights", timesteps=1000), out, deadline=Deadline(time.monotonic() + 60))
+        except SweepError as exc:
+            caught.append(exc)
+
+    t = threading.Thread(target=run)
+    t.start()
+    t.join()
+    assert len(caught) == 1 and "main thread" in str(caught[0])
+    assert not out.exists()

@@ -256,7 +256,7 @@ def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(
     import time
 
     from training.results import reproduce
-    from training.results.run_all import run_sections
+    from training.results.run_all import ReproduceError, run_sections
     from training.sweeps.deadline import Deadline
 
     monkeypatch.setattr(reproduce, "SECTIONS", (_tiny_section(),))
@@ -272,6 +272,22 @@ def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(
                         deadline=Deadline(time.monotonic() - 1.0))
     out = capsys.readouterr().out
     assert code == 1 and "not started, --time-limit reached" in out and not (tmp_path / "runs").exists()
+    # outside the main thread the limit could never stop the run: refused before anything is written
+    import threading
+
+    caught: list[Exception] = []
+
+    def in_a_thread() -> None:
+        try:
+            run_sections(reproduce.SECTIONS, tmp_path / "sweeps", tmp_path / "runs",
+                         deadline=Deadline(time.monotonic() + 60))
+        except ReproduceError as exc:
+            caught.append(exc)
+
+    worker = threading.Thread(target=in_a_thread)
+    worker.start()
+    worker.join()
+    assert len(caught) == 1 and "main thread" in str(caught[0]) and not (tmp_path / "runs").exists()
 
 
 def test_a_time_limit_reached_mid_trial_carries_the_trial_with_its_curve_so_far(tmp_path, monkeypatch):

@@ -58,6 +58,11 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
     from training.sweeps.summary import reusable_rows
 
     # check every rule before hours of training: its command, and that its summary is its own
+    if deadline is not None:
+        try:
+            deadline.check_thread()
+        except SweepError as exc:
+            raise ReproduceError(str(exc)) from None
     plans = []
     for section in sections:
         summary = Path(folder) / f"{section.summary_name}.json"

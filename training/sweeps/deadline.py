@@ -61,16 +61,22 @@ class Deadline:
     def passed(self) -> bool:
         return self.left_s() <= 0
 
+    def check_thread(self) -> None:
+        """:class:`SweepError` outside the main thread, where Ray Tune installs no stop handler (the
+        limit would never stop the run). Callers check before writing anything (:func:`armed`
+        checks again)."""
+        if threading.current_thread() is not threading.main_thread():
+            raise SweepError("--time-limit: the sweep must run in the main thread (only there does Ray Tune "
+                             "install the stop handler the limit signals)")
+
     @contextmanager
     def armed(self) -> Iterator["Deadline"]:
         """Around one Ray Tune run (``tuner.fit()``, in the main thread): a watcher thread that,
         once the deadline has passed and Ray Tune's stop handler for this run is installed (the
         SIGUSR1 handler is no longer the one found here on entry), sends SIGUSR1 to this process
-        once. The watcher ends when the block does. :class:`SweepError` outside the main thread,
-        where Ray Tune installs no handler (the limit would never stop the run)."""
-        if threading.current_thread() is not threading.main_thread():
-            raise SweepError("--time-limit: the sweep must run in the main thread (only there does Ray Tune "
-                             "install the stop handler the limit signals)")
+        once. The watcher ends when the block does. :class:`SweepError` outside the main thread
+        (:meth:`check_thread`)."""
+        self.check_thread()
         before = signal.getsignal(STOP_SIGNAL)
         done = threading.Event()
 

@@ -225,6 +225,8 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     from ray import tune
 
     check_spec(spec)
+    if deadline is not None:  # refuse before any folder or Ray is started
+        deadline.check_thread()
     if cpus_per_trial <= 0 or gpus_per_trial < 0:
         raise SweepError(f"--cpus-per-trial must be > 0 and --gpus-per-trial >= 0, "
                          f"got {cpus_per_trial} and {gpus_per_trial}")
