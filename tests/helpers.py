@@ -1,4 +1,5 @@
-"""Hand-built worlds for physics and reward tests, and hand-built rollout tables for metrics."""
+"""Hand-built worlds for physics and reward tests, hand-built rollout tables for metrics, and small
+test utilities."""
 
 from __future__ import annotations
 
@@ -108,3 +109,21 @@ def same_checkpoint_weights(a, b) -> bool:
 
     wa, wb = read_checkpoint(a).policy, read_checkpoint(b).policy
     return wa.keys() == wb.keys() and all(np.array_equal(wa[k].numpy(), wb[k].numpy()) for k in wa)
+
+
+def raised_in_a_thread(call: Callable[[], object]) -> list[Exception]:
+    """The exceptions ``call`` raises when run in a thread other than the main one."""
+    import threading
+
+    caught: list[Exception] = []
+
+    def run() -> None:
+        try:
+            call()
+        except Exception as exc:  # noqa: BLE001 - handed back to the test
+            caught.append(exc)
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    worker.join()
+    return caught

@@ -9,6 +9,7 @@ import time
 
 import pytest
 
+from tests.helpers import raised_in_a_thread
 from training.sweeps.deadline import Deadline
 from training.sweeps.spec import SweepError
 
@@ -69,42 +70,22 @@ def test_a_run_that_ends_before_its_deadline_is_not_signalled():
 
 def test_outside_the_main_thread_the_deadline_refuses_to_arm():
     """Ray Tune installs its stop handler only in the main thread: elsewhere a limit would never fire."""
-    import threading
-
-    caught: list[Exception] = []
-
     def arm() -> None:
-        try:
-            with Deadline(time.monotonic() + 60).armed():
-                pass
-        except SweepError as exc:
-            caught.append(exc)
+        with Deadline(time.monotonic() + 60).armed():
+            pass
 
-    t = threading.Thread(target=arm)
-    t.start()
-    t.join()
-    assert len(caught) == 1 and "main thread" in str(caught[0])
+    caught = raised_in_a_thread(arm)
+    assert len(caught) == 1 and isinstance(caught[0], SweepError) and "main thread" in str(caught[0])
 
 
 def test_a_sweep_outside_the_main_thread_refuses_its_limit_before_writing_anything(tmp_path):
     """The refusal comes before the sweep folder or Ray is started (programmatic callers in a
     worker thread), not after hours of setup."""
-    import threading
-
     from training.sweeps.spec import SweepSpec
     from training.sweeps.sweep import run_sweep
 
     out = tmp_path / "sweep"
-    caught: list[Exception] = []
-
-    def run() -> None:
-        try:
-            run_sweep(SweepSpec("lights", timesteps=1000), out, deadline=Deadline(time.monotonic() + 60))
-        except SweepError as exc:
-            caught.append(exc)
-
-    t = threading.Thread(target=run)
-    t.start()
-    t.join()
-    assert len(caught) == 1 and "main thread" in str(caught[0])
+    caught = raised_in_a_thread(
+        lambda: run_sweep(SweepSpec("lights", timesteps=1000), out, deadline=Deadline(time.monotonic() + 60)))
+    assert len(caught) == 1 and isinstance(caught[0], SweepError) and "main thread" in str(caught[0])
     assert not out.exists()

@@ -256,6 +256,7 @@ def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(
     import time
 
     from training.results import reproduce
+    from tests.helpers import raised_in_a_thread
     from training.results.run_all import ReproduceError, run_sections
     from training.sweeps.deadline import Deadline
 
@@ -273,21 +274,10 @@ def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(
     out = capsys.readouterr().out
     assert code == 1 and "not started, --time-limit reached" in out and not (tmp_path / "runs").exists()
     # outside the main thread the limit could never stop the run: refused before anything is written
-    import threading
-
-    caught: list[Exception] = []
-
-    def in_a_thread() -> None:
-        try:
-            run_sections(reproduce.SECTIONS, tmp_path / "sweeps", tmp_path / "runs",
-                         deadline=Deadline(time.monotonic() + 60))
-        except ReproduceError as exc:
-            caught.append(exc)
-
-    worker = threading.Thread(target=in_a_thread)
-    worker.start()
-    worker.join()
-    assert len(caught) == 1 and "main thread" in str(caught[0]) and not (tmp_path / "runs").exists()
+    caught = raised_in_a_thread(lambda: run_sections(reproduce.SECTIONS, tmp_path / "sweeps", tmp_path / "runs",
+                                                     deadline=Deadline(time.monotonic() + 60)))
+    assert len(caught) == 1 and isinstance(caught[0], ReproduceError) and "main thread" in str(caught[0])
+    assert not (tmp_path / "runs").exists()
 
 
 def test_a_time_limit_reached_mid_trial_carries_the_trial_with_its_curve_so_far(tmp_path, monkeypatch):
