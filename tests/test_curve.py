@@ -125,10 +125,26 @@ def test_plateau_lines_call_a_flat_a_moving_and_a_noisy_curve():
     line = plateau_lines(rows, ["g"], [("m", "metric")])[0]
     assert "g flat 0.000 ± " in line and "(stopped moving)" in line
     assert "g falling -0.055 ± 0.012 (still falling)" in line
-    assert f"(too noisy to tell: the interval is wider than ±{PLATEAU_TOLERANCE:g})" in line
+    # the noisy point's late changes 0.2, -0.2, 0.05 spread by sd 0.202: about 405 seeds, past the 200 looked at
+    assert (f"(too noisy to tell: the interval is wider than ±{PLATEAU_TOLERANCE:g}; at this spread more than 200 "
+            "seeds would narrow it that far)") in line
     # one seed: its change, and no verdict (no interval to judge by)
     one = plateau_lines([r for r in rows if r["seed"] == 0], ["g"], [("m", "metric")])[0]
     assert "g falling -0.050 (1 seed);" in one and "stopped" not in one and "still" not in one
+
+
+def test_seeds_to_settle_is_the_first_count_whose_interval_fits_the_tolerance():
+    from training.results.curves import PLATEAU_TOLERANCE, seeds_to_settle, settle_words
+    from training.results.stats import mean_ci, t95
+
+    e = mean_ci([-0.060, 0.008, 0.049])  # a 32 M turn-signal point's late changes (bits)
+    k = seeds_to_settle(e)
+    sd = (sum((x - e.mean) ** 2 for x in e.values) / 2) ** 0.5
+    assert t95(k - 1) * sd / k ** 0.5 <= PLATEAU_TOLERANCE < t95(k - 2) * sd / (k - 1) ** 0.5
+    assert k == 32
+    assert seeds_to_settle(mean_ci([0.01])) is None and seeds_to_settle(mean_ci([0.5, -0.5])) is None
+    assert settle_words([5]) == "about 5 seeds" and settle_words([5, 9]) == "about 5-9 seeds per grid point"
+    assert settle_words([5, None]) == "more than 200 seeds"
 
 
 def test_a_bilevel_runs_curve_drives_each_kept_round_with_its_own_spline_policy(tmp_path):

@@ -15,7 +15,7 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from training.results.curves import late_changes, plateau_verdict
+from training.results.curves import PLATEAU_TOLERANCE, TOO_NOISY, late_changes, plateau_verdict, seeds_to_settle, settle_words
 from training.results.data import Group
 from training.common.markdown import anchor, row, separator
 from training.results.sections import section
@@ -117,16 +117,22 @@ def reading_verdict(line: str, reading: Reading) -> str:
 
 
 def _plateau(result: SectionResult, metric: str, label: str) -> str:
-    """Whether ``metric`` had stopped moving, over the section's grid points, in words."""
+    """Whether ``metric`` had stopped moving, over the section's grid points, in words; where it was
+    too noisy to tell, how many seeds its spread would need to narrow the late change far enough."""
     if result.curves is None or metric not in result.curves[0]:
         return f"{label}: no learning curves"
-    verdicts = [plateau_verdict(e) for e in late_changes(result.curves, result.keys, metric).values()]
+    late = list(late_changes(result.curves, result.keys, metric).values())
+    verdicts = [plateau_verdict(e) for e in late]
     counts = Counter(v or "one seed (no interval)" for v in verdicts)
+    noisy = [seeds_to_settle(e) for e, v in zip(late, verdicts) if v == TOO_NOISY]
+    settle = (f" (at the spread of its learning curves, {settle_words(noisy)} with curves would narrow its "
+              f"late change to ±{PLATEAU_TOLERANCE:g})" if noisy else "")
     if len(counts) == 1:
         (verdict, n), = counts.items()
-        return f"{label} {verdict} at {'its grid point' if n == 1 else f'all {n} grid points'}"
+        return f"{label} {verdict} at {'its grid point' if n == 1 else f'all {n} grid points'}{settle}"
     (first, n), *rest = counts.most_common()
-    return f"{label} {first} at {n} of {len(verdicts)} grid points, " + ", ".join(f"{v} at {k}" for v, k in rest)
+    return (f"{label} {first} at {n} of {len(verdicts)} grid points, " + ", ".join(f"{v} at {k}" for v, k in rest)
+            + settle)
 
 
 def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Reading]]:

@@ -21,10 +21,10 @@ import numpy as np
 from training.evaluation.checkpoint_curve import LATE_SHARE, late_change
 from training.results.data import ResultsError, as_number
 from training.results.figures import _plt
-from training.results.stats import Estimate, mean_ci
+from training.results.stats import Estimate, mean_ci, mean_var, t95
 
 __all__ = ["PLATEAU_TOLERANCE", "STOPPED", "TOO_NOISY", "curves_path", "curve_figure", "late_changes", "load_curves",
-           "plateau_lines", "plateau_verdict"]
+           "plateau_lines", "plateau_verdict", "seeds_to_settle", "settle_words"]
 
 # a late change interval within +-2 points of a share around zero counts as stopped
 PLATEAU_TOLERANCE = 0.02
@@ -95,6 +95,25 @@ def plateau_verdict(late: Estimate) -> Optional[str]:
     return "still rising" if late.mean > 0 else "still falling"
 
 
+def seeds_to_settle(late: Estimate, most: int = 200) -> Optional[int]:
+    """How many seeds a grid point's late change (its per-seed spread taken as true) would need for
+    a 95 % interval no wider than ±:data:`PLATEAU_TOLERANCE`, the width "stopped moving" asks
+    for; None with fewer than two seeds or where more than ``most`` would be needed."""
+    if len(late.values) < 2:
+        return None
+    sd = mean_var(late.values)[1] ** 0.5
+    return next((k for k in range(2, most + 1) if t95(k - 1) * sd / k ** 0.5 <= PLATEAU_TOLERANCE), None)
+
+
+def settle_words(needed: list[Optional[int]], most: int = 200) -> str:
+    """``seeds_to_settle`` of one or more grid points in words: "about 28 seeds", "about 12-28
+    seeds per grid point", or "more than 200 seeds" where any point would need more."""
+    if any(k is None for k in needed) or not needed:
+        return f"more than {most} seeds"
+    low, high = min(needed), max(needed)
+    return f"about {low} seeds" if low == high else f"about {low}-{high} seeds per grid point"
+
+
 def plateau_lines(rows: list[dict[str, Any]], keys: list[str], metrics: list[tuple[str, str]]) -> list[str]:
     """One statement per metric: at each grid point how much it moved over the last half of
     training (mean ± 95 % half-width over seeds) and whether it had stopped moving."""
@@ -111,7 +130,8 @@ def plateau_lines(rows: list[dict[str, Any]], keys: list[str], metrics: list[tup
                 parts.append(f"{where} {e.format()}")
                 continue
             if verdict == TOO_NOISY:
-                verdict += f": the interval is wider than ±{PLATEAU_TOLERANCE:g}"
+                verdict += (f": the interval is wider than ±{PLATEAU_TOLERANCE:g}; at this spread "
+                            f"{settle_words([seeds_to_settle(e)])} would narrow it that far")
             parts.append(f"{where} {e.format()} ({verdict})")
         lines.append(f"- {label}, change over the last {LATE_SHARE * 100:.0f} % of training (the last "
                      f"{LATE_SHARE * last / 1e6:.2f} M decisions; least-squares line through the checkpoints, per "
