@@ -15,7 +15,8 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import Any, Optional
 
-from training.results.curves import PLATEAU_TOLERANCE, TOO_NOISY, late_changes, plateau_verdict, seeds_to_settle, settle_words
+from training.results.curves import (PLATEAU_TOLERANCE, TOO_NOISY, late_changes, plateau_verdict, seeds_to_settle,
+                                     settle_words)
 from training.results.data import Group
 from training.common.markdown import anchor, row, separator
 from training.results.sections import section

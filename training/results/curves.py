@@ -107,8 +107,9 @@ def seeds_to_settle(late: Estimate, most: int = 200) -> Optional[int]:
 
 def settle_words(needed: list[Optional[int]], most: int = 200) -> str:
     """``seeds_to_settle`` of one or more grid points in words: "about 28 seeds", "about 12-28
-    seeds per grid point", or "more than 200 seeds" where any point would need more."""
-    if any(k is None for k in needed) or not needed:
+    seeds per grid point", or "more than 200 seeds" where any point would need more; ``needed``
+    must not be empty."""
+    if any(k is None for k in needed):
         return f"more than {most} seeds"
     low, high = min(needed), max(needed)
     return f"about {low} seeds" if low == high else f"about {low}-{high} seeds per grid point"

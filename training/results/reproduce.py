@@ -188,8 +188,8 @@ def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
             "where that section's statements agree with the paper, *not reproduced* where one of them does not (an "
             "effect the paper reports that we do not show, or the opposite), *not decided* where an interval "
             "straddles the comparison; and whether the claim's measure had stopped moving by the end of training "
-            "(its learning curves on selection episodes; the section says how each was read) and, where too noisy "
-            "to tell, how many seeds with curves its spread would need to tell.", "",
+            "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
+            "noisy to tell, how many seeds with curves the observed spread would need to settle it.", "",
             *claims_table(found_sections), ""]
 
 
