@@ -12,6 +12,7 @@ contains zero but is wider. Both rules were fixed before the paper-settings runs
 from __future__ import annotations
 
 import csv
+import math
 from collections import defaultdict
 from pathlib import Path
 from typing import Any, Optional
@@ -21,7 +22,7 @@ import numpy as np
 from training.evaluation.checkpoint_curve import LATE_SHARE, late_change
 from training.results.data import ResultsError, as_number
 from training.results.figures import _plt
-from training.results.stats import Estimate, mean_ci, mean_var, t95
+from training.results.stats import Estimate, half_width, mean_ci, mean_var
 
 __all__ = ["PLATEAU_TOLERANCE", "STOPPED", "TOO_NOISY", "curves_path", "curve_figure", "late_changes", "load_curves",
            "plateau_lines", "plateau_verdict", "seeds_to_settle", "settle_words"]
@@ -101,8 +102,8 @@ def seeds_to_settle(late: Estimate, most: int = 200) -> Optional[int]:
     for; None with fewer than two seeds or where more than ``most`` would be needed."""
     if len(late.values) < 2:
         return None
-    sd = mean_var(late.values)[1] ** 0.5
-    return next((k for k in range(2, most + 1) if t95(k - 1) * sd / k ** 0.5 <= PLATEAU_TOLERANCE), None)
+    sd = math.sqrt(mean_var(late.values)[1])
+    return next((k for k in range(2, most + 1) if half_width(sd, k) <= PLATEAU_TOLERANCE), None)
 
 
 def settle_words(needed: list[Optional[int]], most: int = 200) -> str:

@@ -11,7 +11,7 @@ from collections import defaultdict
 from typing import Callable, Sequence
 
 from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
-from training.results.stats import Estimate, mean_ci, mean_var, t95, t_test_p, welch_p
+from training.results.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
@@ -234,7 +234,7 @@ def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
     if mean == 0.0 or sd == 0.0:
         return ""
     for k in range(2, most + 1):
-        if t95(k - 1) * sd / math.sqrt(k) < abs(mean):
+        if half_width(sd, k) < abs(mean):
             return f"; at this mean and spread about {k} seeds would tell"
     return f"; at this mean and spread more than {most} seeds would be needed"
 

@@ -30,6 +30,11 @@ def t95(dof: int) -> float:
     return _T95[max(k for k in _T95 if k <= dof)]
 
 
+def half_width(sd: float, n: int) -> float:
+    """The 95 % t-interval's half-width for the mean of ``n`` values of standard deviation ``sd``."""
+    return t95(n - 1) * sd / math.sqrt(n)
+
+
 @dataclass(frozen=True)
 class Estimate:
     """Mean over seeds with a 95 % interval; ``low``/``high`` are None for fewer than 2 values."""
@@ -73,7 +78,7 @@ def mean_ci(values: Iterable[float]) -> Estimate:
     if len(xs) < 2:
         return Estimate(sum(xs) / len(xs), None, None, 1, xs)
     mean, var = mean_var(xs)
-    half = t95(len(xs) - 1) * math.sqrt(var) / math.sqrt(len(xs))
+    half = half_width(math.sqrt(var), len(xs))
     return Estimate(mean, mean - half, mean + half, len(xs), xs)
 
 
