@@ -51,6 +51,9 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
                                    "safety_distance.safe_share": mean_ci([0.97, 0.99, 0.995])})]
     text = "\n".join(paper_comparison(section.paper_values, mixed))
     assert "1 of 3 seeds below it, 2 above" in text
+    two = [Group({}, [0, 1], {"right_of_way.fifo_share": mean_ci([0.9] * 2),
+                              "safety_distance.safe_share": mean_ci([0.95, 0.96])})]
+    assert "both seeds below it; one-sample t-test" in "\n".join(paper_comparison(section.paper_values, two))
     # inside the interval: how many seeds this spread would need (differences -0.0145, 0.0055, 0.0105
     # from 0.9845: a mean of 0.0002 against an sd of 0.013, beyond any sweep)
     assert "at this mean and spread more than 200 seeds would be needed" in text

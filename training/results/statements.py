@@ -67,7 +67,8 @@ def _against_value(e: Estimate, value: float) -> str:
         return "one seed only: no interval"
     below = sum(v < value for v in e.values)
     above = sum(v > value for v in e.values)
-    sides = (f"all {e.n} seeds below it" if below == e.n else f"all {e.n} seeds above it" if above == e.n
+    every = "both seeds" if e.n == 2 else f"all {e.n} seeds"
+    sides = (f"{every} below it" if below == e.n else f"{every} above it" if above == e.n
              else f"{below} of {e.n} seeds below it, {above} above")
     p = t_test_p(e.values, value)
     where = "inside" if e.contains(value) else "outside"
