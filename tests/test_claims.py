@@ -47,7 +47,7 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     assert claim_row(CLAIM, {"big": rounds})[2].startswith("[R](#r): 4.8-5.9 M decisions per trial")
     rounds.ran = ()
     assert claim_row(CLAIM, {"big": rounds})[2] == "[R](#r): 150 bilevel rounds per trial, 3 seeds"
-    assert now == f"**{NOT_REPRODUCED}**; violations stopped moving at all 2 grid points"
+    assert now == f"**{NOT_REPRODUCED}**; violations stopped moving at both grid points"
     assert said == "violations: no fall shown, unlike the paper."
     # the larger run's trials too few for a statement: the smaller run decides
     found["big"] = _result(["- other: as in the paper."], seeds=(0,))
@@ -103,7 +103,7 @@ def test_the_plateau_reading_counts_grid_points_by_verdict():
                    "(at the spread of its learning curves, about 27 seeds with curves would narrow its late change to ±0.02)")
     one_seed = _curves({"0": [0.0], "1.0": [0.0]})
     now = claim_row(CLAIM, {"big": _result(["- violations: as in the paper."], one_seed)})[3]
-    assert now.endswith("violations one seed (no interval) at all 2 grid points")
+    assert now.endswith("violations one seed (no interval) at both grid points")
 
 
 def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tmp_path, monkeypatch):

@@ -360,3 +360,12 @@ def test_noise_levels_that_agree_share_one_line_and_unlearnt_rows_one_note():
     unlearnt = [line for line in lines if "have not learnt" in line]
     assert len(unlearnt) == 1 and unlearnt[0].startswith("- num_cars=8: success noise 0 0.200")
     assert "; noise 0.5 0.200" in unlearnt[0] and "these rows" in unlearnt[0]
+
+
+def test_every_one_of_a_count_reads_as_english():
+    from training.common.markdown import all_of
+
+    assert [all_of(n, "seed", "seeds") for n in (1, 2, 3, 8)] == ["its seed", "both seeds", "all 3 seeds",
+                                                                  "all 8 seeds"]
+    with pytest.raises(ValueError, match="grid point"):
+        all_of(0, "grid point", "grid points")

@@ -18,7 +18,7 @@ from typing import Any, Optional
 from training.results.curves import (PLATEAU_TOLERANCE, TOO_NOISY, late_changes, plateau_verdict, seeds_to_settle,
                                      settle_words)
 from training.results.data import Group
-from training.common.markdown import anchor, row, separator
+from training.common.markdown import all_of, anchor, row, separator
 from training.results.sections import section
 from training.results.stats import ONE_SEED
 
@@ -130,7 +130,7 @@ def _plateau(result: SectionResult, metric: str, label: str) -> str:
               f"late change to ±{PLATEAU_TOLERANCE:g})" if noisy else "")
     if len(counts) == 1:
         (verdict, n), = counts.items()
-        return f"{label} {verdict} at {'its grid point' if n == 1 else f'all {n} grid points'}{settle}"
+        return f"{label} {verdict} at {all_of(n, 'grid point', 'grid points')}{settle}"
     (first, n), *rest = counts.most_common()
     return (f"{label} {first} at {n} of {len(verdicts)} grid points, " + ", ".join(f"{v} at {k}" for v, k in rest)
             + settle)

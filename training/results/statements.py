@@ -10,6 +10,7 @@ import math
 from collections import defaultdict
 from typing import Callable, Sequence
 
+from training.common.markdown import all_of
 from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
 from training.results.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
 
@@ -67,7 +68,7 @@ def _against_value(e: Estimate, value: float) -> str:
         return "one seed only: no interval"
     below = sum(v < value for v in e.values)
     above = sum(v > value for v in e.values)
-    every = "both seeds" if e.n == 2 else f"all {e.n} seeds"
+    every = all_of(e.n, "seed", "seeds")
     sides = (f"{every} below it" if below == e.n else f"{every} above it" if above == e.n
              else f"{below} of {e.n} seeds below it, {above} above")
     p = t_test_p(e.values, value)
