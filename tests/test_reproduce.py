@@ -161,6 +161,19 @@ def _tiny_section(setting="A tiny grid."):
                    setting=setting)
 
 
+def test_each_rule_runs_with_the_resources_its_command_names_unless_overridden():
+    """The trials' torch threads follow --cpus-per-trial, and trials retrace each other only under
+    the same threads: a rule continued by reproduce --run must run as the command on its page."""
+    from training.results.run_all import sweep_resources
+    from training.results.sections import SECTIONS
+
+    by_key = {s.key: s for s in SECTIONS}
+    assert sweep_resources(by_key["communication-paper-32M"]) == (2, 1)  # its command: --cpus-per-trial 2 --max-concurrent 1
+    assert sweep_resources(by_key["traffic-lights"]) == (1, None)  # names neither: the sweep's defaults
+    assert sweep_resources(by_key["communication-paper-32M"], 4, None) == (4, 1)
+    assert sweep_resources(by_key["traffic-lights"], None, 3) == (1, 3)
+
+
 def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_from_it(tmp_path, monkeypatch):
     import shutil
 

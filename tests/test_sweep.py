@@ -70,6 +70,19 @@ def test_a_different_sweep_or_a_foreign_folder_is_refused(tmp_path):
     assert (tmp_path / "other" / "notes.txt").read_text() == "mine"
 
 
+@pytest.mark.parametrize("resources,match", [
+    ({"cpus_per_trial": 0}, "--cpus-per-trial must be > 0"),
+    ({"gpus_per_trial": -1}, "--gpus-per-trial >= 0"),
+    ({"max_concurrent": 0}, "--max-concurrent must be at least 1, got 0"),  # Ray Tune would read 0 as no limit
+])
+def test_bad_resources_are_refused_before_anything_is_written(tmp_path, resources, match):
+    from training.sweeps.sweep import run_sweep
+
+    with pytest.raises(SweepError, match=match):
+        run_sweep(SweepSpec("lights", timesteps=100), tmp_path / "s", **resources)
+    assert not (tmp_path / "s").exists()
+
+
 def _sweep(out: Path, timesteps: int) -> list[str]:
     return [sys.executable, "-m", "box2d_driving", "sweep", "lights",
             "--grid", f"init_from={SHIPPED},{out.parent / 'no_such_run'}", "--seeds", "1",

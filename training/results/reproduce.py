@@ -232,9 +232,12 @@ def main(argv: Optional[list[str]] = None) -> int:
     run.add_argument("--only", nargs="+", metavar="RULE", choices=[s.key for s in SECTIONS],
                      help="these rules only: " + ", ".join(s.key for s in SECTIONS))
     run.add_argument("--runs", type=Path, default=Path("runs"), help="where the sweep folders go (default runs)")
-    run.add_argument("--cpus-per-trial", type=float, default=1, help="CPU cores per trial (default 1)")
+    run.add_argument("--cpus-per-trial", type=float,
+                     help="CPU cores per trial, for every rule (default: each rule's command's; its trials' "
+                          "torch threads follow, and trials retrace only under the same number)")
     run.add_argument("--gpus-per-trial", type=float, default=0, help="GPUs per trial (default 0)")
-    run.add_argument("--max-concurrent", type=int, help="at most this many trials at once")
+    run.add_argument("--max-concurrent", type=int,
+                     help="at most this many trials at once, for every rule (default: each rule's command's)")
     run.add_argument("--address", help="a running Ray cluster (default: this machine)")
     run.add_argument("--time-limit", type=float, metavar="MINUTES",
                      help="stop after this many minutes of wall-clock time, as Ctrl-C would (trials part-way are "

@@ -14,7 +14,10 @@ A trial stopped part-way (Ctrl-C) is carried: its curve so far is drawn and its 
 copied into ``carried/NAME/<trial>/`` in the summaries folder, so that the same command, on this
 machine or a fresh one, continues it from there rather than from scratch. With a time limit
 (``--time-limit``) the run stops itself that way once the limit has passed, and no later rule's
-sweep starts.
+sweep starts. Each rule's sweep runs with the resources its command names (``--cpus-per-trial``,
+which also sets the trials' torch threads, and ``--max-concurrent``) unless the caller overrides
+them for every rule: the same threads give the same floating-point sums, so a continued rule
+retraces the trials already on the page only under its own setting.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from training.results.sections import Section
 if TYPE_CHECKING:
     from training.sweeps.deadline import Deadline
 
-__all__ = ["ReproduceError", "run_sections"]
+__all__ = ["ReproduceError", "run_sections", "sweep_resources"]
 
 
 class ReproduceError(ValueError):
@@ -39,11 +42,23 @@ class ReproduceError(ValueError):
 LAND_EVERY_S = 60.0
 
 
-def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per_trial: float = 1,
+def sweep_resources(section: Section, cpus_per_trial: Optional[float] = None,
+                    max_concurrent: Optional[int] = None) -> tuple[float, Optional[int]]:
+    """CPU cores per trial and the most trials at once for ``section``'s sweep: the caller's values
+    where given (``None``: not given), else those its command on the page names (its parser's
+    defaults, 1 core and as many trials as resources allow, where it names none)."""
+    args = section.args
+    return (cpus_per_trial if cpus_per_trial is not None else args.cpus_per_trial,
+            max_concurrent if max_concurrent is not None else args.max_concurrent)
+
+
+def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per_trial: Optional[float] = None,
                  gpus_per_trial: float = 0, max_concurrent: Optional[int] = None,
                  address: Optional[str] = None, deadline: Optional["Deadline"] = None) -> int:
     """Run (or continue) each section's sweep in turn; returns the exit status: 0 all trials done,
     1 a trial failed or a sweep was stopped before its end (the same call continues it).
+    ``cpus_per_trial``, ``max_concurrent``: for every rule; ``None``: each rule's own
+    (:func:`sweep_resources`).
     ``deadline``: past it, the sweep in progress stops as on Ctrl-C and no further one starts."""
     try:
         import ray  # noqa: F401
@@ -83,13 +98,14 @@ def run_sections(sections: Sequence[Section], folder: Path, runs: Path, cpus_per
             print(f"== {section.title}: not started, --time-limit reached; run the same command again to go on",
                   flush=True)
             return 1
+        cpus, concurrent = sweep_resources(section, cpus_per_trial, max_concurrent)
         print(f"== {section.title}: {section.command}" + (f" (continuing {reuse})" if reuse else ""), flush=True)
         # each trial lands as it finishes (summary and learning curve), while the next one trains
         lander = TrialLander(out, folder, section.summary_name, curves.SWEEP_CURVE_EPISODES, SELECTION.start,
                              log=lambda line: print(line, flush=True))
         lander.start(LAND_EVERY_S)
         try:
-            rows = run_sweep(spec, out, cpus_per_trial, gpus_per_trial, address, max_concurrent, reuse, threads,
+            rows = run_sweep(spec, out, cpus, gpus_per_trial, address, concurrent, reuse, threads,
                              carried=lander.carried_folder, deadline=deadline)
         except SweepError as exc:
             raise ReproduceError(f"{section.key}: {exc}") from None

@@ -230,6 +230,8 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
     if cpus_per_trial <= 0 or gpus_per_trial < 0:
         raise SweepError(f"--cpus-per-trial must be > 0 and --gpus-per-trial >= 0, "
                          f"got {cpus_per_trial} and {gpus_per_trial}")
+    if max_concurrent is not None and max_concurrent < 1:  # Ray Tune reads 0 as "no limit"
+        raise SweepError(f"--max-concurrent must be at least 1, got {max_concurrent}")
     out = Path(out).resolve()
     reused = reusable_rows(reuse, spec) if reuse is not None else {}
     extends = extended_sweep(out, extend)
