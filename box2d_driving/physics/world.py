@@ -17,7 +17,7 @@ from Box2D import b2BodyDef, b2EdgeShape, b2FixtureDef, b2PolygonShape, b2World,
 
 from box2d_driving.config import DrivingConfig
 from box2d_driving.physics.contacts import (
-    CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, EDGE, PEDESTRIAN, ContactRecorder,
+    CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, PEDESTRIAN, ContactRecorder,
 )
 from box2d_driving.physics.kinematics import chord_velocities, longitudinal_profile, path_poses
 from box2d_driving.road.geometry import pack_paths, wrap_angle
@@ -70,6 +70,10 @@ class DrivingWorld:
         self.contacts = ContactRecorder()
         self.world: b2World | None = None
         self.layout: Layout | None = None
+        self.car_bodies: list = []
+        self.ped_bodies: list = []
+        self._edge_body = None  # the static body holding the road edges' fixtures
+        self._tagged: list = []  # fixtures given userData, whose references release() drops
         # One shape of each kind, reused: a fixture copies its shape, but pybox2d never frees a
         # shape object once it has been handed to a fixture definition (64 bytes per fixture,
         # about 50 MiB per 1,000 resets of a real junction if a new one were made each time).
@@ -98,12 +102,14 @@ class DrivingWorld:
         n = len(layout.cars)
         self.n_cars = n
 
-        edge_body = self.world.CreateStaticBody()
-        for j, (a, b) in enumerate(np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)):
-            self._edge_shape.vertices = [tuple(a), tuple(b)]
-            fx = edge_body.CreateFixture(self._edge_def)
-            fx.userData = (EDGE, j)
+        # Edge fixtures carry no userData (a contact with none is an edge's: ContactRecorder):
+        # a real junction has hundreds of edges, and tagging each one, then clearing each tag
+        # on release, was a third of a reset's time. Plain-float pairs set the same vertices.
         self.edge_segments = np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)
+        self._edge_body = self.world.CreateStaticBody()
+        for a, b in self.edge_segments.tolist():
+            self._edge_shape.vertices = [a, b]
+            self._edge_body.CreateFixture(self._edge_def)
 
         paths = [c.path for c in layout.cars]
         self.path_points, self.path_cumlen, self.path_counts = pack_paths(paths)
@@ -128,6 +134,7 @@ class DrivingWorld:
             fx = body.CreateFixture(self._car_def)
             fx.userData = (CAR, i)
             self.car_bodies.append(body)
+            self._tagged.append(fx)
         self._angular = [0.0] * n
         self._turns = (self.path_counts > 2).tolist()  # paths of more than one segment
         self._standing = [True] * n  # whether a car's body was last given zero linear velocity
@@ -145,6 +152,7 @@ class DrivingWorld:
             fx.userData = (PEDESTRIAN, k)
             body.linearVelocity = tuple(map(float, ped.velocity))
             self.ped_bodies.append(body)
+            self._tagged.append(fx)
 
         # Evaluate contacts at the spawn poses (spawns never overlap, so this records nothing).
         self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
@@ -159,13 +167,16 @@ class DrivingWorld:
         self.contacts.drain()
         if self.world is None:
             return
-        for body in list(self.world.bodies):
-            for fixture in body.fixtures:
-                fixture.ClearUserData()  # drops pybox2d's reference to the (kind, index) tuple
-            self.world.DestroyBody(body)
+        # the bodies and tagged fixtures this world was given, from our own lists: walking
+        # Box2D's linked lists (world.bodies, body.fixtures) costs pybox2d a Python loop
+        for fixture in self._tagged:
+            fixture.ClearUserData()  # drops pybox2d's reference to the (kind, index) tuple
+        for body in (*self.car_bodies, *self.ped_bodies, self._edge_body):
+            if body is not None:
+                self.world.DestroyBody(body)
         self.world.contactListener = None
         self.world = None
-        self.car_bodies, self.ped_bodies = [], []
+        self.car_bodies, self.ped_bodies, self._edge_body, self._tagged = [], [], None, []
 
     # -- stepping -----------------------------------------------------------------------------
     def advance(self, accel: np.ndarray) -> DecisionEvents:
