@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from Box2D import b2ContactListener
 
-# Body kinds stored in fixture userData as (kind, index). Road edges carry no userData (a real
-# junction has hundreds; nothing needs an edge's index): a contact reports them as EDGE_TAG.
+# Body kinds stored in fixture userData as (kind, index). Every road edge shares one tag,
+# EDGE_TAG: nothing needs an edge's index, and a real junction has hundreds of edges.
 CAR = "car"
 EDGE = "edge"
 PEDESTRIAN = "pedestrian"
@@ -18,15 +18,14 @@ CAT_PEDESTRIAN = 0x0004
 
 
 class ContactRecorder(b2ContactListener):
-    """Appends ``((kind_a, index_a), (kind_b, index_b))`` for every contact that starts touching
-    (``EDGE_TAG`` for a road edge)."""
+    """Appends ``((kind_a, index_a), (kind_b, index_b))`` for every contact that starts touching."""
 
     def __init__(self) -> None:
         super().__init__()
         self.events: list[tuple[tuple[str, int], tuple[str, int]]] = []
 
     def BeginContact(self, contact) -> None:  # noqa: N802 (Box2D's name)
-        self.events.append((contact.fixtureA.userData or EDGE_TAG, contact.fixtureB.userData or EDGE_TAG))
+        self.events.append((contact.fixtureA.userData, contact.fixtureB.userData))
 
     def drain(self) -> list[tuple[tuple[str, int], tuple[str, int]]]:
         """The contacts recorded since the last drain, oldest first; the record is emptied."""

@@ -17,7 +17,7 @@ from Box2D import b2BodyDef, b2EdgeShape, b2FixtureDef, b2PolygonShape, b2World,
 
 from box2d_driving.config import DrivingConfig
 from box2d_driving.physics.contacts import (
-    CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, PEDESTRIAN, ContactRecorder,
+    CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, EDGE_TAG, PEDESTRIAN, ContactRecorder,
 )
 from box2d_driving.physics.kinematics import chord_velocities, longitudinal_profile, path_poses
 from box2d_driving.road.geometry import pack_paths, wrap_angle
@@ -73,7 +73,7 @@ class DrivingWorld:
         self.car_bodies: list = []
         self.ped_bodies: list = []
         self._edge_body = None  # the static body holding the road edges' fixtures
-        self._tagged: list = []  # fixtures given userData, whose references release() drops
+        self._fixtures: list = []  # every fixture of this world (all carry userData, which release() drops)
         # One shape of each kind, reused: a fixture copies its shape, but pybox2d never frees a
         # shape object once it has been handed to a fixture definition (64 bytes per fixture,
         # about 50 MiB per 1,000 resets of a real junction if a new one were made each time).
@@ -102,14 +102,15 @@ class DrivingWorld:
         n = len(layout.cars)
         self.n_cars = n
 
-        # Edge fixtures carry no userData (a contact with none is an edge's: ContactRecorder):
-        # a real junction has hundreds of edges, and tagging each one, then clearing each tag
-        # on release, was a third of a reset's time. Plain-float pairs set the same vertices.
+        # Every edge fixture shares one tag (nothing needs an edge's index); plain-float pairs
+        # set the same vertices as numpy rows would, without a tuple per row
         self.edge_segments = np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)
         self._edge_body = self.world.CreateStaticBody()
         for a, b in self.edge_segments.tolist():
             self._edge_shape.vertices = [a, b]
-            self._edge_body.CreateFixture(self._edge_def)
+            fx = self._edge_body.CreateFixture(self._edge_def)
+            fx.userData = EDGE_TAG
+            self._fixtures.append(fx)
 
         paths = [c.path for c in layout.cars]
         self.path_points, self.path_cumlen, self.path_counts = pack_paths(paths)
@@ -134,7 +135,7 @@ class DrivingWorld:
             fx = body.CreateFixture(self._car_def)
             fx.userData = (CAR, i)
             self.car_bodies.append(body)
-            self._tagged.append(fx)
+            self._fixtures.append(fx)
         self._angular = [0.0] * n
         self._turns = (self.path_counts > 2).tolist()  # paths of more than one segment
         self._standing = [True] * n  # whether a car's body was last given zero linear velocity
@@ -152,7 +153,7 @@ class DrivingWorld:
             fx.userData = (PEDESTRIAN, k)
             body.linearVelocity = tuple(map(float, ped.velocity))
             self.ped_bodies.append(body)
-            self._tagged.append(fx)
+            self._fixtures.append(fx)
 
         # Evaluate contacts at the spawn poses (spawns never overlap, so this records nothing).
         self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
@@ -167,16 +168,17 @@ class DrivingWorld:
         self.contacts.drain()
         if self.world is None:
             return
-        # the bodies and tagged fixtures this world was given, from our own lists: walking
-        # Box2D's linked lists (world.bodies, body.fixtures) costs pybox2d a Python loop
-        for fixture in self._tagged:
+        # the bodies and fixtures this world was given, from our own lists: walking Box2D's
+        # linked lists (world.bodies, body.fixtures) costs pybox2d a Python loop, a third of a
+        # real junction's reset with its hundreds of edge fixtures
+        for fixture in self._fixtures:
             fixture.ClearUserData()  # drops pybox2d's reference to the (kind, index) tuple
         for body in (*self.car_bodies, *self.ped_bodies, self._edge_body):
             if body is not None:
                 self.world.DestroyBody(body)
         self.world.contactListener = None
         self.world = None
-        self.car_bodies, self.ped_bodies, self._edge_body, self._tagged = [], [], None, []
+        self.car_bodies, self.ped_bodies, self._edge_body, self._fixtures = [], [], None, []
 
     # -- stepping -----------------------------------------------------------------------------
     def advance(self, accel: np.ndarray) -> DecisionEvents:

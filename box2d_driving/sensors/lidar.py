@@ -325,7 +325,7 @@ class _ClosestHit(b2RayCastCallback):
     def ReportFixture(self, fixture, point, normal, fraction):  # noqa: N802 (Box2D's name)
         if fixture.body is self.ignore:
             return -1.0
-        if not self.see_pedestrians and fixture.userData is not None and fixture.userData[0] == PEDESTRIAN:
+        if not self.see_pedestrians and fixture.userData[0] == PEDESTRIAN:
             return -1.0
         self.hit = True
         self.fraction = fraction
