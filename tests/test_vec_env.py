@@ -296,3 +296,24 @@ def test_worker_path_steps_as_supersuits_proc_concat_vec_and_returns_its_own_obj
         venv.close()
     assert np.array_equal(first, kept)  # the next step did not write into the returned array
     assert not {id(i) for i in infos1} & {id(i) for i in infos2}
+
+
+def test_worker_env_inherited_by_a_forked_process_closes_quietly_there():
+    """A process forked while a worker vector env is alive (the next env's workers, when one process
+    builds several) inherits a copy; closing that copy there must not touch the workers, which are
+    not its children (SuperSuit's close fails multiprocessing's child-process assertion)."""
+    import multiprocessing as mp
+
+    import training.ppo.vec_env as vec_env
+
+    venv = make_vec_env_from("intersection-v0", KW, 2, 1)
+    try:
+        assert isinstance(venv._inner, vec_env.WorkerSlots)
+        child = mp.get_context("fork").Process(target=venv._inner.close)
+        child.start()
+        child.join(60)
+        assert child.exitcode == 0
+        venv.reset()  # the workers still answer the process that started them
+    finally:
+        venv.close()
+    assert not any(proc.is_alive() for proc in venv._inner.procs)

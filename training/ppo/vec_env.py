@@ -26,6 +26,7 @@ own alive (1)]``.
 from __future__ import annotations
 
 import functools
+import os
 import weakref
 from typing import Any, Callable, Optional, Sequence
 
@@ -338,8 +339,25 @@ class WorkerSlots(ProcConcatVec):
     workers' pipes. Unpickled objects belong to no one else, so the copy only costs time: with 16
     instances of 4 cars, 1.5 ms a step on a 2-core machine, about a third of what one worker
     process added to a step there. The one ``{}`` SuperSuit hands every empty slot is split by
-    :func:`_unshared`, as before. Everything else is SuperSuit's.
+    :func:`_unshared`, as before. Everything else is SuperSuit's, but for :meth:`close` in a
+    process that did not start the workers.
     """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self._owner_pid = os.getpid()
+        super().__init__(*args, **kwargs)
+
+    def close(self) -> None:
+        """Close the workers, in the process that started them; elsewhere do nothing.
+
+        A process forked while this object still awaited garbage collection (the next vector env's
+        workers, when one process builds several in turn) inherits a copy. Its workers are not that
+        process's children: SuperSuit's ``close``, called by ``__del__`` when the copy is collected
+        there, failed multiprocessing's "can only test a child process" assertion, once per worker.
+        """
+        if os.getpid() != getattr(self, "_owner_pid", os.getpid()):
+            return
+        super().close()
 
     def step_wait(self):
         infos = decompress_info(self.num_envs, self.idx_starts, self._receive_info())
