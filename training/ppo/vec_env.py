@@ -355,7 +355,7 @@ class WorkerSlots(ProcConcatVec):
         process's children: SuperSuit's ``close``, called by ``__del__`` when the copy is collected
         there, failed multiprocessing's "can only test a child process" assertion, once per worker.
         """
-        if os.getpid() != getattr(self, "_owner_pid", os.getpid()):
+        if os.getpid() != self._owner_pid:  # set before SuperSuit starts anything
             return
         super().close()
 
