@@ -71,8 +71,9 @@ class TrainConfig:
         device: where the networks run: ``auto`` (CUDA when torch sees a GPU), ``cpu`` or ``cuda``.
         rollout_device: where a rollout step's forward pass runs: ``same`` (as ``device``) or
             ``cpu`` (a copy of the networks on the CPU, refreshed after each update, while the
-            update runs on ``device``; see ``training/ppo/rollout_copy.py``). Same trajectories
-            for the same seed whichever is chosen only within float rounding between devices.
+            update runs on ``device``; see ``training/ppo/rollout_copy.py``). Where both are the
+            CPU, either gives the same run bit for bit; beside a GPU, the copy's forward passes
+            differ from the GPU's by float rounding only.
         max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
             ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
         init_from: start from the weights of this checkpoint (e.g. a 4-car policy fine-tuned
