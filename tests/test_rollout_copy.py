@@ -17,7 +17,7 @@ def _trained_weights(config, copy_on: str | None):
         model = build_model(config, venv)
         policy = model.policy
         if copy_on is not None:  # a copy even on the policy's own device: the same path, testable anywhere
-            policy.rollout_copy = RolloutCopy(copy_on, lambda: type(policy)(**policy._get_constructor_parameters()))
+            policy.rollout_copy = RolloutCopy(copy_on)
         venv.seed(config.seed)
         model.learn(config.timesteps)
         return {k: v.detach().cpu().clone() for k, v in policy.state_dict().items()}, policy.rollout_copy
@@ -42,7 +42,7 @@ def test_the_copy_is_refreshed_only_when_a_weight_changed():
     venv = make_vec_env(config)
     try:
         policy = build_model(config, venv).policy
-        copy = RolloutCopy("cpu", lambda: type(policy)(**policy._get_constructor_parameters()))
+        copy = RolloutCopy("cpu")
         policy.rollout_copy = copy
         policy.set_training_mode(False)
         obs = th.as_tensor(venv.reset())

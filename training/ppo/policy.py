@@ -145,8 +145,7 @@ class CTDEPolicy(ActorCriticPolicy):
         self.ctde_kwargs = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
                                 n_satnav=n_satnav, critic=critic)
         super().__init__(*args, **kwargs)
-        self.rollout_copy = None if rollout_device is None else RolloutCopy(
-            rollout_device, lambda: type(self)(**self._get_constructor_parameters()))
+        self.rollout_copy = None if rollout_device is None else RolloutCopy(rollout_device)
 
     def forward(self, obs: th.Tensor, deterministic: bool = False) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
         # a rollout step (SB3's collect_rollouts: evaluation mode, no gradients) on the copy

@@ -13,19 +13,18 @@ a rollout step's forward pass (policy in evaluation mode, gradients off, as SB3'
 
 from __future__ import annotations
 
-from typing import Any, Callable, Optional
+from typing import Any, Optional
 
 import torch as th
 from torch import nn
 
 
 class RolloutCopy:
-    """A copy on ``device`` of a policy's networks, made by ``build`` (a fresh policy of the same
-    kind) on first use and refreshed from the policy's weights whenever they changed."""
+    """A copy on ``device`` of an SB3 policy's networks, a fresh policy of the same kind built from
+    its constructor parameters on first use and refreshed from its weights whenever they changed."""
 
-    def __init__(self, device: str | th.device, build: Callable[[], nn.Module]) -> None:
+    def __init__(self, device: str | th.device) -> None:
         self.device = th.device(device)
-        self._build = build
         self._copy: Optional[nn.Module] = None
         self._key: Optional[tuple] = None
         self.refreshes = 0  # how many times the weights were copied (tests, benchmarks)
@@ -41,7 +40,8 @@ class RolloutCopy:
         key = self._weights_key(policy)
         if self._copy is None:
             with th.random.fork_rng(devices=[]):  # its throw-away initial weights draw no numbers
-                self._copy = self._build().to(self.device)  # from the run's random stream
+                fresh = type(policy)(**policy._get_constructor_parameters())  # from the run's random stream
+                self._copy = fresh.to(self.device)
             self._copy.set_training_mode(False)
             self._copy.requires_grad_(False)
         if key != self._key:

@@ -48,8 +48,8 @@ from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
 
 from training.common.cli_args import OneLineParser
-from training.trainers.trainer import (TrainConfig, build_model, make_vec_env, resolve_device, rollout_device,
-                                       set_minibatching, torch_threads)
+from training.trainers.trainer import (DEVICES, ROLLOUT_DEVICES, TrainConfig, build_model, make_vec_env,
+                                       resolve_device, rollout_device, set_minibatching, torch_threads)
 
 
 @dataclass
@@ -255,10 +255,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--threads", type=int, nargs="+",
                    help="torch threads of the learner, each a row per worker count (default: as training "
                         "sets them, the cores the env workers leave free)")
-    p.add_argument("--devices", "--device", nargs="+", choices=("auto", "cpu", "cuda"),
+    p.add_argument("--devices", "--device", nargs="+", choices=DEVICES,
                    help="devices (default: cpu, and cuda when torch sees a GPU; auto: the GPU when "
                         "torch sees one, else the CPU, as train --device auto)")
-    p.add_argument("--rollout-devices", nargs="+", choices=("same", "cpu"), default=["same"],
+    p.add_argument("--rollout-devices", nargs="+", choices=ROLLOUT_DEVICES, default=["same"],
                    help="where each row's rollout forward passes run: same (as its device, the default) "
                         "or cpu (a copy of the networks on the CPU; the update stays on the device), "
                         "a row for each")
