@@ -117,8 +117,6 @@ def test_sweep_flags_are_checked_before_anything_is_written(tmp_path, capsys):
 @pytest.mark.parametrize("argv", [
     ["render", "nope-v0", "--out", "x.mp4"],
     ["train", "lights", "--n-envs", "0"],
-    ["train", "lights", "--rollout-device", "gpu"],
-    ["bench", "--train", "--rollout-devices", "gpu"],
     ["evaluate", "--seed", "5"],
     ["sweep", "lights", "--grid", "colour=red", "--out", "unused"],
     ["reproduce", "no_such_summary.json"],

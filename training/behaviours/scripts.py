@@ -59,7 +59,6 @@ class CommonArgs:
     threads: torch CPU threads (default: the cores the env workers leave free)
     num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way)
     device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
-    rollout_device: where a rollout step's forward pass runs: same (as --device) or cpu (the update stays on --device)
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     horizon: episode horizon in decisions (default: the scenario's)
@@ -82,7 +81,6 @@ class CommonArgs:
     threads: Optional[int] = None
     num_cpus: int = 0
     device: str = "auto"
-    rollout_device: str = "same"
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
     horizon: Optional[int] = None
@@ -118,7 +116,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
         minibatch_by_step=args.minibatch_by_step,
         critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,
-        rollout_device=args.rollout_device, max_minutes=args.max_minutes,
+        max_minutes=args.max_minutes,
         init_from=args.init_from,
         ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
     )

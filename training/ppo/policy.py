@@ -25,7 +25,6 @@ from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
 from training.ppo.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
-from training.ppo.rollout_copy import RolloutCopy
 
 CRITICS = ("mean", "own+mean", "own")
 
@@ -138,20 +137,10 @@ class CTDEPolicy(ActorCriticPolicy):
     """Decentralised actor, centralised mean-latent critic (SB3 ``ActorCriticPolicy``)."""
 
     def __init__(self, *args: Any, obs_dim: int, n_cars: int, history: int, n_rays: int,
-                 n_satnav: int, critic: str = "mean", rollout_device: Optional[str] = None,
-                 **kwargs: Any) -> None:
-        """``rollout_device``: where a rollout step's forward pass runs (None: where the policy
-        is; see :mod:`training.ppo.rollout_copy`)."""
+                 n_satnav: int, critic: str = "mean", **kwargs: Any) -> None:
         self.ctde_kwargs = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
                                 n_satnav=n_satnav, critic=critic)
         super().__init__(*args, **kwargs)
-        self.rollout_copy = None if rollout_device is None else RolloutCopy(rollout_device)
-
-    def forward(self, obs: th.Tensor, deterministic: bool = False) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
-        # a rollout step (SB3's collect_rollouts: evaluation mode, no gradients) on the copy
-        if self.rollout_copy is not None and not self.training and not th.is_grad_enabled():
-            return self.rollout_copy.forward(self, obs, deterministic)  # type: ignore[return-value]
-        return super().forward(obs, deterministic)
 
     def _build_mlp_extractor(self) -> None:
         self.mlp_extractor = CTDENetwork(**self.ctde_kwargs)
@@ -162,11 +151,8 @@ class CTDEPolicy(ActorCriticPolicy):
         return data
 
 
-def policy_kwargs_for(env: Any, critic: str = "mean", rollout_device: Optional[str] = None) -> dict[str, Any]:
+def policy_kwargs_for(env: Any, critic: str = "mean") -> dict[str, Any]:
     """``policy_kwargs`` for :class:`CTDEPolicy` from a driving env (its observation layout)."""
     lay = env.observation_layout
-    kwargs: dict[str, Any] = dict(obs_dim=lay.size, n_cars=len(env.possible_agents), history=lay.history,
-                                  n_rays=lay.n_rays, n_satnav=lay.n_satnav, critic=critic)
-    if rollout_device is not None:
-        kwargs["rollout_device"] = rollout_device
-    return kwargs
+    return dict(obs_dim=lay.size, n_cars=len(env.possible_agents), history=lay.history,
+                n_rays=lay.n_rays, n_satnav=lay.n_satnav, critic=critic)

@@ -4,9 +4,7 @@ Measures agent-steps per second of real PPO training, updates included (one agen
 decision of one live car; padding slots are not counted), on ``intersection-v0`` with the paper's
 settings (4 cars by default, LiDAR noise 0.5, 16 env instances, 32,000 slot-decisions per update,
 minibatch 4,000, 4 epochs), for each number of env worker processes (0 = in the learner's process,
-then 1, 2, 4, ... up to the machine's cores) on the CPU and, where torch sees one, the GPU
-(``--rollout-devices same cpu``: each GPU setting also with its rollout forward passes on a copy
-of the networks on the CPU, the update still on the GPU; ``training/ppo/rollout_copy.py``). Each
+then 1, 2, 4, ... up to the machine's cores) on the CPU and, where torch sees one, the GPU. Each
 row runs ``--warmup`` updates (not timed: Numba kernels compile, workers start), then ``--updates``
 timed ones, and splits the timed wall clock into:
 
@@ -48,8 +46,8 @@ from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
 
 from training.common.cli_args import OneLineParser
-from training.trainers.trainer import (DEVICES, ROLLOUT_DEVICES, TrainConfig, build_model, make_vec_env,
-                                       resolve_device, rollout_device, set_minibatching, torch_threads)
+from training.trainers.trainer import (DEVICES, TrainConfig, build_model, make_vec_env, resolve_device,
+                                       set_minibatching, torch_threads)
 
 
 @dataclass
@@ -58,8 +56,7 @@ class TrainBenchRow:
 
     Attributes:
         num_cpus: env worker processes (0: the envs step in the learner's process).
-        device: torch device of the learner (its PPO update).
-        rollout_device: where a rollout step's forward pass ran (``device``, or a copy's).
+        device: torch device of the learner.
         threads: torch threads.
         agent_steps_per_s: live agent-steps per wall-clock second over the timed updates.
         agent_steps: live agent-steps in the timed updates.
@@ -73,7 +70,6 @@ class TrainBenchRow:
 
     num_cpus: int
     device: str
-    rollout_device: str
     threads: int
     agent_steps_per_s: float
     agent_steps: int
@@ -206,8 +202,7 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         venv.close()
     env_s = venv.env_wait_s
     return TrainBenchRow(
-        num_cpus=config.num_cpus, device=resolve_device(config.device),
-        rollout_device=rollout_device(config) or resolve_device(config.device), threads=torch_threads(config),
+        num_cpus=config.num_cpus, device=resolve_device(config.device), threads=torch_threads(config),
         agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
         env_share=env_s / wall, inference_share=max(0.0, clock.rollout_s - env_s) / wall,
         update_share=max(0.0, wall - clock.rollout_s) / wall, update_gflop=flops / 1e9,
@@ -232,8 +227,7 @@ def format_table(rows: list[TrainBenchRow]) -> str:
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
-        device = r.device if r.rollout_device == r.device else f"{r.device}, rollouts {r.rollout_device}"
-        lines.append(f"| {r.num_cpus} | {device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
+        lines.append(f"| {r.num_cpus} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
                      f"{r.update_gflop:.1f} | {r.update_gflops:.1f} | {r.matmul_gflops:.0f} | "
                      f"{r.update_gflops / r.matmul_gflops:.0%} | {r.bound_gflops:.1f} | "
@@ -258,10 +252,6 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--devices", "--device", nargs="+", choices=DEVICES,
                    help="devices (default: cpu, and cuda when torch sees a GPU; auto: the GPU when "
                         "torch sees one, else the CPU, as train --device auto)")
-    p.add_argument("--rollout-devices", nargs="+", choices=ROLLOUT_DEVICES, default=["same"],
-                   help="where each row's rollout forward passes run: same (as its device, the default) "
-                        "or cpu (a copy of the networks on the CPU; the update stays on the device), "
-                        "a row for each")
     p.add_argument("--minibatch-by-step", action=argparse.BooleanOptionalAction, default=True,
                    help="minibatches of whole env steps (default; --no-minibatch-by-step: by transition)")
     p.add_argument("--json", help="also write the table to this JSON file (must not exist)")
@@ -282,20 +272,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
           f"instances, {args.batch_decisions:,} decisions per update, {args.warmup} warm-up + {args.updates} "
           f"timed updates; {cores} cores, python {platform.python_version()}, torch {th.__version__}", flush=True)
     rows = []
-    # a CPU row's rollouts are on the CPU already: "cpu" adds a row only beside a GPU
-    settings = list(dict.fromkeys((d, "same" if r == d else r) for d in devices for r in args.rollout_devices))
-    for device, rollouts in settings:
+    for device in devices:
         for n in counts:
             for threads in args.threads or [None]:
                 cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
                                   "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
                                   batch_decisions=args.batch_decisions, num_cpus=n, device=device,
-                                  rollout_device=rollouts, minibatch_by_step=args.minibatch_by_step,
-                                  threads=threads)
+                                  minibatch_by_step=args.minibatch_by_step, threads=threads)
                 row = bench_row(cfg, args.warmup, args.updates)
                 rows.append(row)
-                print(f"  workers {n:>2}, {device}, rollouts {row.rollout_device}, {row.threads} threads: "
-                      f"{row.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
+                print(f"  workers {n:>2}, {device}, {row.threads} threads: {row.agent_steps_per_s:,.0f} "
+                      f"agent-steps/s", flush=True)
     print()
     print(format_table(rows))
     gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"

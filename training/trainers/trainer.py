@@ -69,11 +69,6 @@ class TrainConfig:
         num_cpus: worker processes stepping the env instances (0: all in the learner's process).
             Rollouts are identical whatever the number, for the same seed and ``n_envs``.
         device: where the networks run: ``auto`` (CUDA when torch sees a GPU), ``cpu`` or ``cuda``.
-        rollout_device: where a rollout step's forward pass runs: ``same`` (as ``device``) or
-            ``cpu`` (a copy of the networks on the CPU, refreshed after each update, while the
-            update runs on ``device``; see ``training/ppo/rollout_copy.py``). Where both are the
-            CPU, either gives the same run bit for bit; beside a GPU, the copy's forward passes
-            differ from the GPU's by float rounding only.
         max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
             ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
         init_from: start from the weights of this checkpoint (e.g. a 4-car policy fine-tuned
@@ -100,7 +95,6 @@ class TrainConfig:
     threads: Optional[int] = None
     num_cpus: int = 0
     device: str = "auto"
-    rollout_device: str = "same"
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
 
@@ -121,9 +115,6 @@ class TrainConfig:
         }, ConfigError, above=("learning_rate", "clip_range", "target_kl"))
         if self.device not in DEVICES:
             raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
-        if self.rollout_device not in ROLLOUT_DEVICES:
-            raise ConfigError(f"TrainConfig: rollout_device must be one of {ROLLOUT_DEVICES}, "
-                              f"got {self.rollout_device!r}")
         if self.critic not in CRITICS:
             raise ConfigError(f"TrainConfig: critic must be one of {CRITICS}, got {self.critic!r}")
 
@@ -132,7 +123,6 @@ class TrainConfig:
 
 
 DEVICES = ("auto", "cpu", "cuda")
-ROLLOUT_DEVICES = ("same", "cpu")
 
 
 def resolve_device(device: str) -> str:
@@ -144,13 +134,6 @@ def resolve_device(device: str) -> str:
         raise ConfigError("TrainConfig: device='cuda' but torch sees no GPU (a CPU-only torch build, "
                           "or no driver); use --device auto or cpu")
     return device
-
-
-def rollout_device(config: "TrainConfig") -> Optional[str]:
-    """The device of a rollout step's forward pass where it differs from the update's, else None."""
-    device = resolve_device(config.device)
-    wanted = device if config.rollout_device == "same" else config.rollout_device
-    return None if wanted == device else wanted
 
 
 def torch_threads(config: "TrainConfig") -> int:
@@ -196,7 +179,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
         CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
         n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
         gae_lambda=config.gae_lambda, clip_range=config.clip_range, ent_coef=config.ent_coef,
-        target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic, rollout_device(config)),
+        target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
         rollout_buffer_class=MaskedRolloutBuffer,
         rollout_buffer_kwargs={"layout": venv.layout},
         seed=config.seed, device=resolve_device(config.device), verbose=0,
@@ -216,8 +199,7 @@ def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     bonus and the number of env instances given now."""
     first = read_train_config(out / "config.json")
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
-                               threads=config.threads, num_cpus=config.num_cpus, device=config.device,
-                               rollout_device=config.rollout_device)
+                               threads=config.threads, num_cpus=config.num_cpus, device=config.device)
 
 
 def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
