@@ -125,6 +125,29 @@ def test_attributes_with_workers_and_in_process():
         remote.close()
 
 
+def test_worker_processes_counts_the_processes_that_start(monkeypatch):
+    from training.trainers import bench_train
+    from training.trainers.trainer import TrainConfig, torch_threads
+    from training.ppo.vec_env import worker_processes
+
+    # runs of ceil(n / workers): 16 over 15 is 8 runs of 2, 16 over 12 too; 4 over 3 is 2 runs of 2
+    assert [worker_processes(16, k) for k in (0, 1, 2, 4, 8, 12, 15, 16, 40)] == [0, 1, 2, 4, 8, 8, 8, 16, 16]
+    assert [worker_processes(5, k) for k in (2, 3, 4, 5)] == [2, 3, 3, 5]  # 5 over 4: runs 2, 2, 1
+    venv = make_vec_env_from("intersection-v0", KW, 4, 3)
+    try:
+        assert venv.worker_processes == len(venv._inner.procs) == 2
+    finally:
+        venv.close()
+    # the learner's default threads: the cores the processes that start leave free
+    monkeypatch.setattr("os.cpu_count", lambda: 16)
+    assert torch_threads(TrainConfig(n_envs=16, num_cpus=15)) == 8
+    assert torch_threads(TrainConfig(n_envs=16, num_cpus=4)) == 12
+    assert torch_threads(TrainConfig(n_envs=16, num_cpus=15, threads=3)) == 3
+    # bench --train's default worker counts: one row per distinct number of processes
+    assert bench_train.distinct_worker_counts([0, 1, 2, 4, 8, 12], 16) == [0, 1, 2, 4, 8]
+    assert bench_train.distinct_worker_counts([0, 1, 2, 4, 8, 16], 16) == [0, 1, 2, 4, 8, 16]
+
+
 def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpreter():
     venv = make_vec_env_from("intersection-v0", KW, 4, 2)
     procs = list(venv._inner.procs)
@@ -164,13 +187,15 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
 
     out = tmp_path / "train.json"
     assert bench(["--train", "--cars", "2", "--n-envs", "2", "--batch-decisions", "160", "--warmup", "1",
-                  "--updates", "1", "--num-cpus", "0", "2", "--threads", "1", "2", "--device", "auto",
+                  "--updates", "1", "--num-cpus", "0", "3", "--threads", "1", "2", "--device", "auto",
                   "--json", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "| env workers | device |" in printed and "machine: " in printed and " cores" in printed
     assert "cores" in json.loads(out.read_text())["machine"]  # a table says where it was measured
     rows = json.loads(out.read_text())["rows"]
-    assert [(r["num_cpus"], r["threads"]) for r in rows] == [(0, 1), (0, 2), (2, 1), (2, 2)]
+    assert [(r["num_cpus"], r["worker_processes"], r["threads"]) for r in rows] == [
+        (0, 0, 1), (0, 0, 2), (3, 2, 1), (3, 2, 2)]
+    assert "| 2 (of 3 asked) | " in printed  # 2 instances over 3 workers start 2 processes
     assert {r["device"] for r in rows} == {resolve_device("auto")}  # auto: the GPU if torch sees one
     for r in rows:
         assert r["agent_steps"] > 0 and r["agent_steps_per_s"] > 0

@@ -56,8 +56,8 @@ class CommonArgs:
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update
     minibatch_by_step: minibatches of whole env steps: the critic encodes each step's team once, about 1.7x faster training at equal sample efficiency (--no-minibatch-by-step: minibatches of single transitions, the default before)
-    threads: torch CPU threads (default: the cores the env workers leave free)
-    num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way)
+    threads: torch CPU threads (default: the cores the env worker processes leave free)
+    num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way; the instances go in runs of ceil(n_envs / num_cpus), so 16 instances over 15 workers start 8 processes)
     device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)

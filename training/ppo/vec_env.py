@@ -250,6 +250,7 @@ class SlotVecEnv(CarSlots, VecEnv):
         if isinstance(num_cpus, bool) or not isinstance(num_cpus, int) or num_cpus < 0:
             raise ValueError(f"num_cpus must be an integer >= 0, got {num_cpus!r}")
         self.num_cpus = min(num_cpus, len(env_fns))
+        self.worker_processes = worker_processes(len(env_fns), num_cpus)
         self.probe = InstanceSlots(env_fns[0], 0)  # spaces, layout and static attributes
         self.agents, self.n_cars, self.layout = self.probe.agents, self.probe.n_cars, self.probe.layout
         fns = [functools.partial(InstanceSlots, fn, k) for k, fn in enumerate(env_fns)]
@@ -366,11 +367,23 @@ class WorkerSlots(ProcConcatVec):
                 self.shared_truncs.np_arr.astype(bool), infos)
 
 
+def worker_processes(n_envs: int, num_cpus: int) -> int:
+    """How many worker processes ``num_cpus`` workers for ``n_envs`` instances start: the
+    instances go in consecutive runs of ``ceil(n_envs / num_cpus)`` (as SuperSuit splits them), so
+    16 instances over 15 workers are 8 processes of 2 (0: all in the learner's process)."""
+    num_cpus = min(num_cpus, n_envs)
+    if num_cpus <= 0:
+        return 0
+    per_cpu = -(-n_envs // num_cpus)
+    return -(-n_envs // per_cpu)
+
+
 def _workers(fns: list, probe: InstanceSlots, num_cpus: int) -> Any:
     """The instances over ``num_cpus`` worker processes, as SuperSuit's
-    ``MakeCPUAsyncConstructor`` splits them (consecutive runs of ``ceil(n / num_cpus)``), each
-    worker stepping its run as one :class:`ConcatSlots`; with one worker too (SuperSuit's
-    constructor keeps a single CPU in the learner's process, but the user asked for a worker)."""
+    ``MakeCPUAsyncConstructor`` splits them (consecutive runs of ``ceil(n / num_cpus)``, so
+    :func:`worker_processes` of them), each worker stepping its run as one :class:`ConcatSlots`;
+    with one worker too (SuperSuit's constructor keeps a single CPU in the learner's process, but
+    the user asked for a worker)."""
     per_cpu = -(-len(fns) // num_cpus)
     runs = [fns[i:i + per_cpu] for i in range(0, len(fns), per_cpu)]
     return WorkerSlots([call_wrap(ConcatSlots, run) for run in runs], probe.observation_space,

@@ -46,6 +46,7 @@ from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
 
 from training.common.cli_args import OneLineParser
+from training.ppo.vec_env import worker_processes
 from training.trainers.trainer import (DEVICES, TrainConfig, build_model, make_vec_env, resolve_device,
                                        set_minibatching, torch_threads)
 
@@ -55,7 +56,9 @@ class TrainBenchRow:
     """One measured setting of ``bench --train`` (the module docstring defines each figure).
 
     Attributes:
-        num_cpus: env worker processes (0: the envs step in the learner's process).
+        num_cpus: env workers asked for (``--num-cpus``; 0: the envs step in the learner's process).
+        worker_processes: the worker processes that ran: the instances go in runs of
+            ``ceil(n_envs / num_cpus)``, so 16 instances over 15 workers are 8 processes of 2.
         device: torch device of the learner.
         threads: torch threads.
         agent_steps_per_s: live agent-steps per wall-clock second over the timed updates.
@@ -69,6 +72,7 @@ class TrainBenchRow:
     """
 
     num_cpus: int
+    worker_processes: int
     device: str
     threads: int
     agent_steps_per_s: float
@@ -202,7 +206,8 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         venv.close()
     env_s = venv.env_wait_s
     return TrainBenchRow(
-        num_cpus=config.num_cpus, device=resolve_device(config.device), threads=torch_threads(config),
+        num_cpus=config.num_cpus, worker_processes=venv.worker_processes, device=resolve_device(config.device),
+        threads=torch_threads(config),
         agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
         env_share=env_s / wall, inference_share=max(0.0, clock.rollout_s - env_s) / wall,
         update_share=max(0.0, wall - clock.rollout_s) / wall, update_gflop=flops / 1e9,
@@ -221,13 +226,26 @@ def worker_counts(cores: int) -> list[int]:
     return out
 
 
+def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
+    """``counts`` without those that start as many worker processes as an earlier one (16
+    instances over 12 workers start 8 processes of 2, as 8 workers do)."""
+    seen: set[int] = set()
+    out = []
+    for n in counts:
+        if worker_processes(n_envs, n) not in seen:
+            seen.add(worker_processes(n_envs, n))
+            out.append(n)
+    return out
+
+
 def format_table(rows: list[TrainBenchRow]) -> str:
     """The markdown table ``bench --train`` prints, one row per measured setting."""
     lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
-        lines.append(f"| {r.num_cpus} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
+        workers = f"{r.worker_processes}" + ("" if r.worker_processes == r.num_cpus else f" (of {r.num_cpus} asked)")
+        lines.append(f"| {workers} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
                      f"{r.update_gflop:.1f} | {r.update_gflops:.1f} | {r.matmul_gflops:.0f} | "
                      f"{r.update_gflops / r.matmul_gflops:.0%} | {r.bound_gflops:.1f} | "
@@ -263,7 +281,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if args.json and Path(args.json).exists():
         p.error(f"{args.json} exists; choose another --json")
     cores = os.cpu_count() or 1
-    counts = args.num_cpus or worker_counts(cores)
+    counts = args.num_cpus or distinct_worker_counts(worker_counts(cores), args.n_envs)
     if "cuda" in (args.devices or ()) and not th.cuda.is_available():
         p.error("--devices cuda: torch sees no GPU (a CPU-only torch build, or no driver); use auto or cpu")
     devices = args.devices or (["cpu", "cuda"] if th.cuda.is_available() else ["cpu"])
@@ -281,7 +299,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                   minibatch_by_step=args.minibatch_by_step, threads=threads)
                 row = bench_row(cfg, args.warmup, args.updates)
                 rows.append(row)
-                print(f"  workers {n:>2}, {device}, {row.threads} threads: {row.agent_steps_per_s:,.0f} "
+                print(f"  workers {row.worker_processes:>2}, {device}, {row.threads} threads: {row.agent_steps_per_s:,.0f} "
                       f"agent-steps/s", flush=True)
     print()
     print(format_table(rows))

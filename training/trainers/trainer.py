@@ -39,7 +39,7 @@ from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.common.seeds import MAX_RUN_SEED, TRAINING
 from training.runs.run_dir import RunError, append_logger, check_new, check_resumable, check_same_run, write_config
 from training.runs.progress import RolloutMetrics, save_checkpoint  # noqa: F401  (re-exported)
-from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
+from training.ppo.vec_env import SlotVecEnv, make_vec_env_from, worker_processes
 from training.runs.weights import WeightsError, source_fields, widen_state_dict
 
 
@@ -67,6 +67,8 @@ class TrainConfig:
         checkpoint_every: updates between checkpoints.
         threads: torch CPU threads (None: the cores the env worker processes leave free).
         num_cpus: worker processes stepping the env instances (0: all in the learner's process).
+            The instances go in runs of ``ceil(n_envs / num_cpus)``, so a number that does not
+            divide ``n_envs`` may start fewer (16 instances over 15 workers: 8 processes of 2).
             Rollouts are identical whatever the number, for the same seed and ``n_envs``.
         device: where the networks run: ``auto`` (CUDA when torch sees a GPU), ``cpu`` or ``cuda``.
         max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
@@ -137,10 +139,11 @@ def resolve_device(device: str) -> str:
 
 
 def torch_threads(config: "TrainConfig") -> int:
-    """Torch threads for the learner: as configured, else the cores the env workers leave free."""
+    """Torch threads for the learner: as configured, else the cores the env worker processes leave
+    free (the processes actually started: 16 instances over 15 workers are 8 processes of 2)."""
     if config.threads is not None:
         return config.threads
-    return max(1, (os.cpu_count() or 1) - config.num_cpus)
+    return max(1, (os.cpu_count() or 1) - worker_processes(config.n_envs, config.num_cpus))
 
 
 def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
