@@ -128,7 +128,7 @@ def test_attributes_with_workers_and_in_process():
 def test_worker_processes_counts_the_processes_that_start(monkeypatch):
     from training.trainers import bench_train
     from training.trainers.trainer import TrainConfig, torch_threads
-    from training.ppo.vec_env import worker_processes
+    from training.ppo.workers import worker_processes
 
     # runs of ceil(n / workers): 16 over 15 is 8 runs of 2, 16 over 12 too; 4 over 3 is 2 runs of 2
     assert [worker_processes(16, k) for k in (0, 1, 2, 4, 8, 12, 15, 16, 40)] == [0, 1, 2, 4, 8, 8, 8, 16, 16]

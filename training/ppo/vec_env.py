@@ -26,18 +26,17 @@ own alive (1)]``.
 from __future__ import annotations
 
 import functools
-import os
 import weakref
 from typing import Any, Callable, Optional, Sequence
 
 import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
-from supersuit.vector import ConcatVecEnv, ProcConcatVec
-from supersuit.vector.multiproc_vec import decompress_info
+from supersuit.vector import ConcatVecEnv
 from supersuit.vector.constructors import call_wrap
 
 from training.ppo.slots import TeamLayout, checked_actions, clear_slot, slot_observation_space, slot_rows
+from training.ppo.workers import WorkerSlots, worker_processes, worker_runs
 
 
 class CarSlots:
@@ -333,59 +332,11 @@ def _close_inner(inner: Any) -> None:
     inner.close()
 
 
-class WorkerSlots(ProcConcatVec):
-    """SuperSuit's worker-process vector env without its per-step deep copy of the infos.
-
-    ``ProcConcatVec.step_wait`` deep-copies each step's infos after unpickling them from the
-    workers' pipes. Unpickled objects belong to no one else, so the copy only costs time: with 16
-    instances of 4 cars, 1.5 ms a step on a 2-core machine, about a third of what one worker
-    process added to a step there. The one ``{}`` SuperSuit hands every empty slot is split by
-    :func:`_unshared`, as before. Everything else is SuperSuit's, but for :meth:`close` in a
-    process that did not start the workers.
-    """
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        self._owner_pid = os.getpid()
-        super().__init__(*args, **kwargs)
-
-    def close(self) -> None:
-        """Close the workers, in the process that started them; elsewhere do nothing.
-
-        A process forked while this object still awaited garbage collection (the next vector env's
-        workers, when one process builds several in turn) inherits a copy. Its workers are not that
-        process's children: SuperSuit's ``close``, called by ``__del__`` when the copy is collected
-        there, failed multiprocessing's "can only test a child process" assertion, once per worker.
-        """
-        if os.getpid() != self._owner_pid:  # set before SuperSuit starts anything
-            return
-        super().close()
-
-    def step_wait(self):
-        infos = decompress_info(self.num_envs, self.idx_starts, self._receive_info())
-        obs = self.observations_buffers.copy()  # the workers overwrite the shared buffer next step
-        return (obs, self.shared_rews.np_arr.copy(), self.shared_terms.np_arr.astype(bool),
-                self.shared_truncs.np_arr.astype(bool), infos)
-
-
-def worker_processes(n_envs: int, num_cpus: int) -> int:
-    """How many worker processes ``num_cpus`` workers for ``n_envs`` instances start: the
-    instances go in consecutive runs of ``ceil(n_envs / num_cpus)`` (as SuperSuit splits them), so
-    16 instances over 15 workers are 8 processes of 2 (0: all in the learner's process)."""
-    num_cpus = min(num_cpus, n_envs)
-    if num_cpus <= 0:
-        return 0
-    per_cpu = -(-n_envs // num_cpus)
-    return -(-n_envs // per_cpu)
-
-
 def _workers(fns: list, probe: InstanceSlots, num_cpus: int) -> Any:
-    """The instances over ``num_cpus`` worker processes, as SuperSuit's
-    ``MakeCPUAsyncConstructor`` splits them (consecutive runs of ``ceil(n / num_cpus)``, so
-    :func:`worker_processes` of them), each worker stepping its run as one :class:`ConcatSlots`;
-    with one worker too (SuperSuit's constructor keeps a single CPU in the learner's process, but
-    the user asked for a worker)."""
-    per_cpu = -(-len(fns) // num_cpus)
-    runs = [fns[i:i + per_cpu] for i in range(0, len(fns), per_cpu)]
+    """The instances over :func:`training.ppo.workers.worker_processes` worker processes, each
+    stepping its run of instances as one :class:`ConcatSlots`; with one worker too (SuperSuit's
+    constructor keeps a single CPU in the learner's process, but the user asked for a worker)."""
+    runs = worker_runs(fns, num_cpus)
     return WorkerSlots([call_wrap(ConcatSlots, run) for run in runs], probe.observation_space,
                        probe.action_space, len(fns) * probe.n_cars, probe.metadata)
 

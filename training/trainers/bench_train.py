@@ -46,7 +46,7 @@ from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
 
 from training.common.cli_args import OneLineParser
-from training.ppo.vec_env import worker_processes
+from training.ppo.workers import worker_processes
 from training.trainers.trainer import (DEVICES, TrainConfig, build_model, make_vec_env, resolve_device,
                                        set_minibatching, torch_threads)
 
