@@ -113,6 +113,8 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert first["decisions"] < BUDGET, log[-3000:]
     # stopped with one trial running and one not started: both in the summary, no traceback
     assert proc.returncode == 1 and "Traceback" not in log, log[-3000:]
+    # the trial trained in its own working directory: only its reported checkpoints are copied here
+    assert not (out / "tune" / good / "run").exists()
     stopped = {r["trial"]: r["status"] for r in csv.DictReader((out / "summary.csv").open())}
     assert stopped[good] == "stopped" and sorted(stopped.values()) == ["pending", "stopped"], stopped
 
@@ -313,3 +315,17 @@ def test_a_continued_sweep_runs_the_summary_callback_of_the_code_installed_now(t
     assert b"training.sweeps.sweep" in data and b"SummaryCallback" in data and b"on_trial_complete" not in data
     again = pickle.loads(data)
     assert type(again) is SummaryCallback and again.out == tmp_path
+
+
+def test_curves_read_a_trials_reported_checkpoints_never_a_half_written_one(tmp_path):
+    from training.sweeps.curves import run_folder
+
+    trial = tmp_path / "tune" / "lights_seed=0"
+    for name in ("checkpoint_000001", "checkpoint_000002", "checkpoint_000003"):
+        (trial / name).mkdir(parents=True)
+    for name in ("checkpoint_000001", "checkpoint_000002"):  # 3 is still being copied: no state.json yet
+        (trial / name / "state.json").write_text("{}")
+    assert run_folder(tmp_path, "lights_seed=0", None) == trial / "checkpoint_000002"  # running: the newest whole one
+    done = {"status": "done", "run": str(trial / "checkpoint_000001")}
+    assert run_folder(tmp_path, "lights_seed=0", done) == trial / "checkpoint_000001"  # finished: the summary's
+    assert not run_folder(tmp_path, "lights_seed=1", None).exists()  # not started: nothing to read

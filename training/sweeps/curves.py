@@ -51,16 +51,17 @@ def sweep_trials(sweep: Path) -> list[dict[str, Any]]:
 
 def run_folder(sweep: Path, name: str, row: Optional[dict[str, Any]]) -> Path:
     """Where trial ``name``'s checkpoints are read. A finished trial, or one stopped part-way: its
-    last checkpoint folder in this sweep (``row["run"]``, from the summary), which Ray Tune writes
-    once, when the trial reports it. Otherwise the trial folder's ``run/``: that is a copy Ray Tune
-    re-syncs from the trial's staging folder every few minutes and once more after the trial ends,
-    rewriting its files in place, so it is only read while nothing better exists."""
-    live = sweep / "tune" / name / "run"
+    last checkpoint folder in this sweep (``row["run"]``, from the summary). A trial still running:
+    the newest checkpoint folder it has reported (``tune/TRIAL/checkpoint_*``, each written once,
+    whole, when the trial reports it; the trial trains in its own working directory, which is not
+    copied here). A trial with neither: a path that does not exist."""
+    trial = sweep / "tune" / name
     if row and row.get("status") in ("done", "stopped") and row.get("run"):
         final = Path(row["run"])
-        if final.parent == live.parent and (final / "state.json").exists():
+        if final.parent == trial and (final / "state.json").exists():
             return final
-    return live
+    reported = sorted(c for c in trial.glob("checkpoint_*") if (c / "state.json").exists())
+    return reported[-1] if reported else trial / "run"
 
 
 def sweep_curve_rows(sweep: Path, episodes: int, seed: int, log: Callable[[str], None] = print,

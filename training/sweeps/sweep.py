@@ -69,7 +69,7 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
         tune.report(metrics_from_row(trial["reuse"]))
         return
     script = script_module(trial["behaviour"])
-    run = Path(tune.get_context().get_trial_dir()) / "run"
+    run = trial_run_folder()
     checkpoint = tune.get_checkpoint()
     if run.exists():  # left by an earlier attempt in this working folder: the checkpoint decides
         shutil.rmtree(run)
@@ -104,6 +104,22 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
         raise RuntimeError(f"training stopped by signal {result['interrupted_by_signal']}; rerun the sweep")
     metrics = evaluate_run(run, trial["episodes"])
     tune.report(final_metrics(run, metrics), checkpoint=tune.Checkpoint.from_directory(str(run)))
+
+
+def trial_run_folder() -> Path:
+    """Where the running trial trains: ``run/`` in the working directory Ray Tune starts each trial
+    in (``working_dirs/TRIAL`` of its session), which stays on this machine. Not in the trial's
+    staging folder (``driver_artifacts/TRIAL``): the driver copies that one to the sweep folder
+    every few minutes and on Ctrl-C, and a copy taken while the trainer replaced a checkpoint file
+    failed (a file listed, then gone), printing a traceback. The sweep folder gets the run whole
+    through each reported checkpoint (``tune/TRIAL/checkpoint_*``). Where Ray Tune was told not to
+    change directory (``RAY_CHDIR_TO_TRIAL_DIR=0``), the staging folder it is."""
+    from ray import tune
+
+    here = Path.cwd()
+    if str(here) != os.environ.get("TUNE_ORIG_WORKING_DIR"):  # moved to this trial's own directory
+        return here / "run"
+    return Path(tune.get_context().get_trial_dir()) / "run"
 
 
 def evaluate_run(run: Path, episodes: int) -> dict[str, Any]:
