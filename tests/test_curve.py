@@ -44,8 +44,9 @@ def test_rule_metrics_follow_the_scenario():
 
 
 def _sweep_folder(tmp_path, trained):
-    """A sweep folder as ``box2d-driving sweep`` leaves it: sweep.json, and a run folder per
-    trial under tune/ (one trial trained, the other not started)."""
+    """A sweep folder as ``box2d-driving sweep`` left it before trials trained outside it:
+    sweep.json, and a live run folder per trial under tune/ (one trial trained, the other not
+    started), which curves still read where a trial has no reported checkpoint."""
     from training.trainers.trainer import train
     from tests.helpers import tiny_train_config
 

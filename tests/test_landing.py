@@ -160,9 +160,10 @@ def test_background_passes_land_trials_while_the_sweep_runs_and_log_failures(tmp
 
 
 def test_a_finished_trial_is_read_from_its_last_checkpoint_not_the_synced_trial_folder(tmp_path):
-    """Ray Tune rewrites a trial folder's ``run/`` in place when it syncs it (also after the trial
-    ends), so a finished trial's curve is drawn from its last checkpoint folder, which the
-    summary names; anything else (not finished, a folder outside this trial) reads ``run/``."""
+    """A finished trial's curve is drawn from its last checkpoint folder, which the summary names;
+    otherwise (not finished, or the summary names a folder outside this trial) from the newest
+    checkpoint the trial reported into its own folder, and with none, from ``run/`` (the live copy
+    older sweep folders hold, as this one does)."""
     out, spec = _sweep(tmp_path)
     name = "lights_num_cars=1_seed=0"
     final = out / "tune" / name / "checkpoint_000002"
@@ -176,7 +177,7 @@ def test_a_finished_trial_is_read_from_its_last_checkpoint_not_the_synced_trial_
     assert runs == {name: final, "lights_num_cars=2_seed=0": out / "tune" / "lights_num_cars=2_seed=0" / "run"}
     summary["trials"][0]["run"] = str(tmp_path / "elsewhere" / "checkpoint_000002")  # e.g. a reused row
     (out / "summary.json").write_text(json.dumps(summary))
-    assert curves.sweep_trials(out)[0]["run"] == out / "tune" / name / "run"
+    assert curves.sweep_trials(out)[0]["run"] == final  # its own newest reported checkpoint
 
 
 def _stop_part_way(out, name, checkpoints=(100, 200), number=1):

@@ -54,7 +54,8 @@ def run_folder(sweep: Path, name: str, row: Optional[dict[str, Any]]) -> Path:
     last checkpoint folder in this sweep (``row["run"]``, from the summary). A trial still running:
     the newest checkpoint folder it has reported (``tune/TRIAL/checkpoint_*``, each written once,
     whole, when the trial reports it; the trial trains in its own working directory, which is not
-    copied here). A trial with neither: a path that does not exist."""
+    copied here). A trial with neither: ``tune/TRIAL/run``, the live copy that sweep folders
+    written before 2026-12-04 hold (absent from newer ones)."""
     trial = sweep / "tune" / name
     if row and row.get("status") in ("done", "stopped") and row.get("run"):
         final = Path(row["run"])
