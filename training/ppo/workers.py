@@ -34,8 +34,8 @@ class WorkerSlots(ProcConcatVec):
     workers' pipes. Unpickled objects belong to no one else, so the copy only costs time: with 16
     instances of 4 cars, 1.5 ms a step on a 2-core machine, about a third of what one worker
     process added to a step there. The one ``{}`` SuperSuit hands every empty slot is split by
-    ``training.ppo.vec_env._unshared``, as before. Everything else is SuperSuit's, but for :meth:`close` in a
-    process that did not start the workers.
+    ``training.ppo.vec_env._unshared``, as before. Everything else is SuperSuit's, but for
+    :meth:`close` in a process that did not start the workers.
     """
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
@@ -59,14 +59,3 @@ class WorkerSlots(ProcConcatVec):
         obs = self.observations_buffers.copy()  # the workers overwrite the shared buffer next step
         return (obs, self.shared_rews.np_arr.copy(), self.shared_terms.np_arr.astype(bool),
                 self.shared_truncs.np_arr.astype(bool), infos)
-
-
-def worker_processes(n_envs: int, num_cpus: int) -> int:
-    """How many worker processes ``num_cpus`` workers for ``n_envs`` instances start: the
-    instances go in consecutive runs of ``ceil(n_envs / num_cpus)`` (as SuperSuit splits them), so
-    16 instances over 15 workers are 8 processes of 2 (0: all in the learner's process)."""
-    num_cpus = min(num_cpus, n_envs)
-    if num_cpus <= 0:
-        return 0
-    per_cpu = -(-n_envs // num_cpus)
-    return -(-n_envs // per_cpu)

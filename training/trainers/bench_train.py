@@ -232,8 +232,9 @@ def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
     seen: set[int] = set()
     out = []
     for n in counts:
-        if worker_processes(n_envs, n) not in seen:
-            seen.add(worker_processes(n_envs, n))
+        processes = worker_processes(n_envs, n)
+        if processes not in seen:
+            seen.add(processes)
             out.append(n)
     return out
 
@@ -266,7 +267,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--num-cpus", type=int, nargs="+", help="worker counts (default 0, 1, 2, 4, ... cores)")
     p.add_argument("--threads", type=int, nargs="+",
                    help="torch threads of the learner, each a row per worker count (default: as training "
-                        "sets them, the cores the env workers leave free)")
+                        "sets them, the cores the env worker processes leave free)")
     p.add_argument("--devices", "--device", nargs="+", choices=DEVICES,
                    help="devices (default: cpu, and cuda when torch sees a GPU; auto: the GPU when "
                         "torch sees one, else the CPU, as train --device auto)")
