@@ -213,8 +213,14 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("convert-checkpoint", add_help=False,
                    help="convert an older pickled model.zip of your own to model.safetensors "
                         "(`convert-checkpoint --help`)")
+    sub.add_parser("original", add_help=False,
+                   help="the paper's own simulator and trainer (sdriving 0.1.0) beside ours (`original --help`)")
     parser.commands = sub.choices  # name -> sub-command parser
     return parser
+
+
+# the sub-commands the training package provides (box2d_driving/plugins.py)
+DELEGATED = ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve", "check-shipped", "original")
 
 
 def _delegate(argv: list[str]) -> int:
@@ -252,8 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv and argv[0] == "bench":
         from box2d_driving import bench
         return bench.main(argv[1:])
-    if argv and argv[0] in ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve",
-                                 "check-shipped"):
+    if argv and argv[0] in DELEGATED:
         return _delegate(argv)
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)

@@ -1,0 +1,121 @@
+"""``box2d-driving original``: the paper's own simulator and trainer (sdriving 0.1.0), run beside ours.
+
+* ``original setup``: builds a separate virtual environment with sdriving 0.1.0 from the package
+  registry (its own old ``gym`` and ``torch``; nothing of it enters ours);
+* ``original train --lidar-noise P --seed S --out DIR``: the original command for that noise
+  level (:mod:`training.original.commands`), run by sdriving's own ``ppo_distributed`` trainer in
+  one process (``sdriving_worker.py``); ``--time-limit`` stops after the last epoch that fits, and
+  ``--resume`` continues a folder from its last epoch.
+
+The run folder holds ``run.json`` (the settings), ``weights.safetensors`` (actor, critic, Adam
+states, torch's random state), ``state.json`` (epochs, joint steps, car-decisions) and
+``progress.csv`` (one row per epoch).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Optional, Sequence
+
+from training.common.cli_args import OneLineParser, error, prog_name
+from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
+
+WORKER = Path(__file__).with_name("sdriving_worker.py")
+# what the worker's environment installs: sdriving without its training-only dependencies, and
+# what its trainer and our worker import
+PACKAGES = ("torch==2.13.0", "numpy", "scipy", "gym", "matplotlib", "celluloid", "joblib", "pandas",
+            "safetensors")
+
+
+DESCRIPTION = ("The paper's own simulator and trainer (sdriving 0.1.0) beside ours: `setup` builds its "
+               "environment, `train` runs an original command (resumable).")
+
+
+def venv_dir() -> Path:
+    """Where ``original setup`` puts the sdriving environment (``BOX2D_DRIVING_SDRIVING_VENV``
+    overrides)."""
+    env = os.environ.get("BOX2D_DRIVING_SDRIVING_VENV")
+    if env:
+        return Path(env)
+    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
+    return cache / "box2d-driving" / "sdriving-venv"
+
+
+def venv_python() -> Path:
+    return venv_dir() / "bin" / "python"
+
+
+def setup() -> int:
+    target = venv_dir()
+    if not venv_python().exists():
+        subprocess.run([sys.executable, "-m", "venv", str(target)], check=True)
+    pip = [str(venv_python()), "-m", "pip", "install", "-q"]
+    subprocess.run(pip + list(PACKAGES), check=True)
+    subprocess.run(pip + ["--no-deps", "sdriving==0.1.0"], check=True)
+    print(target)
+    return 0
+
+
+def prepare_folder(run: OriginalRun, out: Path, resume: bool) -> None:
+    """Write ``run.json`` in a new folder, or check that a folder to resume holds this run."""
+    spec_path = out / "run.json"
+    if resume:
+        if not spec_path.is_file():
+            raise OriginalError(f"--resume: {spec_path} is missing (not an original-code run folder)")
+        try:
+            saved = json.loads(spec_path.read_text())
+        except (OSError, ValueError) as exc:
+            raise OriginalError(f"--resume: {spec_path} is unreadable ({exc})") from None
+        if saved != run.spec():
+            raise OriginalError(f"--resume: {spec_path} holds other settings than the ones given")
+        return
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise OriginalError(f"--out {out} exists and is not an empty folder (--resume continues it)")
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = spec_path.with_suffix(".json.partial")
+    tmp.write_text(json.dumps(run.spec(), indent=1) + "\n")
+    os.replace(tmp, spec_path)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = OneLineParser(prog=prog_name(), description=DESCRIPTION)
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("setup", help="build the sdriving 0.1.0 environment")
+    t = sub.add_parser("train", help="run the original trainer on the original world")
+    t.add_argument("--lidar-noise", type=float, required=True,
+                   help=f"share of rays dropped; original commands exist for {', '.join(map(str, NOISE_EPOCHS))}")
+    t.add_argument("--seed", type=int, default=0, help="training seed (default: 0)")
+    t.add_argument("--epochs", type=int, default=None,
+                   help="epochs of 32,000 joint steps (default: the original command's)")
+    t.add_argument("--out", type=Path, required=True, help="run folder")
+    t.add_argument("--resume", action="store_true", help="continue the run in --out")
+    t.add_argument("--time-limit", type=float, default=None,
+                   help="minutes; stops after the last epoch that fits (resume later)")
+    args = parser.parse_args(argv)
+    if args.command == "setup":
+        return setup()
+    try:
+        run = OriginalRun(lidar_noise=args.lidar_noise, seed=args.seed, epochs=args.epochs)
+        if args.time_limit is not None and not args.time_limit > 0:
+            raise OriginalError(f"--time-limit must be a positive number of minutes, got {args.time_limit}")
+        if not venv_python().exists():
+            raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+        prepare_folder(run, args.out, args.resume)
+    except (OriginalError, OSError) as exc:
+        return error(str(exc))
+    cmd = [str(venv_python()), str(WORKER), "train", str(args.out)]
+    if args.time_limit is not None:
+        cmd += ["--time-limit", str(args.time_limit)]
+    status = subprocess.run(cmd).returncode
+    if status == 3:
+        print(f"stopped at the time limit; continue with --resume --out {args.out}")
+        return 0
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())
