@@ -12,7 +12,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 # the trainer's sub-packages, lowest first: each may import only itself and those before it
-LAYERS = ("common", "ppo", "runs", "trainers", "behaviours", "evaluation", "sweeps", "results")
+LAYERS = ("common", "ppo", "runs", "trainers", "behaviours", "evaluation", "sweeps", "original", "results")
 
 
 def _module_name(path: Path) -> str:

@@ -11,6 +11,7 @@ Sub-packages, each importing only those listed before it:
 * :mod:`training.behaviours`: one script per behaviour (``box2d-driving train NAME``);
 * :mod:`training.evaluation`: ``box2d-driving evaluate`` and its reports;
 * :mod:`training.sweeps`: ``box2d-driving sweep`` on Ray Tune;
+* :mod:`training.original`: the paper's own simulator and trainer beside ours (``box2d-driving original``);
 * :mod:`training.results`: ``box2d-driving reproduce``, the results page.
 
 Module paths of earlier releases (``training.trainer``, ``training.inference``, ``training.sweep``

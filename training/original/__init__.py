@@ -1,5 +1,9 @@
 """The paper's own simulator and trainer (sdriving 0.1.0) run beside ours: ``box2d-driving original``.
 
-sdriving lives in a virtual environment of its own (``box2d-driving original setup``);
-``sdriving_worker.py`` runs there, and nothing here imports sdriving.
+The original commands as typed settings (``commands``), the command itself (``cli``), the same
+scripted drivers in both worlds scored by one metric code (``compare``), and the script that runs
+inside sdriving's own virtual environment (``sdriving_worker.py``: its trainer in one process,
+resumable; its world's rollouts as our table). Nothing here imports sdriving.
+
+Imports :mod:`training.common`; only :mod:`training.results` imports it.
 """

@@ -22,7 +22,9 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from training.common.cli_args import OneLineParser, error, prog_name
+from training.common.seeds import REPORT, SeedError
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
+from training.original.compare import DRIVERS
 
 WORKER = Path(__file__).with_name("sdriving_worker.py")
 # what the worker's environment installs: sdriving without its training-only dependencies, and
@@ -81,6 +83,24 @@ def prepare_folder(run: OriginalRun, out: Path, resume: bool) -> None:
     os.replace(tmp, spec_path)
 
 
+def _compare(args) -> int:
+    from box2d_driving.cli import _parse_overrides
+    from training.original.compare import compare
+
+    try:
+        if args.episodes < 1:
+            raise OriginalError(f"--episodes must be >= 1, got {args.episodes}")
+        REPORT.episodes(args.episodes, args.first_seed)
+        if not venv_python().exists():
+            raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+        overrides = _parse_overrides(args.set)
+        print(compare(venv_python(), WORKER, args.drivers, args.episodes, args.first_seed, args.cars, overrides,
+                      args.out))
+    except (OriginalError, SeedError, ValueError, OSError) as exc:  # ConfigError is a ValueError
+        return error(str(exc))
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = OneLineParser(prog=prog_name(), description=DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -95,9 +115,21 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     t.add_argument("--resume", action="store_true", help="continue the run in --out")
     t.add_argument("--time-limit", type=float, default=None,
                    help="minutes; stops after the last epoch that fits (resume later)")
+    c = sub.add_parser("compare", help="scripted drivers in both worlds, scored by one metric code")
+    c.add_argument("--drivers", nargs="+", choices=DRIVERS, default=list(DRIVERS))
+    c.add_argument("--episodes", type=int, default=1000, help="episodes per driver and world (default: 1000)")
+    c.add_argument("--first-seed", type=int, default=REPORT.start,
+                   help=f"first report seed (default: {REPORT.start})")
+    c.add_argument("--cars", type=int, default=4, help="cars per episode (default: 4)")
+    c.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override of our intersection's config, e.g. --set horizon=25")
+    c.add_argument("--out", type=Path, required=True,
+                   help="folder for the rollout tables (tables already there are read, not rerun)")
     args = parser.parse_args(argv)
     if args.command == "setup":
         return setup()
+    if args.command == "compare":
+        return _compare(args)
     try:
         run = OriginalRun(lidar_noise=args.lidar_noise, seed=args.seed, epochs=args.epochs)
         if args.time_limit is not None and not args.time_limit > 0:

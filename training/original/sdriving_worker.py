@@ -240,13 +240,146 @@ def train(folder: str, time_limit_s: float) -> int:
     return 0
 
 
+# -- rollouts: the original world driven by a scripted or trained driver, as our table -----------
+DRIVERS = ("full-throttle", "rule", "random", "trained")
+COLLIDED_WITH = ("", "car", "edge", "pedestrian")  # box2d_driving.metrics.rollouts.COLLIDED_WITH
+
+
+def _actor(weights: str, env):
+    """The actor of an original-code run (``weights.safetensors``), deterministic (arg max)."""
+    from safetensors.torch import load_file
+    from sdriving.agents.model import PPOLidarActorCritic
+
+    ac = PPOLidarActorCritic(env.observation_space, env.action_space, nagents=env.nagents, centralized=True,
+                             hidden_sizes=[256, 256], history_len=5, permutation_invariant=True)
+    tensors = load_file(weights)
+    ac.pi.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("actor.")})
+    ac.eval()
+    return ac
+
+
+def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: str, weights: str | None) -> None:
+    """``episodes`` episodes of the original env, episode ``k`` seeded with ``first_seed + k``
+    (torch, numpy and Python's generators), one row per car per decision in the columns of
+    ``box2d_driving.metrics.rollouts`` (x right, y up, m; speed m/s; angles rad). Row ``decision
+    == 0`` is the state at reset. A car's rows end on its collision decision or at the horizon:
+    in this world an arrived car stays, so ``arrived`` is true from its arrival decision on."""
+    import math
+
+    install_stubs()
+    import numpy as np
+    import torch
+    from sdriving.environments import REGISTRY
+
+    env = REGISTRY[run_spec["env"]](**run_spec["env_kwargs"])
+    levels = env.action_list[:, -1].numpy()
+    n_act = len(levels)
+    actor = _actor(weights, env) if driver == "trained" else None
+    columns = {name: [] for name in (
+        "episode", "car", "decision", "x", "y", "heading", "speed", "acceleration", "light", "in_junction",
+        "lane_offset", "distance_to_goal", "arrived", "collided", "reward", "approach", "rating",
+        "stop_line_distance", "pedestrian_distance", "crosswalk_distance", "bit_sent", "collided_with",
+        "collision_partner", "partner_halted", "lidar_returns", "lidar_nearest")}
+    car_hits = {}
+    original_check = env.vehicle_collision_check
+
+    def recording_check(vehicle):  # which new collisions were with another car
+        hit = original_check(vehicle)
+        car_hits["now"] = car_hits.get("now", torch.zeros_like(hit)) | hit
+        return hit
+
+    env.vehicle_collision_check = recording_check
+    for k in range(episodes):
+        seed = first_seed + k
+        torch.manual_seed(seed)
+        np.random.seed(seed % 2**32)
+        random.seed(seed)
+        rng = np.random.default_rng(seed)
+        (obs, lidar), names = env.reset()
+        env.cached_actions = None  # each episode on its own (training carries it across resets)
+        n = env.nagents
+        vehicle = env.agents["agent"]
+        start_dir = torch.cat([torch.cos(vehicle.orientation), torch.sin(vehicle.orientation)], -1).numpy()
+        approach = np.round(np.arctan2(start_dir[:, 1], start_dir[:, 0]) / (math.pi / 2)).astype(int) % 4
+        half = env.width / 2
+        live = np.ones(n, dtype=bool)
+        accel = np.zeros(n)
+        reward = np.zeros(n)
+        hit_with = np.zeros(n, dtype=int)
+        decision = 0
+        while True:
+            pos = vehicle.position.numpy().astype(float)
+            speed = vehicle.speed[:, 0].numpy().astype(float)
+            heading = vehicle.orientation[:, 0].numpy().astype(float)
+            togo = vehicle.distance_from_destination()[:, 0].numpy().astype(float)
+            light = env.world.get_all_traffic_signal().numpy().astype(float)  # what get_state reads
+            rays = env.world.get_lidar_data_all_vehicles(run_spec["env_kwargs"]["npoints"]).numpy()  # m, noise-free
+            returns = np.isfinite(rays).sum(-1)
+            nearest = rays.min(-1)
+            arrived = env.completion_vector[:, 0].numpy()
+            collided = env.collision_vector[:, 0].numpy()
+            along = (pos * start_dir).sum(-1)
+            right = np.stack([start_dir[:, 1], -start_dir[:, 0]], -1)
+            for i in np.flatnonzero(live):
+                for name, value in (("episode", k), ("car", i), ("decision", decision), ("x", pos[i, 0]),
+                                    ("y", pos[i, 1]), ("heading", heading[i]), ("speed", speed[i]),
+                                    ("acceleration", accel[i]), ("light", light[i]),
+                                    ("in_junction", bool(abs(pos[i, 0]) <= half and abs(pos[i, 1]) <= half)),
+                                    ("lane_offset", float((pos[i] * right[i]).sum() / half)),
+                                    ("distance_to_goal", togo[i]), ("arrived", bool(arrived[i])),
+                                    ("collided", bool(collided[i])), ("reward", reward[i]),
+                                    ("approach", int(approach[i])), ("rating", 1.0),
+                                    ("stop_line_distance", float(-half - along[i])),
+                                    ("pedestrian_distance", math.nan), ("crosswalk_distance", math.nan),
+                                    ("bit_sent", math.nan), ("collided_with", int(hit_with[i])),
+                                    ("collision_partner", -1), ("partner_halted", False),
+                                    ("lidar_returns", int(returns[i])), ("lidar_nearest", float(nearest[i]))):
+                    columns[name].append(value)
+            live &= ~collided
+            if not live.any() or decision >= run_spec["env_kwargs"]["horizon"] // run_spec["env_kwargs"]["timesteps"]:
+                break
+            if driver == "full-throttle":
+                act = np.full(n, n_act - 1)
+            elif driver == "rule":
+                act = np.where(np.isin(light, (0.5, 1.0)), 0, n_act - 1)
+            elif driver == "random":
+                act = rng.integers(n_act, size=n)
+            else:
+                with torch.no_grad():
+                    act = actor.act((obs, lidar), deterministic=True).numpy().reshape(n)
+            car_hits.clear()
+            before = env.collision_vector[:, 0].numpy().copy()
+            (nxt, _), r, done, _ = env.step(torch.as_tensor(act, dtype=torch.long))
+            decision += 1
+            accel = levels[act].astype(float)
+            reward = r[:, 0].numpy().astype(float)
+            new = env.collision_vector[:, 0].numpy() & ~before
+            by_car = car_hits.get("now", torch.zeros(n, dtype=torch.bool)).numpy().reshape(n)
+            hit_with = np.where(new, np.where(by_car, 1, 2), hit_with)
+            if nxt is not None:  # None once every car is done (its last rows read the world itself)
+                obs, lidar = nxt
+    table = {name: np.asarray(values) for name, values in columns.items()}
+    np.savez_compressed(out, **table)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     t = sub.add_parser("train")
     t.add_argument("folder")
     t.add_argument("--time-limit", type=float, default=float("inf"), help="minutes")
+    r = sub.add_parser("rollout")
+    r.add_argument("run_json")
+    r.add_argument("--driver", choices=DRIVERS, required=True)
+    r.add_argument("--weights", default=None)
+    r.add_argument("--episodes", type=int, required=True)
+    r.add_argument("--first-seed", type=int, required=True)
+    r.add_argument("--out", required=True)
     args = parser.parse_args(argv)
+    if args.command == "rollout":
+        with open(args.run_json) as f:
+            rollout(json.load(f), args.driver, args.episodes, args.first_seed, args.out, args.weights)
+        return 0
     return train(args.folder, args.time_limit * 60.0)
 
 

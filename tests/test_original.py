@@ -1,0 +1,205 @@
+"""The paper's own code beside ours: its commands, the run carry, the rollout adapter and the
+world-comparison statistics. CI has no sdriving install: the adapter is checked on a small
+rollout recorded in sdriving 0.1.0 and committed (``tests/data/sdriving_rollout_rule.npz``: three
+report episodes of the light rule, 4 cars, noise 0, made by ``sdriving_worker.py rollout``)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from box2d_driving.metrics.rollouts import COLUMNS, OPTIONAL_COLUMNS, load_table
+from box2d_driving.metrics.world_compare import STATISTICS, agree, world_statistics
+from training.original import cli
+from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
+from training.original.compare import comparison_rows, format_rows, ours_table
+
+FIXTURE = Path(__file__).parent / "data" / "sdriving_rollout_rule.npz"
+
+
+def _worker():
+    spec = importlib.util.spec_from_file_location("sdriving_worker", cli.WORKER)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # imports nothing of sdriving at module level
+    return module
+
+
+# -- the original commands ------------------------------------------------------------------------
+def test_noise_runs_are_the_original_commands():
+    for noise, epochs in ((0.25, 75), (0.5, 75), (0.75, 75), (1.0, 50)):
+        spec = OriginalRun(lidar_noise=noise).spec()
+        assert spec["epochs"] == epochs
+        assert spec["env"] == "MultiAgentRoadIntersectionFixedTrackDiscreteEnvironment"
+        assert spec["env_kwargs"] == {"horizon": 250, "nagents": 4, "lidar_noise": noise, "history_len": 5,
+                                      "timesteps": 10, "npoints": 100, "turns": False, "learn_right_of_way": False,
+                                      "default_color": True, "balance_cars": True}
+        assert spec["trainer"] == {"steps_per_epoch": 32000, "train_iters": 20, "pi_lr": 1e-3, "vf_lr": 1e-3,
+                                   "entropy_coeff": 1e-4, "target_kl": 0.2, "gamma": 0.99, "lam": 0.97,
+                                   "clip_ratio": 0.2}
+        assert spec["ac_kwargs"] == {"hidden_sizes": [256, 256], "history_len": 5, "permutation_invariant": True}
+    assert set(NOISE_EPOCHS) == {0.25, 0.5, 0.75, 1.0}
+    json.dumps(OriginalRun(lidar_noise=0.25).spec())  # the worker reads it as JSON
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"lidar_noise": 0.3}, "give epochs"), ({"lidar_noise": 1.5}, "lidar_noise"),
+    ({"lidar_noise": 0.25, "seed": -1}, "seed"), ({"lidar_noise": 0.25, "seed": True}, "seed"),
+    ({"lidar_noise": 0.25, "epochs": 0}, "epochs"), ({"lidar_noise": 0.25, "nagents": 0}, "nagents"),
+])
+def test_bad_settings_name_the_field(kwargs, field):
+    with pytest.raises(OriginalError, match=field):
+        OriginalRun(**kwargs)
+
+
+def test_cli_refuses_bad_input_in_one_line(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("BOX2D_DRIVING_SDRIVING_VENV", str(tmp_path / "none"))
+    assert cli.main(["train", "--lidar-noise", "0.25", "--out", str(tmp_path / "run")]) == 2
+    assert "original setup" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()  # nothing written before the environment is there
+    fake = tmp_path / "venv" / "bin"
+    fake.mkdir(parents=True)
+    (fake / "python").write_text("")
+    monkeypatch.setenv("BOX2D_DRIVING_SDRIVING_VENV", str(tmp_path / "venv"))
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "keep.txt").write_text("mine")
+    assert cli.main(["train", "--lidar-noise", "0.25", "--out", str(busy)]) == 2
+    assert (busy / "keep.txt").read_text() == "mine" and not (busy / "run.json").exists()
+    assert cli.main(["train", "--lidar-noise", "0.25", "--out", str(tmp_path / "new"), "--resume"]) == 2
+    assert cli.main(["train", "--lidar-noise", "0.25", "--out", str(tmp_path / "x"), "--time-limit", "0"]) == 2
+    assert cli.main(["compare", "--episodes", "0", "--out", str(tmp_path / "c")]) == 2
+    assert cli.main(["compare", "--first-seed", "5", "--out", str(tmp_path / "c")]) == 2  # a training seed
+    lines = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(lines) == 5 and all("error:" in line for line in lines)
+
+
+def test_resume_needs_the_same_settings(tmp_path):
+    run = OriginalRun(lidar_noise=0.25)
+    cli.prepare_folder(run, tmp_path / "r", resume=False)
+    assert json.loads((tmp_path / "r" / "run.json").read_text()) == run.spec()
+    cli.prepare_folder(run, tmp_path / "r", resume=True)
+    with pytest.raises(OriginalError, match="other settings"):
+        cli.prepare_folder(OriginalRun(lidar_noise=0.25, seed=1), tmp_path / "r", resume=True)
+
+
+# -- the run carry ---------------------------------------------------------------------------------
+def _fake_trainer(seed: int):
+    torch.manual_seed(seed)
+    pi, v = torch.nn.Linear(3, 2), torch.nn.Linear(3, 1)
+    trainer = types.SimpleNamespace(ac=types.SimpleNamespace(pi=pi, v=v),
+                                    pi_optimizer=torch.optim.Adam(pi.parameters(), lr=1e-3),
+                                    vf_optimizer=torch.optim.Adam(v.parameters(), lr=1e-3),
+                                    env=types.SimpleNamespace(cached_actions=None))
+    for _ in range(3):  # give the optimisers state
+        for net, opt in ((pi, trainer.pi_optimizer), (v, trainer.vf_optimizer)):
+            opt.zero_grad()
+            net(torch.randn(5, 3)).pow(2).sum().backward()
+            opt.step()
+    trainer.env.cached_actions = torch.tensor([[0.0, 1.5], [0.0, -0.25]])
+    return trainer
+
+
+def test_carry_restores_weights_optimisers_and_random_states(tmp_path):
+    worker = _worker()
+    a, b = _fake_trainer(0), _fake_trainer(1)
+    np.random.seed(7)
+    torch.manual_seed(8)
+    worker.random.seed(9)
+    worker.save_carry(str(tmp_path), a, {"epochs_done": 3})
+    expected = (np.random.rand(), torch.rand(1).item(), worker.random.random())
+    state = worker.load_carry(str(tmp_path), b)
+    assert state["epochs_done"] == 3
+    assert (np.random.rand(), torch.rand(1).item(), worker.random.random()) == expected
+    for x, y in zip(a.ac.pi.state_dict().values(), b.ac.pi.state_dict().values()):
+        assert torch.equal(x, y)
+    for oa, ob in ((a.pi_optimizer, b.pi_optimizer), (a.vf_optimizer, b.vf_optimizer)):
+        sa, sb = oa.state_dict()["state"], ob.state_dict()["state"]
+        assert sa.keys() == sb.keys()
+        for k in sa:
+            assert all(torch.equal(sa[k][name], sb[k][name]) for name in sa[k])
+    assert torch.equal(b.env.cached_actions, a.env.cached_actions)
+    assert not list(tmp_path.glob("*.partial"))
+    # the weights file is safetensors: no pickle anywhere in the carry
+    assert (tmp_path / "weights.safetensors").read_bytes()[8:9] == b"{"
+
+
+# -- the adapter: an sdriving rollout read as our table ---------------------------------------------
+def test_sdriving_rollout_reads_as_our_table():
+    table = load_table(FIXTURE)
+    assert set(COLUMNS + OPTIONAL_COLUMNS) <= set(table)
+    assert sorted(set(table["episode"].tolist())) == [0, 1, 2] and set(table["car"].tolist()) == {0, 1, 2, 3}
+    assert table["decision"].max() == 25  # horizon 250 physics steps / 10 per decision
+    # balance_cars: one car per approach in every episode
+    for ep in range(3):
+        first = (table["episode"] == ep) & (table["decision"] == 0)
+        assert sorted(table["approach"][first].tolist()) == [0, 1, 2, 3]
+    assert set(np.unique(table["light"]).tolist()) <= {0.0, 0.5, 0.75, 1.0}
+    # an arrived car stays in the original: rows go on after its arrival, arrived stays true
+    arrived_rows = table["arrived"] & (table["decision"] < 25)
+    assert arrived_rows.any()
+    stats = world_statistics(table)
+    assert set(stats) == set(STATISTICS)
+    assert stats["entries_per_car"]["value"] == 1.0 and stats["entries_per_car"]["units"] == 12
+    assert stats["red_entry_share"]["value"] == 0.0  # the rule never enters on red here
+    assert stats["collision_rate"]["value"] == 0.5
+    assert stats["arrival_decision"]["value"] == pytest.approx(18.5)
+
+
+# -- the statistics on hand-built tables -----------------------------------------------------------
+def _table(rows):
+    names = ("episode", "car", "decision", "in_junction", "light", "arrived", "collided", "speed",
+             "stop_line_distance")
+    cols = {n: np.array([r[i] for r in rows]) for i, n in enumerate(names)}
+    for n in ("in_junction", "arrived", "collided"):
+        cols[n] = cols[n].astype(bool)
+    for n in ("light", "speed", "stop_line_distance"):
+        cols[n] = cols[n].astype(float)
+    cols["x"] = cols["y"] = np.zeros(len(rows))
+    return cols
+
+
+def test_statistics_on_a_hand_built_table():
+    rows = [  # episode, car, decision, in_junction, light, arrived, collided, speed, stop_line_distance
+        (0, 0, 0, False, 1.0, False, False, 0.0, 10.0),
+        (0, 0, 1, True, 0.75, False, False, 5.0, -2.0),   # entered on red, past its line at 5 m/s
+        (0, 0, 2, False, 0.75, False, False, -3.0, 4.0),  # backed out
+        (0, 0, 3, True, 0.75, True, False, 2.0, -1.0),    # entered again (on no light), arrived
+        (0, 1, 0, False, 0.0, False, False, 0.0, 8.0),
+        (0, 1, 1, False, 0.0, False, True, 4.0, 3.0),     # crashed before the junction
+        (1, 0, 0, False, 0.5, False, False, 0.0, 8.0),
+        (1, 0, 1, True, 0.75, False, False, 6.0, -1.0),   # entered on yellow
+    ]
+    s = world_statistics(_table(rows))
+    assert "lidar_returns" not in s  # no LiDAR columns: left out
+    assert s["entries_per_car"]["value"] == pytest.approx(3 / 3)
+    assert s["red_entry_share"]["value"] == pytest.approx(1 / 3)
+    assert s["yellow_entry_share"]["value"] == pytest.approx(1 / 3)
+    assert s["later_entry_share"]["value"] == pytest.approx(1 / 3)
+    assert s["arrival_rate"]["value"] == pytest.approx(1 / 3)
+    assert s["arrival_decision"]["value"] == 3.0
+    assert s["collision_rate"]["value"] == pytest.approx(1 / 3)
+    assert s["stop_line_speed"]["value"] == pytest.approx((5.0 + 6.0) / 2)
+    assert s["light_in_view"]["value"] == pytest.approx(4 / 8)
+
+
+def test_agreement_is_the_interval_of_the_difference():
+    assert agree({"value": 0.5, "half_width": 0.03}, {"value": 0.54, "half_width": 0.03})
+    assert not agree({"value": 0.5, "half_width": 0.02}, {"value": 0.54, "half_width": 0.02})
+
+
+def test_our_side_records_the_same_columns_and_compares():
+    ours = ours_table("full-throttle", 2, 1_500_000_000, {"num_cars": 4})
+    assert {"lidar_returns", "lidar_nearest"} <= set(ours)
+    assert ((ours["lidar_returns"] >= 0) & (ours["lidar_returns"] <= 100)).all()
+    finite = np.isfinite(ours["lidar_nearest"])
+    assert ((ours["lidar_nearest"][finite] > 0) & (ours["lidar_nearest"][finite] <= 50)).all()
+    rows = comparison_rows(ours, load_table(FIXTURE))
+    assert [r["statistic"] for r in rows] == list(STATISTICS)
+    text = format_rows("full-throttle", rows)
+    assert text.count("\n") == len(STATISTICS) + 1

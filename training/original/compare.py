@@ -1,0 +1,120 @@
+"""The same scripted drivers in the paper's simulator and in ours, scored by one piece of code.
+
+``box2d-driving original compare`` records ``--episodes`` report episodes per driver in each world
+(the original through ``sdriving_worker.py rollout``, ours through
+:func:`box2d_driving.metrics.rollouts.run_episodes` with the noise-free LiDAR columns added), then
+prints :func:`box2d_driving.metrics.world_compare.world_statistics` of both side by side with
+whether each pair agrees within its 95 % interval. The tables are kept (``--out``) so the
+numbers can be read again without rerunning either world.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from box2d_driving.metrics.rollouts import RolloutRecorder, load_table, save_table
+from box2d_driving.metrics.world_compare import agree, world_statistics
+from box2d_driving.policies.scripted import make_policy
+from box2d_driving.registry import make
+from training.original.commands import OriginalRun
+
+DRIVERS = ("full-throttle", "rule", "random")
+
+
+class _LidarRecorder(RolloutRecorder):
+    """A :class:`RolloutRecorder` that also keeps each row's noise-free LiDAR: rays with a return
+    and the nearest return (m), read from the newest frame of the observation (inverse
+    encoding, so it must be recorded with ``lidar_noise=0``)."""
+
+    def __init__(self, env: Any) -> None:
+        super().__init__()
+        self.env = env
+        self.returns: list[int] = []
+        self.nearest: list[float] = []
+        self.observations: dict[str, np.ndarray] = {}
+
+    def add(self, episode, infos, rewards=None) -> None:
+        super().add(episode, infos, rewards)
+        layout = self.env.observation_layout
+        for agent in infos:
+            newest = self.observations[agent][layout.lidar][-layout.n_rays:]
+            hits = newest[newest > 0]
+            self.returns.append(int(len(hits)))
+            self.nearest.append(float(1.0 / hits.max()) if len(hits) else float("inf"))
+
+    def table(self) -> dict[str, np.ndarray]:
+        out = super().table()
+        out["lidar_returns"] = np.asarray(self.returns, dtype=np.int64)
+        out["lidar_nearest"] = np.asarray(self.nearest, dtype=float)
+        return out
+
+
+def ours_table(driver: str, episodes: int, first_seed: int, overrides: dict[str, Any]) -> dict[str, np.ndarray]:
+    """``episodes`` episodes of our intersection (``overrides`` on its config, LiDAR noise 0)
+    driven by the scripted ``driver``, episode ``k`` reset with seed ``first_seed + k``."""
+    env = make("intersection-v0", **{**overrides, "lidar_noise": 0.0})
+    policy = make_policy(driver, env, seed=first_seed)
+    recorder = _LidarRecorder(env)
+    for k in range(episodes):
+        obs, infos = env.reset(seed=first_seed + k)
+        recorder.observations = obs
+        recorder.add(k, infos)
+        while env.agents:
+            obs, rewards, _, _, infos = env.step(policy.act({a: obs[a] for a in env.agents}))
+            recorder.observations = obs
+            recorder.add(k, infos, rewards)
+    env.close()
+    return recorder.table()
+
+
+def original_table(python: Path, worker: Path, driver: str, episodes: int, first_seed: int, nagents: int,
+                   out: Path) -> dict[str, np.ndarray]:
+    """The same in sdriving's world (the 4-car light runs' env settings, LiDAR noise 0)."""
+    spec = OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents).spec()
+    spec_path = out.with_suffix(".run.json")
+    spec_path.write_text(json.dumps(spec))
+    subprocess.run([str(python), str(worker), "rollout", str(spec_path), "--driver", driver,
+                    "--episodes", str(episodes), "--first-seed", str(first_seed), "--out", str(out)],
+                   check=True, stderr=subprocess.DEVNULL)
+    spec_path.unlink()
+    return load_table(out)
+
+
+def comparison_rows(ours: dict[str, np.ndarray], original: dict[str, np.ndarray]) -> list[dict[str, Any]]:
+    """One row per statistic both tables give: each world's value and half-width, and whether
+    they agree within the interval of their difference."""
+    a, b = world_statistics(original), world_statistics(ours)
+    return [{"statistic": name, "original": a[name], "ours": b[name], "agree": agree(a[name], b[name])}
+            for name in a if name in b]
+
+
+def format_rows(driver: str, rows: Sequence[dict[str, Any]]) -> str:
+    lines = [f"| {driver} | original | ours | agree |", "|---|---|---|---|"]
+    for r in rows:
+        cell = lambda e: f"{e['value']:.3f} ± {e['half_width']:.3f} ({e['units']})"  # noqa: E731
+        lines.append(f"| {r['statistic']} | {cell(r['original'])} | {cell(r['ours'])} | "
+                     f"{'yes' if r['agree'] else '**no**'} |")
+    return "\n".join(lines)
+
+
+def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, first_seed: int, nagents: int,
+            overrides: dict[str, Any], out: Path) -> str:
+    """Record both worlds per driver into ``out`` and return the markdown tables."""
+    out.mkdir(parents=True, exist_ok=True)
+    parts = []
+    for driver in drivers:
+        theirs_path = out / f"original_{driver}.npz"
+        theirs = (load_table(theirs_path) if theirs_path.exists()
+                  else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path))
+        ours_path = out / f"ours_{driver}.npz"
+        ours = load_table(ours_path) if ours_path.exists() else ours_table(
+            driver, episodes, first_seed, {"num_cars": nagents, **overrides})
+        if not ours_path.exists():
+            save_table(ours, ours_path)
+        parts.append(format_rows(driver, comparison_rows(ours, theirs)))
+    return "\n\n".join(parts)
