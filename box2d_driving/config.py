@@ -29,6 +29,9 @@ LIDAR_ENCODINGS = ("inverse", "proximity")
 LIDAR_BACKENDS = ("auto", "numba", "box2d")
 RENDER_MODES = (None, "rgb_array", "human")
 COMM_FALLBACKS = ("zero", "own")
+LIGHT_STARTS = ("random_phase", "green_or_red")
+LIDAR_DROPOUTS = ("exact", "independent")
+SMOOTHNESS = ("linear", "squared")
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,22 @@ class DrivingConfig:
             groups are symmetric, so a trained policy may adopt either value as "stop"; when one is
             shown, the value it stops on is drawn red and the other green (yellow stays yellow),
             and the picture's legend says so.
+        arrived_cars_stay: a car that reaches its goal stays in the world and keeps deciding until
+            it collides or the horizon ends the episode (the paper's code); its progress term
+            becomes ``-(1/H) * |v| / v_lim`` (stop at the goal) and it can still crash. False:
+            it leaves the world on arrival and its trajectory ends there.
+        reverse: speed in ``[-v_lim, v_lim]``: braking from a standstill backs the car along its
+            path (the paper's code). False: speed in ``[0, v_lim]``.
+        light_start: ``"random_phase"`` (a uniformly random point of the cycle at reset) or
+            ``"green_or_red"`` (the paper's code: each group starts at the beginning of green or
+            of red, at random).
+        light_period_step: ``T`` is drawn on a grid of this step (s); the paper's code draws it in
+            physics steps of 0.1 s. 0: continuous.
+        lidar_dropout: ``"exact"`` (exactly ``round(lidar_noise * n_rays)`` rays dropped) or
+            ``"independent"`` (each ray dropped with probability ``lidar_noise``, the paper's code).
+        lidar_min_range: returns nearer than this are dropped (m); the paper's code uses 2.5 m.
+        smoothness: ``"linear"`` (``-(1/H) |a_t - a_{t-1}| / (a_hi - a_lo)``) or ``"squared"``
+            (``-(1/H) ((a_t - a_{t-1}) / (a_hi - a_lo))^2``, the paper's code).
     """
 
     num_cars: int = 4
@@ -112,6 +131,13 @@ class DrivingConfig:
     render_lidar: bool = False
     render_fps: float = 4.0
     render_stop_value: float = 1.0
+    arrived_cars_stay: bool = False
+    reverse: bool = False
+    light_start: str = "random_phase"
+    light_period_step: float = 0.0
+    lidar_dropout: str = "exact"
+    lidar_min_range: float = 0.0
+    smoothness: str = "linear"
 
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
@@ -147,6 +173,16 @@ class DrivingConfig:
         _choice(self, "lidar_backend", LIDAR_BACKENDS)
         _choice(self, "render_mode", RENDER_MODES)
         _choice(self, "comm_fallback", COMM_FALLBACKS)
+        _choice(self, "light_start", LIGHT_STARTS)
+        _choice(self, "lidar_dropout", LIDAR_DROPOUTS)
+        _choice(self, "smoothness", SMOOTHNESS)
+        for name in ("light_period_step", "lidar_min_range"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < math.inf:
+                raise ConfigError(f"{name} must be a number >= 0, got {value!r}")
+        if self.lidar_min_range >= self.lidar_range:
+            raise ConfigError(f"lidar_min_range ({self.lidar_min_range!r} m) must be below lidar_range "
+                              f"({self.lidar_range!r} m)")
         if any(not 16 <= v <= 8192 for v in self.render_size):
             raise ConfigError(f"render_size must be two integers in [16, 8192], got {self.render_size!r}")
         _positive(self, "render_fps")

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
 from box2d_driving.config import ConfigError
+from box2d_driving.presets import preset_overrides
 
 
 @dataclass(frozen=True)
@@ -49,6 +50,11 @@ def env_module(env_id: str):
     return importlib.import_module(_SPECS[env_id].module)
 
 
-def make(env_id: str, **overrides: Any):
-    """Create the parallel env ``env_id`` with config ``overrides`` (e.g. ``num_cars=8``)."""
-    return env_module(env_id).parallel_env(**overrides)
+def make(env_id: str, preset: Optional[str] = None, **overrides: Any):
+    """Create the parallel env ``env_id`` with config ``overrides`` (e.g. ``num_cars=8``), on top
+    of the named ``preset``'s values where one is given (``preset="paper"``: the world of the
+    paper's own code; :mod:`box2d_driving.presets`)."""
+    module = env_module(env_id)
+    if preset is not None:
+        overrides = {**preset_overrides(preset, env_id), **overrides}
+    return module.parallel_env(**overrides)

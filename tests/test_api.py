@@ -11,7 +11,8 @@ from box2d_driving import ConfigError
 from box2d_driving.registry import env_module
 
 ENV_IDS = sorted(box2d_driving.registry())
-VARIANTS = [(e, {}) for e in ENV_IDS] + [("intersection-v0", {"communication": True, "lidar_noise": 0.5})]
+VARIANTS = [(e, {}) for e in ENV_IDS] + [("intersection-v0", {"communication": True, "lidar_noise": 0.5}),
+                                         ("intersection-v0", {"preset": "paper", "lidar_noise": 0.25})]
 
 
 @pytest.mark.parametrize("env_id,overrides", VARIANTS)

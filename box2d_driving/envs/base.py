@@ -19,7 +19,7 @@ from box2d_driving.config import DrivingConfig
 from box2d_driving.envs import core
 from box2d_driving.envs.actions import ActionError, check_actions  # noqa: F401  (ActionError: part of this module's API)
 from box2d_driving.envs.observation import FrameHistory, ObservationLayout
-from box2d_driving.physics.world import ACTIVE, ARRIVED, COLLIDED, DrivingWorld
+from box2d_driving.physics.world import ACTIVE, COLLIDED, DrivingWorld
 from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.layout import Layout
 from box2d_driving.road.lights import NO_LIGHT
@@ -88,7 +88,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
     def _make_observation_space(self) -> spaces.Box:
         lay = self.observation_layout
         bounds = {
-            "light": (0.0, 1.0), "speed": (0.0, 1.0), "heading_error": (-math.pi, math.pi),
+            "light": (0.0, 1.0), "speed": (-1.0 if self.config.reverse else 0.0, 1.0),
+            "heading_error": (-math.pi, math.pi),
             "inv_goal_distance": (0.0, 1.0), "rating": (0.0, 1.0), "bit_received": (0.0, 1.0),
             "crosswalk_ahead": (0.0, 1.0),
         }
@@ -133,8 +134,9 @@ class DrivingEnv(ParallelEnv, EzPickle):
         n = cfg.num_cars
         self.decision = 0
         self.agents = list(self.possible_agents)
-        self._initial = self.world.s_end.copy()
-        self._goals = np.array([c.path.points[-1] for c in self.layout.cars])
+        self._initial = self.world.s_goal - self.world.s
+        self._goals = np.array([c.path.points[-1] if c.goal is None else c.goal for c in self.layout.cars])
+        self._arrived_before = np.zeros(n, dtype=bool)
         self._light_index = np.array([c.light_index for c in self.layout.cars], dtype=np.int64)
         self._prev_level = np.zeros(n)
         self._bits = np.zeros(n)
@@ -171,7 +173,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         cols = [w.positions[:, 0], w.positions[:, 1], np.cos(w.headings), np.sin(w.headings),
                 w.speed, w.accel, self._goals[:, 0], self._goals[:, 1],
                 self._remaining() / self._initial, (w.status == ACTIVE).astype(float),
-                (w.status == ARRIVED).astype(float), (w.status == COLLIDED).astype(float),
+                w.has_arrived.astype(float), (w.status == COLLIDED).astype(float),
                 w.ratings]
         lights = np.zeros(self.n_lights)
         if self.layout.lights is not None:
@@ -228,7 +230,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         return self.decision * self.config.decision_time
 
     def _remaining(self) -> np.ndarray:
-        return self.world.s_end - self.world.s
+        return self.world.s_goal - self.world.s
 
     def _lidar_distances(self, cars: np.ndarray) -> np.ndarray:
         """Noise-free LiDAR distances of ``cars`` (m, ``inf``: no return)."""

@@ -23,7 +23,7 @@ import numpy as np
 
 from box2d_driving.envs import kernels
 from box2d_driving.envs.reward import TERMS, reward_terms
-from box2d_driving.physics.world import ARRIVED, COLLIDED
+from box2d_driving.physics.world import COLLIDED
 from box2d_driving.road.geometry import wrap_angle
 from box2d_driving.road.lights import NO_LIGHT, light_values, visible_lights
 from box2d_driving.sensors import lidar, readout
@@ -92,7 +92,9 @@ def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
 
     arrived = _cat([e.arrived for e in events])[flat]
     collided = _cat([e.collided for e in events])[flat]
-    remaining = _cat([env.world.s_end for env in envs]) - _cat([env.world.s for env in envs])
+    remaining = _cat([env.world.s_goal for env in envs]) - _cat([env.world.s for env in envs])
+    if cfg.arrived_cars_stay:  # past its goal a car has nothing left to drive
+        remaining = np.maximum(remaining, 0.0)
     decision = np.repeat(np.array([env.decision for env in envs], dtype=np.int64),
                          [len(c) for c in acting])
     terms = reward_terms(
@@ -103,13 +105,23 @@ def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
     )
     for k, env in enumerate(envs):
         env._prev_level = level[k * n:(k + 1) * n]
+    if cfg.smoothness == "squared":
+        terms["smoothness"] = -((level[flat] - prev[flat]) / first._accel_range) ** 2 / cfg.horizon
+    if cfg.arrived_cars_stay:  # after arriving: stop there (the progress term becomes a speed penalty)
+        waiting = _cat([env._arrived_before for env in envs])[flat]
+        if waiting.any():
+            speed = np.abs(_cat([env.world.speed for env in envs])[flat])
+            v_lim = _cat([env.world.v_lim for env in envs])[flat]
+            terms["progress"] = np.where(waiting, -(speed / v_lim) / cfg.horizon, terms["progress"])
+        for env in envs:
+            env._arrived_before = env.world.has_arrived.copy()
     total = sum(terms[t] for t in TERMS)
 
     lidar_frame, satnav_frame = frames(envs, acting, senders=acting)
     infos = car_infos(envs, acting)
     for info, values in zip(infos, zip(*[terms[t].tolist() for t in TERMS])):
         info["reward_terms"] = dict(zip(TERMS, values))
-    done = arrived | collided
+    done = collided if cfg.arrived_cars_stay else arrived | collided
 
     out, start = [], 0
     for env, cars in zip(envs, acting):
@@ -134,9 +146,11 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     cfg = first.config
     flat = _flat(envs, cars)
     distances = lidar_distances(envs, cars)
-    draws = [readout.dropout_draws(env.np_random, len(c), cfg.n_rays, cfg.lidar_noise)
+    if cfg.lidar_min_range > 0.0:  # returns nearer than the minimum range are lost
+        distances[distances < cfg.lidar_min_range] = np.inf
+    draws = [readout.dropout_draws(env.np_random, len(c), cfg.n_rays, cfg.lidar_noise, cfg.lidar_dropout)
              for env, c in zip(envs, cars)]
-    dropped = readout.dropout_from_draws(_cat(draws), len(flat), cfg.n_rays, cfg.lidar_noise)
+    dropped = readout.dropout_from_draws(_cat(draws), len(flat), cfg.n_rays, cfg.lidar_noise, cfg.lidar_dropout)
     start = 0
     for env, c in zip(envs, cars):
         if env.render_mode is not None:  # kept for drawing the rays
@@ -156,7 +170,7 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     n_extra = len(first.satnav_extras)
     satnav = np.empty((len(flat), 4 + n_extra + int(cfg.communication)), dtype=np.float32)
     to_goal, remaining = np.empty((2, len(flat))), np.empty(len(flat))
-    kernels.satnav_columns(flat, positions, _cat([w.s_end for w in worlds]),
+    kernels.satnav_columns(flat, positions, _cat([w.s_goal for w in worlds]),
                            _cat([w.s for w in worlds]), _cat([env._goals for env in envs]),
                            _cat([w.speed for w in worlds]), _cat([w.v_lim for w in worlds]),
                            _cat([env._seen for env in envs]), satnav, to_goal, remaining)
@@ -256,8 +270,9 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
 
     heading, speed = column([w.headings for w in worlds]), column([w.speed for w in worlds])
     accel, seen = column([w.accel for w in worlds]), column([env._seen for env in envs])
-    togo = column([w.s_end - w.s for w in worlds])
+    togo = column([w.s_goal - w.s for w in worlds])
     status = column([w.status for w in worlds])
+    has_arrived = column([w.has_arrived for w in worlds])
     partner, halted = column([w.collision_partner for w in worlds]), column([w.partner_halted for w in worlds])
     rating = column([w.ratings for w in worlds])
     offsets = [None if v != v else v for v in offset.tolist()]  # None: no lane axis (NaN)
@@ -273,7 +288,7 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
     infos = [{"position": p, "heading": heading[k], "speed": speed[k], "acceleration": accel[k],
               "light": seen[k], "in_junction": in_junction[k], "lane_offset": offsets[k],
               "stop_line_distance": stops[k], "distance_to_goal": togo[k],
-              "arrived": status[k] == ARRIVED, "collided": status[k] == COLLIDED,
+              "arrived": has_arrived[k], "collided": status[k] == COLLIDED,
               "collided_with": collided_with[k], "collision_partner": partner[k],
               "partner_halted": halted[k], "rating": rating[k], "decision": decision[k],
               "approach": approach[k]}

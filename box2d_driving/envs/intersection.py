@@ -14,16 +14,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
-from box2d_driving.config import DrivingConfig, require
+from box2d_driving.config import ConfigError, DrivingConfig, require
 from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
 from box2d_driving.road.lights import sample_lights
 
 N_APPROACHES = 4
+SPAWN_MODES = ("slots", "arm")
+APPROACH_ORDERS = ("fixed", "rotate", "random")
 
 
 @dataclass(frozen=True)
@@ -40,6 +43,21 @@ class IntersectionConfig(DrivingConfig):
         spawn_slot_spacing: distance between slot centres (m).
         slots_per_approach: slots on each approach.
         spawn_jitter: uniform jitter of a car around its slot centre (m).
+        spawn_mode: ``"slots"`` (the slots above) or ``"arm"`` (the paper's code: anywhere on its
+            arm, ``U[arm_spawn_range) * L`` before the junction, cars on one arm redrawn until
+            they do not overlap).
+        arm_spawn_range: with ``"arm"`` spawns, the spawn distance before the junction as
+            fractions of the arm length ``L`` (the paper's code: the middle 60 % of the arm).
+        lane_offset_range: the track's offset right of the road axis drawn per car from
+            ``U[low, high) * W`` (the paper's code: 0.15-0.30); None: ``lane_fraction * W/2``.
+        approach_order: ``"fixed"`` (car ``i`` on approach ``i % 4``), ``"rotate"`` (round robin
+            from a random approach, the paper's code with ``balance_cars``) or ``"random"`` (each
+            car's approach uniform, the paper's code without it).
+        goal_radius: None: a car arrives at the end of its track, ``0.5 * (goal_fraction * L +
+            W)`` past the centre on its lane. A number ``r``: the goal is that point on the road
+            axis, and a car arrives once within ``r * W`` of it (the paper's code: 1/3).
+        road_end_walls: the far end of every arm is a wall (the paper's code), which a car that
+            drives on past its goal (``arrived_cars_stay``) or backs up (``reverse``) can hit.
     """
 
     horizon: int = 36
@@ -51,6 +69,12 @@ class IntersectionConfig(DrivingConfig):
     spawn_slot_spacing: float = 8.0
     slots_per_approach: int = 4
     spawn_jitter: float = 1.0
+    spawn_mode: str = "slots"
+    arm_spawn_range: tuple[float, float] = (0.2, 0.8)
+    lane_offset_range: Optional[tuple[float, float]] = None
+    approach_order: str = "fixed"
+    goal_radius: Optional[float] = None
+    road_end_walls: bool = False
 
     def _validate(self) -> None:
         require(self, 1 <= self.slots_per_approach <= 16, ("slots_per_approach",),
@@ -78,6 +102,22 @@ class IntersectionConfig(DrivingConfig):
         require(self, 0.0 <= self.lane_fraction <= 1.0 - self.car_width / lo_w,
                 ("lane_fraction", "car_width", "road_width_range"), "lane_fraction must keep the track on the road")
         require(self, 0.0 < self.goal_fraction <= 1.0, ("goal_fraction",), "goal_fraction must be in (0, 1]")
+        require(self, self.spawn_mode in SPAWN_MODES, ("spawn_mode",), f"spawn_mode must be one of {SPAWN_MODES}")
+        require(self, self.approach_order in APPROACH_ORDERS, ("approach_order",),
+                f"approach_order must be one of {APPROACH_ORDERS}")
+        a_lo, a_hi = self.arm_spawn_range
+        require(self, 0.0 <= a_lo < a_hi <= 1.0 and a_lo * lo_l >= self.car_length / 2,
+                ("arm_spawn_range", "road_length_range", "car_length"),
+                "arm_spawn_range must be increasing within [0, 1] and keep a car on its arm")
+        if self.lane_offset_range is not None:
+            o_lo, o_hi = self.lane_offset_range
+            require(self, 0.0 <= o_lo < o_hi and o_hi * hi_w <= hi_w / 2 - self.car_width / 2
+                    and o_hi <= 0.5 - self.car_width / lo_w, ("lane_offset_range", "car_width", "road_width_range"),
+                    "lane_offset_range must be increasing, >= 0 and keep the car on its side of the road")
+        if self.goal_radius is not None:
+            widest = self.lane_offset_range[1] if self.lane_offset_range is not None else self.lane_fraction / 2
+            require(self, widest < self.goal_radius <= 0.5, ("goal_radius", "lane_offset_range", "lane_fraction"),
+                    "goal_radius must exceed the largest track offset (in road widths) and be <= 0.5")
 
     _SLOTS_SET_BY = "slots_per_approach, 4 approaches"
 
@@ -128,9 +168,16 @@ class IntersectionEnv(DrivingEnv):
         stop_points = -half * dirs + lane * rights
         stop_lines = np.stack([-half * dirs, -half * dirs + half * rights], axis=1)
         lights = sample_lights(rng, stop_points, dirs, np.arange(N_APPROACHES) % 2,
-                               cfg.light_period_range, cfg.light_yellow)
+                               cfg.light_period_range, cfg.light_yellow, cfg.light_start, cfg.light_period_step)
+        if cfg.road_end_walls:  # across the far end of every arm
+            edges += [[u * (half + length) - r * half, u * (half + length) + r * half] for u, r in zip(dirs, rights)]
 
         goal_dist = 0.5 * (cfg.goal_fraction * length + width)
+        if cfg.spawn_mode == "arm" or cfg.approach_order != "fixed" or cfg.lane_offset_range is not None \
+                or cfg.goal_radius is not None or cfg.arrived_cars_stay or cfg.reverse:
+            cars = self._paper_spawns(rng, length, width, dirs, rights, goal_dist)
+            return Layout(edges=np.array(edges), cars=cars, lights=lights,
+                          junction_box=(-half, -half, half, half), drivable=drivable, stop_lines=stop_lines)
         free = [list(rng.permutation(cfg.slots_per_approach)) for _ in range(N_APPROACHES)]
         cars = []
         for i in range(cfg.num_cars):
@@ -145,3 +192,63 @@ class IntersectionEnv(DrivingEnv):
         return Layout(edges=np.array(edges), cars=cars, lights=lights,
                       junction_box=(-half, -half, half, half), drivable=drivable,
                       stop_lines=stop_lines)
+
+    def _paper_spawns(self, rng: np.random.Generator, length: float, width: float, dirs: np.ndarray,
+                      rights: np.ndarray, goal_dist: float) -> list[CarSpawn]:
+        """Spawns by the options the paper's code uses (``spawn_mode``, ``lane_offset_range``,
+        ``approach_order``, ``goal_radius``) on straight tracks; a track reaches back to the start
+        arm's far end when cars ``reverse`` and on to the goal arm's far end when they stay after
+        arriving (``arrived_cars_stay``), so either motion stays on it."""
+        cfg: IntersectionConfig = self.config
+        half = width / 2
+        first = int(rng.integers(N_APPROACHES)) if cfg.approach_order == "rotate" else 0
+        free = [list(rng.permutation(cfg.slots_per_approach)) for _ in range(N_APPROACHES)] \
+            if cfg.spawn_mode == "slots" else None
+        placed: list[tuple[int, float, float]] = []  # approach, distance before the centre, offset
+        cars = []
+        for i in range(cfg.num_cars):
+            for _ in range(_MAX_SPAWN_TRIES):
+                if cfg.approach_order == "fixed":
+                    a = i % N_APPROACHES
+                elif cfg.approach_order == "rotate":
+                    a = (first + 1 + i) % N_APPROACHES
+                else:
+                    a = int(rng.integers(N_APPROACHES))
+                if cfg.lane_offset_range is None:
+                    lane = cfg.lane_fraction * half
+                else:
+                    lane = float(rng.uniform(*cfg.lane_offset_range)) * width
+                if cfg.spawn_mode == "slots":
+                    if not free[a]:
+                        continue
+                    back = half + cfg.spawn_first_slot + int(free[a].pop()) * cfg.spawn_slot_spacing
+                    back += float(rng.uniform(-cfg.spawn_jitter, cfg.spawn_jitter))
+                else:
+                    back = half + float(rng.uniform(*cfg.arm_spawn_range)) * length
+                if all(b != a or abs(bk - back) >= cfg.car_length or abs(o - lane) >= cfg.car_width
+                       for b, bk, o in placed):
+                    break
+            else:
+                raise ConfigError(f"{type(cfg).__name__}: no free spawn for car {i} after {_MAX_SPAWN_TRIES} draws "
+                                  f"(num_cars={cfg.num_cars} on arms of {length:.0f} m): use fewer cars")
+            placed.append((a, back, lane))
+            d, r = dirs[a], rights[a]
+            far = half + length
+            start = (-far if cfg.reverse else -back) * d + lane * r
+            if cfg.goal_radius is None:
+                goal = goal_dist * d + lane * r
+                goal_s = goal_dist + (far if cfg.reverse else back)
+            else:
+                goal = goal_dist * d
+                reach = math.sqrt((cfg.goal_radius * width) ** 2 - lane ** 2)
+                goal_s = goal_dist - reach + (far if cfg.reverse else back)
+            end = (far if cfg.arrived_cars_stay else (goal_dist if cfg.goal_radius is None else goal_s
+                                                     - (far if cfg.reverse else back))) * d + lane * r
+            cars.append(CarSpawn(path=Path.straight(start, end), light_index=a, rating=1.0,
+                                 lane_axis=LaneAxis(np.zeros(2), d.copy(), half), approach=a,
+                                 start_s=(far - back) if cfg.reverse else 0.0, goal_s=goal_s, goal=goal))
+        return cars
+
+
+# draws of one car's spawn before it is given up (a crowded arm)
+_MAX_SPAWN_TRIES = 1000

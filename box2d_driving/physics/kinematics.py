@@ -98,3 +98,46 @@ def chord_velocities(xy, rows, dt, velocity, always, never):
                 moves += 1
         always[j] = moves == velocity.shape[1]
         never[j] = moves == 0
+
+
+@njit(cache=True)
+def advance_speed_between(v: float, a: float, v_min: float, v_max: float, dt: float) -> tuple[float, float]:
+    """Exact distance travelled and end speed after ``dt`` at acceleration ``a``, speed in
+    ``[v_min, v_max]`` (``v_min < 0``: the car can reverse)."""
+    v1 = v + a * dt
+    if v1 > v_max:
+        tau = (v_max - v) / a if a > 0.0 else 0.0
+        return 0.5 * (v + v_max) * tau + v_max * (dt - tau), v_max
+    if v1 < v_min:
+        tau = (v_min - v) / a if a < 0.0 else 0.0
+        return 0.5 * (v + v_min) * tau + v_min * (dt - tau), v_min
+    return 0.5 * (v + v1) * dt, v1
+
+
+@njit(cache=True)
+def free_profile(s0, v0, accel, v_min, v_max, s_goal, s_end, arrived, moving, dt, substeps, s_out, v_out, arrive):
+    """:func:`longitudinal_profile` for cars that may reverse and that drive on past their goal:
+    speed in ``[v_min[i], v_max[i]]``, arc length kept in ``[0, s_end[i]]`` (the path's ends; the
+    speed is 0 while pressed against one), ``arrive[i]`` the first step (1-based) at which a car
+    not ``arrived`` before reaches ``s_goal[i]``, or 0. Motion goes on after arrival."""
+    n = s0.shape[0]
+    for i in range(n):
+        s = s0[i]
+        v = v0[i]
+        s_out[i, 0] = s
+        v_out[i, 0] = v
+        arrive[i] = 0
+        for k in range(substeps):
+            if moving[i]:
+                ds, v = advance_speed_between(v, accel[i], v_min[i], v_max[i], dt)
+                s = s + ds
+                if s > s_end[i]:
+                    s = s_end[i]
+                    v = 0.0
+                elif s < 0.0:
+                    s = 0.0
+                    v = 0.0
+                if not arrived[i] and arrive[i] == 0 and s >= s_goal[i]:
+                    arrive[i] = k + 1
+            s_out[i, k + 1] = s
+            v_out[i, k + 1] = v

@@ -19,7 +19,7 @@ from box2d_driving.config import DrivingConfig
 from box2d_driving.physics.contacts import (
     CAR, CAT_CAR, CAT_EDGE, CAT_PEDESTRIAN, EDGE_TAG, PEDESTRIAN, ContactRecorder,
 )
-from box2d_driving.physics.kinematics import chord_velocities, longitudinal_profile, path_poses
+from box2d_driving.physics.kinematics import chord_velocities, free_profile, longitudinal_profile, path_poses
 from box2d_driving.road.geometry import pack_paths, wrap_angle
 from box2d_driving.road.layout import Layout
 
@@ -115,9 +115,16 @@ class DrivingWorld:
         paths = [c.path for c in layout.cars]
         self.path_points, self.path_cumlen, self.path_counts = pack_paths(paths)
         self.s_end = np.array([p.length for p in paths], dtype=float)
+        # where each car counts as arrived (its path's end unless the scenario says otherwise)
+        self.s_goal = np.array([p.length if c.goal_s is None else c.goal_s for p, c in zip(paths, layout.cars)],
+                               dtype=float)
         self.ratings = np.array([c.rating for c in layout.cars], dtype=float)
         self.v_lim = cfg.v_lim * self.ratings
-        self.s = np.zeros(n)
+        self.v_min = -self.v_lim if cfg.reverse else np.zeros(n)
+        self.s = np.array([c.start_s for c in layout.cars], dtype=float)
+        self.has_arrived = np.zeros(n, dtype=bool)
+        # cars that reverse or stay after arriving move by the general profile (free_profile)
+        self._free = cfg.reverse or cfg.arrived_cars_stay
         self.speed = np.zeros(n)
         self.accel = np.zeros(n)
         self.status = np.full(n, ACTIVE, dtype=np.int64)
@@ -129,7 +136,7 @@ class DrivingWorld:
         bd = self._body_def
         self.car_bodies = []
         for i, spawn in enumerate(layout.cars):
-            (x, y), heading = spawn.path.start_pose()
+            (x, y), heading = spawn.path.start_pose() if spawn.start_s == 0.0 else spawn.path.pose(spawn.start_s)
             bd.position, bd.angle = (float(x), float(y)), float(heading)
             body = self.world.CreateBody(bd)
             fx = body.CreateFixture(self._car_def)
@@ -241,7 +248,10 @@ class DrivingWorld:
                         done_now.append(i)
                         live.remove(i)
             for i in arriving.get(k + 1, ()):
-                if i in live:  # not halted by a contact earlier in this decision
+                if i in live and self.config.arrived_cars_stay:  # it counts as arrived and drives on
+                    self.has_arrived[i] = events.arrived[i] = True
+                    events.substep[i] = k + 1
+                elif i in live:  # not halted by a contact earlier in this decision
                     done_now.append(i)
                     live.remove(i)
                     self._arrive(i, events, k + 1, v_out[i, k + 1])
@@ -270,8 +280,12 @@ class DrivingWorld:
         s_out = np.empty((n, k_steps + 1))
         v_out = np.empty((n, k_steps + 1))
         arrive = np.zeros(n, dtype=np.int64)
-        longitudinal_profile(self.s, self.speed, self.accel, self.v_lim, self.s_end, moving,
-                             dt, k_steps, s_out, v_out, arrive)
+        if self._free:
+            free_profile(self.s, self.speed, self.accel, self.v_min, self.v_lim, self.s_goal, self.s_end,
+                         self.has_arrived, moving, dt, k_steps, s_out, v_out, arrive)
+        else:
+            longitudinal_profile(self.s, self.speed, self.accel, self.v_lim, self.s_end, moving,
+                                 dt, k_steps, s_out, v_out, arrive)
         xy = np.empty((n, k_steps + 1, 2))
         heading = np.empty((n, k_steps + 1))
         path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)
@@ -285,9 +299,9 @@ class DrivingWorld:
         """Car ``i`` reached its goal on physics step ``substep`` at ``speed`` (m/s): it stops
         there and its body leaves the world."""
         self.status[i] = ARRIVED
-        events.arrived[i] = True
+        self.has_arrived[i] = events.arrived[i] = True
         events.substep[i] = substep
-        self.s[i] = self.s_end[i]
+        self.s[i] = self.s_goal[i]
         self.speed[i] = speed
         body = self.car_bodies[i]
         body.linearVelocity = (0.0, 0.0)

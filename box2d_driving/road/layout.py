@@ -36,7 +36,8 @@ class LaneAxis:
 
 @dataclass(frozen=True)
 class CarSpawn:
-    """One car: the path it follows from its spawn point (arc length 0) to its goal (the end).
+    """One car: the path it follows from its spawn point (arc length ``start_s``, by default 0,
+    the path's start) to its goal (arc length ``goal_s``, by default the path's end).
 
     Attributes:
         path: the track.
@@ -44,6 +45,11 @@ class CarSpawn:
         rating: acceleration rating; scales accelerations and the speed limit.
         lane_axis: for the signed normalised lane offset.
         approach: index of the approach (road) it starts on, -1 if not meaningful.
+        start_s: arc length of the spawn point (m); a path that starts behind it lets a car
+            reverse (``reverse``).
+        goal_s: arc length at which the car counts as arrived (m); None: the path's end. A path
+            that goes on past it lets an arrived car drive on (``arrived_cars_stay``).
+        goal: the goal point the sat-nav points at, ``(2,)`` (m); None: the path's last point.
     """
 
     path: Path
@@ -51,6 +57,9 @@ class CarSpawn:
     rating: float = 1.0
     lane_axis: Optional[LaneAxis] = None
     approach: int = -1
+    start_s: float = 0.0
+    goal_s: Optional[float] = None
+    goal: Optional[np.ndarray] = None
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ is green the other is red, and both show yellow together for ``y`` seconds betwe
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,9 +155,17 @@ def phase_value(phase: np.ndarray, half_period: float, yellow: float) -> np.ndar
 
 
 def sample_lights(rng: np.random.Generator, stop_points: np.ndarray, directions: np.ndarray,
-                  groups: np.ndarray, period_range: tuple[float, float], yellow: float) -> TrafficLights:
-    """Lights with ``T ~ U[period_range)`` and a uniformly random start phase."""
+                  groups: np.ndarray, period_range: tuple[float, float], yellow: float,
+                  start: str = "random_phase", period_step: float = 0.0) -> TrafficLights:
+    """Lights with ``T ~ U[period_range)`` (rounded down to a multiple of ``period_step`` s when
+    it is positive) and a start phase that is uniformly random (``start="random_phase"``) or the
+    beginning of green or of red for group 0, each with probability 1/2 (``"green_or_red"``)."""
     half_period = float(rng.uniform(*period_range))
-    offset = float(rng.uniform(0.0, 2.0 * half_period))
+    if period_step > 0.0:
+        half_period = math.floor(half_period / period_step) * period_step
+    if start == "green_or_red":
+        offset = float(half_period * rng.integers(2))
+    else:
+        offset = float(rng.uniform(0.0, 2.0 * half_period))
     return TrafficLights(np.asarray(stop_points, float), np.asarray(directions, float),
                          np.asarray(groups, np.int64), half_period, yellow, offset)

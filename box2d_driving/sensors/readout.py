@@ -1,7 +1,8 @@
 """What a car's LiDAR reports from its distances: the rays lost to noise, and the encoding.
 
 LiDAR noise drops a fixed share of each car's rays every decision (``round(noise * n_rays)`` of
-them, chosen uniformly at random from the env's generator); a dropped ray reads as no return. The
+them, chosen uniformly at random from the env's generator; ``"exact"``), or each ray on its own
+with probability ``noise`` (``"independent"``, the paper's code); a dropped ray reads as no return. The
 observation then holds one value per ray (:func:`encode`): ``inverse`` (``1 / d``, the paper's) or
 ``proximity`` (``1 - d / range``), 0 for no return.
 """
@@ -26,18 +27,25 @@ def _dropped_per_row(n_rays: int, noise: float) -> int:
     return int(math.floor(noise * n_rays + 0.5))
 
 
-def dropout_draws(rng: np.random.Generator, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
+def dropout_draws(rng: np.random.Generator, n_cars: int, n_rays: int, noise: float,
+                  mode: str = "exact") -> np.ndarray:
     """The random draws :func:`dropout_mask` takes from ``rng``: ``(n_cars, n_rays)`` uniforms,
-    or an empty ``(0, n_rays)`` array where the mask needs none (nothing or everything dropped)."""
+    or an empty ``(0, n_rays)`` array where the mask needs none (nothing or everything dropped;
+    with ``"independent"`` dropout, nothing)."""
+    if mode == "independent":
+        return rng.random((n_cars, n_rays)) if noise > 0.0 and n_cars else np.zeros((0, n_rays))
     k = _dropped_per_row(n_rays, noise)
     if k == 0 or k >= n_rays or n_cars == 0:
         return np.zeros((0, n_rays))
     return rng.random((n_cars, n_rays))
 
 
-def dropout_from_draws(draws: np.ndarray, n_cars: int, n_rays: int, noise: float) -> np.ndarray:
+def dropout_from_draws(draws: np.ndarray, n_cars: int, n_rays: int, noise: float,
+                       mode: str = "exact") -> np.ndarray:
     """The dropout mask of ``n_cars`` rows from their :func:`dropout_draws` (rows of several
     generators' draws may be stacked: each row's mask depends on that row alone)."""
+    if mode == "independent":  # a ray is kept where its draw exceeds the noise, as in the paper's code
+        return draws <= noise if len(draws) else np.zeros((n_cars, n_rays), dtype=bool)
     k = _dropped_per_row(n_rays, noise)
     if k == 0 or n_cars == 0:
         return np.zeros((n_cars, n_rays), dtype=bool)

@@ -85,6 +85,7 @@ def prepare_folder(run: OriginalRun, out: Path, resume: bool) -> None:
 
 def _compare(args) -> int:
     from box2d_driving.cli import _parse_overrides
+    from box2d_driving.presets import preset_overrides
     from training.original.compare import compare
 
     try:
@@ -94,8 +95,10 @@ def _compare(args) -> int:
         if not venv_python().exists():
             raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
         overrides = _parse_overrides(args.set)
+        if args.preset is not None:  # an unknown preset is refused before either world runs
+            preset_overrides(args.preset, "intersection-v0")
         print(compare(venv_python(), WORKER, args.drivers, args.episodes, args.first_seed, args.cars, overrides,
-                      args.out))
+                      args.out, args.preset))
     except (OriginalError, SeedError, ValueError, OSError) as exc:  # ConfigError is a ValueError
         return error(str(exc))
     return 0
@@ -121,6 +124,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     c.add_argument("--first-seed", type=int, default=REPORT.start,
                    help=f"first report seed (default: {REPORT.start})")
     c.add_argument("--cars", type=int, default=4, help="cars per episode (default: 4)")
+    c.add_argument("--preset", default=None, help="our world's preset, e.g. paper (default: none, our defaults)")
     c.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override of our intersection's config, e.g. --set horizon=25")
     c.add_argument("--out", type=Path, required=True,

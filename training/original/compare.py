@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import subprocess
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
@@ -54,10 +54,12 @@ class _LidarRecorder(RolloutRecorder):
         return out
 
 
-def ours_table(driver: str, episodes: int, first_seed: int, overrides: dict[str, Any]) -> dict[str, np.ndarray]:
-    """``episodes`` episodes of our intersection (``overrides`` on its config, LiDAR noise 0)
-    driven by the scripted ``driver``, episode ``k`` reset with seed ``first_seed + k``."""
-    env = make("intersection-v0", **{**overrides, "lidar_noise": 0.0})
+def ours_table(driver: str, episodes: int, first_seed: int, overrides: dict[str, Any],
+               preset: Optional[str] = None) -> dict[str, np.ndarray]:
+    """``episodes`` episodes of our intersection (the ``preset``'s values and ``overrides`` on its
+    config, LiDAR noise 0) driven by the scripted ``driver``, episode ``k`` reset with seed
+    ``first_seed + k``."""
+    env = make("intersection-v0", preset=preset, **{**overrides, "lidar_noise": 0.0})
     policy = make_policy(driver, env, seed=first_seed)
     recorder = _LidarRecorder(env)
     for k in range(episodes):
@@ -103,7 +105,7 @@ def format_rows(driver: str, rows: Sequence[dict[str, Any]]) -> str:
 
 
 def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, first_seed: int, nagents: int,
-            overrides: dict[str, Any], out: Path) -> str:
+            overrides: dict[str, Any], out: Path, preset: Optional[str] = None) -> str:
     """Record both worlds per driver into ``out`` and return the markdown tables."""
     out.mkdir(parents=True, exist_ok=True)
     parts = []
@@ -113,7 +115,7 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
                   else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path))
         ours_path = out / f"ours_{driver}.npz"
         ours = load_table(ours_path) if ours_path.exists() else ours_table(
-            driver, episodes, first_seed, {"num_cars": nagents, **overrides})
+            driver, episodes, first_seed, {"num_cars": nagents, **overrides}, preset)
         if not ours_path.exists():
             save_table(ours, ours_path)
         parts.append(format_rows(driver, comparison_rows(ours, theirs)))

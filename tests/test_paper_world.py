@@ -1,0 +1,209 @@
+"""The ``paper`` preset: the world of the paper's own code (sdriving 0.1.0), option by option,
+against hand-worked answers. Each option is an ordinary config field, so each is also checked on
+its own; the defaults stay as they were (``tests/test_env_golden.py``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import box2d_driving
+from box2d_driving import ConfigError
+from box2d_driving.presets import PAPER, preset_overrides
+from box2d_driving.road.lights import sample_lights
+from box2d_driving.sensors import readout
+
+GO = 12  # the largest of the 13 accelerations, +1.5 m/s^2
+BRAKE = 0  # -1.5 m/s^2
+
+
+def _paper(**overrides):
+    return box2d_driving.make("intersection-v0", preset="paper", **overrides)
+
+
+def test_the_preset_sets_its_values_and_overrides_win():
+    env = _paper(lidar_noise=0.25, horizon=30)
+    cfg = env.config
+    for name, value in PAPER.env_overrides["intersection-v0"].items():
+        if name != "horizon":
+            assert getattr(cfg, name) == pytest.approx(value), name
+    assert cfg.horizon == 30 and cfg.lidar_noise == 0.25
+    assert preset_overrides("paper", "intersection-v0")["horizon"] == 25
+    with pytest.raises(ConfigError, match="unknown preset 'nope'"):
+        box2d_driving.make("intersection-v0", preset="nope")
+    with pytest.raises(ConfigError, match="no settings for 'highway-v0'"):
+        box2d_driving.make("highway-v0", preset="paper")
+
+
+def test_an_arrived_car_stays_stops_paying_progress_and_pays_for_speed():
+    env = box2d_driving.make("intersection-v0", num_cars=1, arrived_cars_stay=True, road_end_walls=True,
+                             horizon=40)
+    env.reset(seed=0)
+    arrival, rows = None, []
+    while env.agents:
+        obs, rew, term, trunc, info = env.step({"car_0": GO})
+        rows.append((rew["car_0"], term["car_0"], info["car_0"]))
+        if info["car_0"]["arrived"] and arrival is None:
+            arrival = len(rows) - 1
+    assert arrival is not None
+    r, term, info = rows[arrival]
+    assert info["reward_terms"]["goal"] == 1.0 and not term  # arrival does not end the car
+    after = rows[arrival + 1]
+    v = after[2]["speed"]
+    assert after[2]["reward_terms"]["goal"] == 0.0
+    assert after[2]["reward_terms"]["progress"] == pytest.approx(-(abs(v) / 8.0) / 40)
+    assert after[2]["distance_to_goal"] < 0 and after[2]["arrived"]
+    # full throttle on past the goal: it ends against the wall at the end of its arm
+    last = rows[-1]
+    assert last[1] and last[2]["collided"] and last[2]["collided_with"] == "edge"
+    assert last[2]["reward_terms"]["collision"] == -1.0
+    assert last[2]["reward_terms"]["progress"] == pytest.approx(-(abs(rows[-2][2]["speed"]) / 8.0) / 40, abs=0.04)
+
+
+def test_without_staying_an_arrived_car_still_leaves():
+    env = box2d_driving.make("intersection-v0", num_cars=1, horizon=40)
+    env.reset(seed=0)
+    while env.agents:
+        _, _, term, _, info = env.step({"car_0": GO})
+    assert term["car_0"] and info["car_0"]["arrived"]
+
+
+def test_reversing_backs_a_car_up_its_track():
+    env = box2d_driving.make("intersection-v0", num_cars=1, reverse=True)
+    obs, info = env.reset(seed=1)
+    x0 = np.array(info["car_0"]["position"])
+    obs, _, _, _, info = env.step({"car_0": BRAKE})
+    # 1 s at -1.5 m/s^2 from a standstill: -1.5 m/s, 0.75 m backwards
+    assert info["car_0"]["speed"] == pytest.approx(-1.5)
+    heading = info["car_0"]["heading"]
+    back = np.array(info["car_0"]["position"]) - x0
+    assert back @ np.array([math.cos(heading), math.sin(heading)]) == pytest.approx(-0.75, abs=1e-4)  # Box2D keeps float32 poses
+    space = env.observation_space("car_0")
+    assert space.contains(obs["car_0"])
+    speed_field = env.observation_layout.satnav.start + 4 * env.observation_layout.n_satnav + 1
+    assert obs["car_0"][speed_field] == pytest.approx(-1.5 / 8.0)
+    # without reverse the same braking holds the car still
+    still = box2d_driving.make("intersection-v0", num_cars=1)
+    still.reset(seed=1)
+    _, _, _, _, info = still.step({"car_0": BRAKE})
+    assert info["car_0"]["speed"] == 0.0
+
+
+def test_arrival_within_a_third_of_the_width_of_the_axis_goal():
+    env = _paper(num_cars=4, lidar_noise=0.0)
+    for seed in range(3):
+        env.reset(seed=seed)
+        width = 2 * env.layout.junction_box[2]
+        goals = env._goals.copy()
+        assert np.allclose(np.abs(goals).min(axis=1), 0.0)  # on the road axis
+        before = {a: None for a in env.agents}
+        while env.agents:
+            pos_before = env.world.positions.copy()
+            _, _, _, _, info = env.step({a: GO for a in env.agents})
+            for a, i in info.items():
+                k = int(a.split("_")[1])
+                if i["arrived"] and before[a] is None:
+                    before[a] = env.decision
+                    # inside the radius now, outside it a decision earlier
+                    assert np.linalg.norm(np.array(i["position"]) - goals[k]) <= width / 3 + 1e-9
+                    assert np.linalg.norm(pos_before[k] - goals[k]) > width / 3
+
+
+def test_arm_spawns_rotating_approaches_and_no_overlap():
+    for seed in range(20):
+        env = _paper(num_cars=4)
+        _, info = env.reset(seed=seed)
+        half = env.layout.junction_box[2]
+        length = env.layout.edges[0]  # first arm edge: from the junction to the arm's far end
+        arm = np.linalg.norm(np.asarray(length[1]) - np.asarray(length[0]))
+        approaches = sorted(i["approach"] for i in info.values())
+        assert approaches == [0, 1, 2, 3]  # rotate: one car per approach with four cars
+        for i in info.values():
+            before = i["stop_line_distance"]  # from the lane's stop point: the junction's edge
+            assert 0.2 * arm - 1e-9 <= before <= 0.8 * arm + 1e-9
+            assert 0.15 - 1e-9 <= i["lane_offset"] / 2 <= 0.30 + 1e-9  # offset / (W/2) = 2 * offset / W
+        del half
+    crowded = _paper(num_cars=12, approach_order="random")
+    for seed in range(10):
+        crowded.reset(seed=seed)
+        w = crowded.world
+        n = len(w.positions)
+        for a in range(n):
+            for b in range(a + 1, n):
+                same_arm = crowded._approach[a] == crowded._approach[b]
+                gap = np.abs(w.positions[a] - w.positions[b])
+                assert not same_arm or gap.max() >= 2.2 - 1e-9
+
+
+def test_lights_start_at_green_or_red_on_a_grid_of_steps():
+    rng = np.random.default_rng(0)
+    offsets = set()
+    for _ in range(50):
+        lights = sample_lights(rng, np.zeros((4, 2)), np.ones((4, 2)), np.arange(4) % 2, (10.0, 15.0), 1.0,
+                               "green_or_red", 0.1)
+        assert lights.offset in (0.0, lights.half_period)
+        assert round(lights.half_period * 10) == pytest.approx(lights.half_period * 10)
+        assert 10.0 <= lights.half_period < 15.0
+        offsets.add(lights.offset == 0.0)
+        values = lights.values(0.0)
+        assert sorted(values.tolist()) == [0.0, 0.0, 1.0, 1.0]  # one group green, the other red
+    assert offsets == {True, False}
+
+
+def test_independent_dropout_drops_each_ray_with_probability_p():
+    rng = np.random.default_rng(0)
+    draws = readout.dropout_draws(rng, 2000, 100, 0.25, "independent")
+    mask = readout.dropout_from_draws(draws, 2000, 100, 0.25, "independent")
+    per_car = mask.sum(axis=1)
+    assert per_car.mean() == pytest.approx(25.0, abs=0.3)
+    assert per_car.std() == pytest.approx(math.sqrt(100 * 0.25 * 0.75), rel=0.1)  # binomial, not fixed
+    assert readout.dropout_draws(rng, 3, 100, 0.0, "independent").shape == (0, 100)
+    assert not readout.dropout_from_draws(np.zeros((0, 100)), 3, 100, 0.0, "independent").any()
+    full = readout.dropout_from_draws(readout.dropout_draws(rng, 3, 100, 1.0, "independent"), 3, 100, 1.0,
+                                      "independent")
+    assert full.all()
+
+
+def test_min_range_hides_returns_nearer_than_it():
+    near = box2d_driving.make("intersection-v0", num_cars=2, lidar_min_range=20.0)
+    far = box2d_driving.make("intersection-v0", num_cars=2)
+    o1, _ = near.reset(seed=4)
+    o2, _ = far.reset(seed=4)
+    lay = near.observation_layout
+    for a in o1:
+        inv_near, inv_far = o1[a][lay.lidar], o2[a][lay.lidar]
+        dist_far = np.where(inv_far > 0, 1.0 / np.maximum(inv_far, 1e-12), np.inf)
+        assert (inv_near[dist_far < 20.0 - 1e-3] == 0).all()
+        keep = dist_far > 20.0 + 1e-3
+        assert np.array_equal(inv_near[keep], inv_far[keep])
+    with pytest.raises(ConfigError, match="lidar_min_range"):
+        box2d_driving.make("intersection-v0", lidar_min_range=60.0)
+
+
+def test_squared_smoothness_on_a_worked_case():
+    env = box2d_driving.make("intersection-v0", num_cars=1, smoothness="squared", horizon=25)
+    env.reset(seed=0)
+    env.step({"car_0": 6})  # 0.0 m/s^2
+    _, _, _, _, info = env.step({"car_0": 12})  # 0 -> 1.5: a change of half the range
+    assert info["car_0"]["reward_terms"]["smoothness"] == pytest.approx(-(1.5 / 3.0) ** 2 / 25)
+
+
+@pytest.mark.parametrize("overrides, field", [
+    ({"spawn_mode": "everywhere"}, "spawn_mode"), ({"approach_order": "left"}, "approach_order"),
+    ({"arm_spawn_range": (0.9, 0.1)}, "arm_spawn_range"), ({"lane_offset_range": (0.3, 0.6)}, "lane_offset_range"),
+    ({"goal_radius": 0.1, "lane_offset_range": (0.15, 0.3)}, "goal_radius"), ({"light_start": "red"}, "light_start"),
+    ({"lidar_dropout": "some"}, "lidar_dropout"), ({"smoothness": "cubic"}, "smoothness"),
+    ({"light_period_step": -0.1}, "light_period_step"),
+])
+def test_bad_values_name_their_field(overrides, field):
+    with pytest.raises(ConfigError, match=field):
+        box2d_driving.make("intersection-v0", **overrides)
+
+
+def test_a_crowded_arm_is_one_clear_error():
+    with pytest.raises(ConfigError, match="no free spawn"):
+        env = _paper(num_cars=16, approach_order="random", arm_spawn_range=(0.2, 0.21))
+        for seed in range(5):
+            env.reset(seed=seed)
