@@ -7,7 +7,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
+from box2d_driving.config import ConfigError
+from box2d_driving.presets import preset_overrides
 from training.common.cli_args import parse, prog_name
+from training.trainers.presets import training_preset
 from training.trainers.trainer import RunError, TrainConfig, train
 
 if TYPE_CHECKING:
@@ -64,6 +67,8 @@ class CommonArgs:
     horizon: episode horizon in decisions (default: the scenario's)
     collision_reward: reward on a car's first collision (default: the scenario's, -1 as in the paper)
     remove_collided: take a collided car out of the world instead of leaving it as a wreck
+    preset: a named preset of world and training settings: paper (the paper's own code: its world, 20 instances, updates of 32,000 joint steps in one pass of 20 minibatches, entropy 1e-4; docs/paper_world.md); flags given with other than their default values still win
+    original_epochs: the budget in the original's unit, epochs of 32,000 joint steps (each num_cars slot-decisions); overrides --timesteps
     """
 
     num_cars: int = 4
@@ -86,6 +91,8 @@ class CommonArgs:
     horizon: Optional[int] = None
     collision_reward: Optional[float] = None
     remove_collided: bool = False
+    preset: Optional[str] = None
+    original_epochs: Optional[int] = None
 
     def env_overrides(self) -> dict:
         """Scenario-specific config overrides a script adds (none by default)."""
@@ -102,7 +109,8 @@ class ScriptArgs(CommonArgs):
 def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
     """The :class:`TrainConfig` a behaviour script's arguments ask for on ``env_id``: env settings
     from the flags, the rest as given (``timesteps``: instead of ``args.timesteps``)."""
-    overrides = {"num_cars": args.num_cars, "lidar_noise": args.lidar_noise}
+    overrides = {} if args.preset is None else preset_overrides(args.preset, env_id)
+    overrides.update({"num_cars": args.num_cars, "lidar_noise": args.lidar_noise})
     overrides.update(args.env_overrides())
     if args.horizon is not None:
         overrides["horizon"] = args.horizon
@@ -118,8 +126,22 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,
         max_minutes=args.max_minutes,
         init_from=args.init_from,
-        ent_coef=0.01 if args.ent_coef is None else args.ent_coef,
+        ent_coef=0.01 if args.ent_coef is None else args.ent_coef, preset=args.preset,
     )
+    if args.preset is not None:  # the preset's update, then any flag given away from its default
+        preset = training_preset(args.preset)
+        preset.apply(cfg, args.num_cars)
+        defaults = type(args)()
+        for name in ("n_envs", "batch_decisions", "epochs"):
+            if getattr(args, name) != getattr(defaults, name):
+                setattr(cfg, name, getattr(args, name))
+        if args.ent_coef is not None:
+            cfg.ent_coef = args.ent_coef
+    if args.original_epochs is not None:
+        if args.original_epochs < 1:
+            raise ConfigError(f"--original-epochs must be >= 1, got {args.original_epochs}")
+        joint = training_preset(args.preset).joint_steps_per_update if args.preset else 32_000
+        cfg.timesteps = args.original_epochs * joint * args.num_cars
     if args.quick:
         cfg.n_envs, cfg.batch_decisions, cfg.minibatch = QUICK.n_envs, QUICK.batch_decisions, QUICK.minibatch
         cfg.timesteps = min(cfg.timesteps, QUICK.timesteps)

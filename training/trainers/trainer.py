@@ -76,6 +76,10 @@ class TrainConfig:
             ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
         init_from: start from the weights of this checkpoint (e.g. a 4-car policy fine-tuned
             with 8 cars, as the paper does); observation layout and critic must match.
+        clip_range_vf: clip the value estimate to this around the rollout's (the paper's code:
+            0.2); None: unclipped.
+        preset: the named preset the run was built from (``paper``), recorded for reading; its
+            values are already in the other fields.
     """
 
     env_id: str = "intersection-v0"
@@ -100,6 +104,8 @@ class TrainConfig:
     device: str = "auto"
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
+    clip_range_vf: Optional[float] = None
+    preset: Optional[str] = None
 
     def __post_init__(self) -> None:
         self.validate()
@@ -114,8 +120,8 @@ class TrainConfig:
             "timesteps": (0, 100_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
             "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
             "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
-            "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None),
-        }, ConfigError, above=("learning_rate", "clip_range", "target_kl"))
+            "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None), "clip_range_vf": (0, None),
+        }, ConfigError, above=("learning_rate", "clip_range", "target_kl", "clip_range_vf"))
         if self.device not in DEVICES:
             raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
         if self.critic not in CRITICS:
@@ -182,8 +188,8 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
     return PPO(
         CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
         n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
-        gae_lambda=config.gae_lambda, clip_range=config.clip_range, ent_coef=config.ent_coef,
-        target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
+        gae_lambda=config.gae_lambda, clip_range=config.clip_range, clip_range_vf=config.clip_range_vf,
+        ent_coef=config.ent_coef, target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
         rollout_buffer_class=MaskedRolloutBuffer,
         rollout_buffer_kwargs={"layout": venv.layout},
         seed=config.seed, device=resolve_device(config.device), verbose=0,

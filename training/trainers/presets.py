@@ -1,0 +1,75 @@
+"""The training half of a named preset (the world half is :mod:`box2d_driving.presets`).
+
+``paper``: the update of the paper's own trainer (sdriving 0.1.0, ``ppo_distributed``, as its
+experiment list runs it) as far as SB3's options reach: 20 env instances, an update every 32,000
+*joint* steps (each step one decision of every car of an instance still in its episode: with the
+preset's cars that stay after arriving, 32,000 x ``num_cars`` slot-decisions), one pass over them
+in 20 minibatches of whole steps, entropy 1e-4, the value clipped to +-0.2 around its rollout
+estimate, learning rate 1e-3, gamma 0.99, GAE lambda 0.97, clip 0.2, target KL 0.2. What SB3
+does differently (one Adam for actor and critic; the KL rule stops the whole update, not only the
+actor's steps; advantages normalised per minibatch, not per car over the epoch; a time limit
+bootstrapped, not treated as terminal) is tabled in the docs' page "Our world and the paper's".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from box2d_driving.config import ConfigError
+
+if TYPE_CHECKING:
+    from training.trainers.trainer import TrainConfig
+
+
+@dataclass(frozen=True)
+class TrainingPreset:
+    """Training settings a preset sets (fields of :class:`~training.trainers.trainer.TrainConfig`,
+    the update's size given in joint steps).
+
+    Attributes:
+        n_envs: env instances (the original's 20 Horovod workers, one instance each).
+        joint_steps_per_update: joint env steps per update, over all instances (``-se``).
+        minibatches: minibatches in the update's one pass (``-ti``).
+        epochs: passes over the update's data.
+        ent_coef: entropy bonus (``--entropy-coeff``).
+        clip_range_vf: the value estimate is clipped to this around the rollout's.
+        learning_rate, gamma, gae_lambda, clip_range, target_kl: as the original command.
+    """
+
+    n_envs: int = 20
+    joint_steps_per_update: int = 32_000
+    minibatches: int = 20
+    epochs: int = 1
+    ent_coef: float = 1e-4
+    clip_range_vf: float = 0.2
+    learning_rate: float = 1e-3
+    gamma: float = 0.99
+    gae_lambda: float = 0.97
+    clip_range: float = 0.2
+    target_kl: float = 0.2
+
+    def slot_decisions_per_update(self, num_cars: int) -> int:
+        """The update's size in slot-decisions: every car of every joint step."""
+        return self.joint_steps_per_update * num_cars
+
+    def apply(self, config: "TrainConfig", num_cars: int) -> None:
+        """Set ``config``'s update to this preset's for ``num_cars`` cars per instance."""
+        config.n_envs = self.n_envs
+        config.batch_decisions = self.slot_decisions_per_update(num_cars)
+        config.minibatch = math.ceil(config.batch_decisions / self.minibatches)
+        config.epochs = self.epochs
+        config.ent_coef = self.ent_coef
+        config.clip_range_vf = self.clip_range_vf
+        config.learning_rate, config.gamma, config.gae_lambda = self.learning_rate, self.gamma, self.gae_lambda
+        config.clip_range, config.target_kl = self.clip_range, self.target_kl
+
+
+TRAINING_PRESETS = {"paper": TrainingPreset()}
+
+
+def training_preset(name: str) -> TrainingPreset:
+    if name not in TRAINING_PRESETS:
+        raise ConfigError(f"unknown preset {name!r}; presets: {', '.join(TRAINING_PRESETS)}")
+    return TRAINING_PRESETS[name]
