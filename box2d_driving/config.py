@@ -95,7 +95,7 @@ class DrivingConfig:
             physics steps of 0.1 s. 0: continuous.
         lidar_dropout: ``"exact"`` (exactly ``round(lidar_noise * n_rays)`` rays dropped) or
             ``"independent"`` (each ray dropped with probability ``lidar_noise``, the paper's code).
-        lidar_min_range: returns nearer than this are dropped (m); the paper's code uses 2.5 m.
+        lidar_min_range: returns nearer than this are dropped (m); the paper's code uses 5 m.
         smoothness: ``"linear"`` (``-(1/H) |a_t - a_{t-1}| / (a_hi - a_lo)``) or ``"squared"``
             (``-(1/H) ((a_t - a_{t-1}) / (a_hi - a_lo))^2``, the paper's code).
     """

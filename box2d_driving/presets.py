@@ -3,7 +3,7 @@
 ``make("intersection-v0", preset="paper")`` builds the world of the paper's own code (sdriving
 0.1.0) where our defaults differ: cars that stay after arriving and can reverse, spawns anywhere
 on the middle of their arm, goals on the road axis reached within a third of the road width,
-walls at the arms' ends, lights that start at the beginning of green or red, LiDAR with a 2.5 m
+walls at the arms' ends, lights that start at the beginning of green or red, LiDAR with a 5 m
 minimum range and rays dropped independently, a squared smoothness term and a 25-decision
 horizon. Keyword overrides still apply on top (``make(..., preset="paper", lidar_noise=0.25)``).
 Each value and the original file and symbol it comes from are tabled in the docs' page "Our
@@ -47,7 +47,7 @@ PAPER = Preset(
             "goal_radius": 1.0 / 3.0,  # reached when distance <= width / 3
             "road_end_walls": True,  # closed=[True] * 4
             "light_start": "green_or_red", "light_period_step": 0.1,  # start_signal 0 or 2; int steps
-            "lidar_dropout": "independent", "lidar_min_range": 2.5,  # rand > p; min_range=2.5
+            "lidar_dropout": "independent", "lidar_min_range": 5.0,  # rand > p; BatchedVehicle min_lidar_range=5.0
             "smoothness": "squared",  # (a_t - a_{t-1})^2 / (2 * 1.5)^2
         },
     },

@@ -202,6 +202,8 @@ def test_every_documented_command_uses_only_options_its_command_has(capsys):
             if len(words) < 2 or words[1] not in behaviours:
                 continue  # `train BEHAVIOUR ...`
             key = tuple(words[:2])
+        elif words[0] == "original" and len(words) > 1:  # setup / train / compare: parsers of their own
+            key = tuple(words[:2])
         elif words[0] == "bench":  # its modes have parsers of their own
             key += tuple(w for w in words if w in ("--train", "--memory"))[:1]
         if key not in known:

@@ -29,7 +29,7 @@ def every_ray_on_every_segment(origins, headings, observer, n_rays, max_range, s
                     continue
                 ax, ay = segs[m, 0] - ox, segs[m, 1] - oy
                 ex, ey = segs[m, 2] - ox - ax, segs[m, 3] - oy - ay
-                out[c, k] = lidar._ray_hit(ax, ay, ex, ey, rc, rs, one_sided[m], max_range, out[c, k])
+                out[c, k] = lidar._ray_hit(ax, ay, ex, ey, rc, rs, one_sided[m], max_range, out[c, k], 0.0)
     return out
 
 

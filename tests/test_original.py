@@ -203,3 +203,15 @@ def test_our_side_records_the_same_columns_and_compares():
     assert [r["statistic"] for r in rows] == list(STATISTICS)
     text = format_rows("full-throttle", rows)
     assert text.count("\n") == len(STATISTICS) + 1
+
+
+def test_the_page_section_is_replaced_whole_and_only_it(tmp_path):
+    from training.original.compare import write_section
+
+    page = tmp_path / "p.md"
+    page.write_text("intro\n<!-- compare: paper -->\nold\n<!-- /compare: paper -->\nafter\n")
+    write_section(page, "paper", "| new |")
+    assert page.read_text() == "intro\n<!-- compare: paper -->\n| new |\n<!-- /compare: paper -->\nafter\n"
+    with pytest.raises(ValueError, match="no single section"):
+        write_section(page, "default", "x")
+    assert "| new |" in page.read_text()  # a refused write leaves the page as it was

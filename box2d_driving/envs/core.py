@@ -146,8 +146,6 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     cfg = first.config
     flat = _flat(envs, cars)
     distances = lidar_distances(envs, cars)
-    if cfg.lidar_min_range > 0.0:  # returns nearer than the minimum range are lost
-        distances[distances < cfg.lidar_min_range] = np.inf
     draws = [readout.dropout_draws(env.np_random, len(c), cfg.n_rays, cfg.lidar_noise, cfg.lidar_dropout)
              for env, c in zip(envs, cars)]
     dropped = readout.dropout_from_draws(_cat(draws), len(flat), cfg.n_rays, cfg.lidar_noise, cfg.lidar_dropout)
@@ -227,7 +225,8 @@ def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
     worlds = [env.world for env in envs]
     if first._backend == "box2d":
         return _cat([lidar.cast_rays_box2d(w.world, [w.car_bodies[i] for i in c], w.positions[c], w.headings[c],
-                                           cfg.n_rays, cfg.lidar_range, cfg.lidar_sees_pedestrians)
+                                           cfg.n_rays, cfg.lidar_range, cfg.lidar_sees_pedestrians,
+                                           cfg.lidar_min_range)
                      for w, c in zip(worlds, cars)])
     if cfg.lidar_sees_pedestrians:
         peds = [w.ped_sizes for w in worlds]
@@ -243,7 +242,8 @@ def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
         _cat([w.positions for w in worlds]), _cat([w.headings for w in worlds]), _cat([w.present for w in worlds]),
         cfg.num_cars, _flat(envs, cars), cfg.car_length, cfg.car_width, ped_positions, ped_sizes,
         np.array([len(p) for p in peds], dtype=np.int64), _cat(edges),
-        np.array([len(e) for e in edges], dtype=np.int64), cfg.n_rays, cfg.lidar_range, first._ray_directions)
+        np.array([len(e) for e in edges], dtype=np.int64), cfg.n_rays, cfg.lidar_range, first._ray_directions,
+        cfg.lidar_min_range)
 
 
 def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:

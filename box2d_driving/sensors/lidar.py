@@ -109,15 +109,16 @@ class RayDirections:
 
 
 @njit(cache=True)
-def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_sided, out):
+def cast_rays(origins, headings, observer, n_rays, max_range, segs, owner, one_sided, out, min_range=0.0):
     """Closest hit distance of every ray of every observer; ``inf`` where nothing is in range.
 
-    ``observer[c]`` is the car index of observer ``c`` (its own segments are skipped).
+    ``observer[c]`` is the car index of observer ``c`` (its own segments are skipped). Hits nearer
+    than ``min_range`` are not seen: the ray goes on to the next one (the paper's LiDAR).
     """
     n = origins.shape[0]
     _cast_rays_in(origins, headings, observer, np.arange(n), np.zeros(n, np.int64), np.full(n, segs.shape[0], np.int64),
                   n_rays, max_range, segs, owner, one_sided, np.full(n, np.nan), np.empty((n, n_rays)),
-                  np.empty((n, n_rays)), out)
+                  np.empty((n, n_rays)), out, min_range)
 
 
 # Half-width (rad) added on each side of a segment's angular span when choosing the rays to test:
@@ -150,7 +151,7 @@ def _approx_atan2(y, x):
 
 @njit(cache=True)
 def _cast_rays_in(origins, headings, observer, slot, seg_lo, seg_hi, n_rays, max_range, segs, owner, one_sided,
-                  memo_heading, memo_cos, memo_sin, out):
+                  memo_heading, memo_cos, memo_sin, out, min_range):
     """:func:`cast_rays` with observer ``c`` seeing only the segments ``seg_lo[c]:seg_hi[c]`` (its
     own scene when several scenes' segments are stacked), its ray directions kept in row
     ``slot[c]`` of the memo arrays (see :class:`RayDirections`)."""
@@ -213,20 +214,22 @@ def _cast_rays_in(origins, headings, observer, slot, seg_lo, seg_hi, n_rays, max
                     k1 = n_rays - 1
             for kk in range(k0, k1 + 1):
                 k = kk % n_rays
-                out[c, k] = _ray_hit(ax, ay, ex, ey, cos_r[k], sin_r[k], one_sided[m], max_range, out[c, k])
+                out[c, k] = _ray_hit(ax, ay, ex, ey, cos_r[k], sin_r[k], one_sided[m], max_range, out[c, k],
+                                     min_range)
 
 
 @njit(cache=True)
-def _ray_hit(ax, ay, ex, ey, rc, rs, one_sided, max_range, closest):
+def _ray_hit(ax, ay, ex, ey, rc, rs, one_sided, max_range, closest, min_range):
     """The distance along the ray from the origin in direction ``(rc, rs)`` to the segment from
     ``(ax, ay)`` to ``(ax + ex, ay + ey)`` (relative to the origin) where it crosses it closer
     than ``closest`` and within ``max_range``; else ``closest``. A ``one_sided`` segment (a box
-    side, counter-clockwise) is hit only from outside."""
+    side, counter-clockwise) is hit only from outside; a crossing nearer than ``min_range`` is
+    not a hit."""
     denom = rc * ey - rs * ex
     if denom == 0.0 or (one_sided and denom > 0.0):
         return closest
     t = (ax * ey - ay * ex) / denom
-    if t < 0.0 or t > max_range or t >= closest:
+    if t < min_range or t > max_range or t >= closest:
         return closest
     s = (ax * rs - ay * rc) / denom
     return t if 0.0 <= s <= 1.0 else closest
@@ -236,7 +239,7 @@ def cast_rays_scenes(car_positions: np.ndarray, car_headings: np.ndarray, car_pr
                      n_cars: int, observers: np.ndarray, car_length: float, car_width: float,
                      ped_positions: np.ndarray, ped_sizes: np.ndarray, ped_counts: np.ndarray,
                      edges: np.ndarray, edge_counts: np.ndarray, n_rays: int, max_range: float,
-                     directions: RayDirections | None = None) -> np.ndarray:
+                     directions: RayDirections | None = None, min_range: float = 0.0) -> np.ndarray:
     """Distances ``(len(observers), n_rays)`` of ``K`` scenes at once, each as
     :func:`scene_segments` and :func:`cast_rays` would give them alone.
 
@@ -255,14 +258,14 @@ def cast_rays_scenes(car_positions: np.ndarray, car_headings: np.ndarray, car_pr
                          f"{(len(car_present), n_rays)}")
     _cast_rays_scenes(car_positions, car_headings, car_present, n_cars, observers, car_length / 2, car_width / 2,
                       ped_positions, ped_sizes / 2, ped_counts, edges, edge_counts, n_rays, float(max_range),
-                      directions.heading, directions.cos, directions.sin, out)
+                      directions.heading, directions.cos, directions.sin, out, float(min_range))
     return out
 
 
 @njit(cache=True)
 def _cast_rays_scenes(car_positions, car_headings, car_present, n_cars, observers, half_length, half_width,
                       ped_positions, ped_half, ped_counts, edges, edge_counts, n_rays, max_range,
-                      memo_heading, memo_cos, memo_sin, out):
+                      memo_heading, memo_cos, memo_sin, out, min_range):
     """:func:`cast_rays_scenes` in one compiled call (it runs every decision)."""
     segs, owner, one_sided, seg_start = _scenes_segments(
         car_positions, car_headings, car_present, n_cars, half_length, half_width,
@@ -270,7 +273,7 @@ def _cast_rays_scenes(car_positions, car_headings, car_present, n_cars, observer
     scene = observers // n_cars
     _cast_rays_in(car_positions[observers], car_headings[observers], observers % n_cars, observers,
                   seg_start[scene], seg_start[scene + 1], n_rays, max_range, segs, owner, one_sided,
-                  memo_heading, memo_cos, memo_sin, out)
+                  memo_heading, memo_cos, memo_sin, out, min_range)
 
 
 @njit(cache=True)
@@ -315,9 +318,10 @@ def _scenes_segments(car_positions, car_headings, car_present, n_cars, half_leng
 class _ClosestHit(b2RayCastCallback):
     """Closest fixture along a ray, ignoring one body."""
 
-    def __init__(self, see_pedestrians: bool = True) -> None:
+    def __init__(self, see_pedestrians: bool = True, min_fraction: float = 0.0) -> None:
         super().__init__()
         self.see_pedestrians = see_pedestrians
+        self.min_fraction = min_fraction  # hits nearer than this share of the ray are passed through
         self.ignore = None
         self.fraction = 1.0
         self.hit = False
@@ -327,17 +331,19 @@ class _ClosestHit(b2RayCastCallback):
             return -1.0
         if not self.see_pedestrians and fixture.userData[0] == PEDESTRIAN:
             return -1.0
+        if fraction < self.min_fraction:
+            return 1.0  # not seen: the ray goes on unclipped
         self.hit = True
         self.fraction = fraction
         return fraction
 
 
 def cast_rays_box2d(world, bodies, origins, headings, n_rays: int, max_range: float,
-                    see_pedestrians: bool = True) -> np.ndarray:
+                    see_pedestrians: bool = True, min_range: float = 0.0) -> np.ndarray:
     """The same distances as :func:`cast_rays`, through ``world.RayCast``. ``bodies[c]`` is
     observer ``c``'s own body (excluded)."""
     out = np.full((len(origins), n_rays), np.inf)
-    cb = _ClosestHit(see_pedestrians)
+    cb = _ClosestHit(see_pedestrians, min_range / max_range)
     angles = np.arange(n_rays) * (2.0 * math.pi / n_rays)
     for c in range(len(origins)):
         ox, oy = float(origins[c, 0]), float(origins[c, 1])

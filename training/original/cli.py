@@ -86,7 +86,7 @@ def prepare_folder(run: OriginalRun, out: Path, resume: bool) -> None:
 def _compare(args) -> int:
     from box2d_driving.cli import _parse_overrides
     from box2d_driving.presets import preset_overrides
-    from training.original.compare import compare
+    from training.original.compare import compare, write_section
 
     try:
         if args.episodes < 1:
@@ -97,8 +97,11 @@ def _compare(args) -> int:
         overrides = _parse_overrides(args.set)
         if args.preset is not None:  # an unknown preset is refused before either world runs
             preset_overrides(args.preset, "intersection-v0")
-        print(compare(venv_python(), WORKER, args.drivers, args.episodes, args.first_seed, args.cars, overrides,
-                      args.out, args.preset))
+        text = compare(venv_python(), WORKER, args.drivers, args.episodes, args.first_seed, args.cars, overrides,
+                       args.out, args.preset)
+        print(text)
+        if args.page is not None:
+            write_section(args.page, args.section or args.preset or "default", text)
     except (OriginalError, SeedError, ValueError, OSError) as exc:  # ConfigError is a ValueError
         return error(str(exc))
     return 0
@@ -129,6 +132,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="override of our intersection's config, e.g. --set horizon=25")
     c.add_argument("--out", type=Path, required=True,
                    help="folder for the rollout tables (tables already there are read, not rerun)")
+    c.add_argument("--page", type=Path, default=None,
+                   help="also write the tables into this page's <!-- compare: NAME --> section")
+    c.add_argument("--section", default=None,
+                   help="the page's section name (default: the preset's name, or 'default')")
     args = parser.parse_args(argv)
     if args.command == "setup":
         return setup()

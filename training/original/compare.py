@@ -120,3 +120,17 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
             save_table(ours, ours_path)
         parts.append(format_rows(driver, comparison_rows(ours, theirs)))
     return "\n\n".join(parts)
+
+
+def write_section(page: Path, name: str, text: str) -> None:
+    """Replace what stands between ``<!-- compare: NAME -->`` and ``<!-- /compare: NAME -->`` in
+    ``page`` with ``text`` (the page is rewritten whole, through a temporary file)."""
+    body = page.read_text()
+    start, end = f"<!-- compare: {name} -->", f"<!-- /compare: {name} -->"
+    if body.count(start) != 1 or body.count(end) != 1 or body.index(start) > body.index(end):
+        raise ValueError(f"{page} has no single section '{start}' ... '{end}'")
+    head, rest = body.split(start)
+    _, tail = rest.split(end)
+    tmp = page.with_name(page.name + ".partial")
+    tmp.write_text(f"{head}{start}\n{text}\n{end}{tail}")
+    tmp.replace(page)
