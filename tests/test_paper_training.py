@@ -23,6 +23,8 @@ def test_the_paper_preset_sets_the_original_update():
     assert cfg.batch_decisions == 32_000 * 4  # every car of every joint step
     assert cfg.minibatch == 32_000 * 4 // 20
     assert cfg.epochs == 1 and cfg.ent_coef == 1e-4 and cfg.clip_range_vf == 0.2
+    assert cfg.kl_stop == "actor" and cfg.advantage_normalisation == "per_car"
+    assert cfg.adam_eps == 1e-8 and cfg.max_grad_norm is None and cfg.bootstrap_truncation is False
     assert cfg.timesteps == 75 * 32_000 * 4  # 9.6 M slot-decisions
     assert cfg.env_overrides["horizon"] == 25 and cfg.env_overrides["arrived_cars_stay"]
     assert cfg.env_overrides["lidar_noise"] == 0.25 and cfg.env_overrides["num_cars"] == 4
@@ -40,6 +42,8 @@ def test_without_a_preset_nothing_changes():
     cfg = _config("--num-cars", "4")
     assert cfg.preset is None and cfg.clip_range_vf is None and cfg.n_envs == 16
     assert cfg.batch_decisions == 32_000 and cfg.epochs == 4 and cfg.ent_coef == 0.01
+    assert cfg.kl_stop == "update" and cfg.advantage_normalisation == "minibatch"
+    assert cfg.adam_eps == 1e-5 and cfg.max_grad_norm == 0.5 and cfg.bootstrap_truncation
     assert "arrived_cars_stay" not in cfg.env_overrides
 
 
@@ -61,3 +65,95 @@ def test_the_preset_builds_sb3_with_value_clipping():
     finally:
         venv.close()
     assert TRAINING_PRESETS["paper"].slot_decisions_per_update(12) == 384_000
+
+
+# -- the paper's update rules ----------------------------------------------------------------------
+import numpy as np  # noqa: E402
+import torch as th  # noqa: E402
+
+from training.ppo.original_update import ActorStopAdam, KLWatch, normalise_per_car  # noqa: E402
+
+
+def test_per_car_normalisation_on_a_hand_built_update():
+    adv = np.array([[1.0, 10.0, 3.0, 30.0], [3.0, 20.0, 5.0, 99.0]])  # 2 steps x 4 slots, 2 cars x 2 instances
+    live = np.array([[True, True, True, True], [True, True, True, False]])  # slot 3 padded at step 1
+    out = normalise_per_car(adv, live, n_cars=2)
+    car0 = np.array([1.0, 3.0, 3.0, 5.0])  # slots 0 and 2
+    car1 = np.array([10.0, 30.0, 20.0])  # slots 1 and 3, live only
+    assert out[0, 0] == pytest.approx((1.0 - car0.mean()) / (car0.std() + 1e-7))
+    assert out[1, 2] == pytest.approx((5.0 - car0.mean()) / (car0.std() + 1e-7))
+    assert out[0, 3] == pytest.approx((30.0 - car1.mean()) / (car1.std() + 1e-7))
+    assert out[1, 3] == 99.0  # padding untouched
+    for cols, values in (((0, 2), out[:, [0, 2]][live[:, [0, 2]]]), ((1, 3), out[:, [1, 3]][live[:, [1, 3]]])):
+        assert values.mean() == pytest.approx(0.0, abs=1e-9) and values.std() == pytest.approx(1.0, abs=1e-6)
+
+
+def test_a_stopped_actor_is_left_alone_while_the_critic_steps():
+    th.manual_seed(0)
+    actor, critic = th.nn.Linear(3, 2), th.nn.Linear(3, 1)
+    opt = ActorStopAdam([*actor.parameters(), *critic.parameters()], lr=0.1, eps=1e-8)
+    watch = KLWatch(target_kl=0.01)
+    opt.watch, opt.actor_params = watch, list(actor.parameters())
+    watch.start_update()
+    watch.minibatch(th.zeros(5))
+    watch.measure(th.full((5,), -0.1))  # KL 0.1 > 1.5 x 0.01
+    assert watch.stopped and watch.stopped_at == 0
+    before_a = [p.detach().clone() for p in actor.parameters()]
+    before_c = [p.detach().clone() for p in critic.parameters()]
+    x = th.randn(4, 3)
+    (actor(x).sum() + critic(x).sum()).backward()
+    opt.step()
+    assert all(th.equal(a, b) for a, b in zip(before_a, actor.parameters()))
+    assert not any(th.equal(a, b) for a, b in zip(before_c, critic.parameters()))
+    assert all(p.grad is not None for p in actor.parameters())  # gradients handed back
+    assert all(p not in opt.state or not opt.state[p] for p in actor.parameters())  # no Adam moments
+    watch.start_update()
+    assert not watch.stopped
+
+
+def _one_update(kl_stop):
+    cfg = _config("--preset", "paper", "--quick", "--ent-coef", "0.0001")
+    cfg.kl_stop, cfg.target_kl, cfg.timesteps = kl_stop, 1e-9, 1
+    cfg.n_envs, cfg.batch_decisions, cfg.minibatch = 4, 800, 200
+    venv = make_vec_env(cfg)
+    try:
+        model = build_model(cfg, venv)
+        from training.trainers.trainer import set_minibatching
+        set_minibatching(model, cfg, venv.n_cars)
+        venv.seed(0)
+        model.learn(1)
+        actor = [p.detach().clone() for p in model.policy.actor_parameters()]
+        ids = {id(p) for p in model.policy.actor_parameters()}
+        critic = [p.detach().clone() for p in model.policy.parameters() if id(p) not in ids]
+        watch = getattr(model.policy, "kl_watch", None)
+        return actor, critic, watch
+    finally:
+        venv.close()
+
+
+def test_the_actor_only_kl_rule_against_sb3s():
+    # KL of the first minibatch is 0 (nothing has moved yet): both take one full step; from the
+    # second minibatch the KL exceeds the tiny limit: SB3 ends the update, the paper's rule only
+    # stops the actor
+    actor_a, critic_a, watch = _one_update("actor")
+    actor_u, critic_u, _ = _one_update("update")
+    assert watch is not None and watch.stopped_at == 1
+    assert all(th.equal(a, b) for a, b in zip(actor_a, actor_u))  # the same one actor step
+    assert not all(th.equal(a, b) for a, b in zip(critic_a, critic_u))  # the critic trained on
+
+
+def test_the_horizon_is_terminal_when_truncation_is_not_bootstrapped():
+    cfg = _config("--preset", "paper", "--quick")
+    cfg.n_envs = 1
+    venv = make_vec_env(cfg)
+    try:
+        assert venv.bootstrap_truncation is False
+        venv.seed(0)
+        venv.reset()
+        seen = []
+        for _ in range(26):
+            _, _, dones, infos = venv.step(np.full(venv.num_envs, 6))
+            seen += [i.get("TimeLimit.truncated") for d, i in zip(dones, infos) if d and "terminal_observation" in i]
+        assert seen and not any(seen)
+    finally:
+        venv.close()

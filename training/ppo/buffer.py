@@ -31,6 +31,7 @@ import numpy as np
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.type_aliases import RolloutBufferSamples
 
+from training.ppo.original_update import normalise_per_car
 from training.ppo.slots import TeamLayout
 
 
@@ -38,9 +39,12 @@ class MaskedRolloutBuffer(RolloutBuffer):
     """:class:`RolloutBuffer` of slot observations (``layout``) whose minibatches contain only
     live transitions (own alive flag set)."""
 
-    def __init__(self, *args, layout: TeamLayout, group_size: int = 1, **kwargs) -> None:
+    def __init__(self, *args, layout: TeamLayout, group_size: int = 1, per_car_advantages: bool = False,
+                 **kwargs) -> None:
         self.layout = layout
         self.group_size = group_size
+        self.per_car_advantages = per_car_advantages  # normalise per car index over the update
+        self.kl_watch = None  # a training.ppo.original_update.KLWatch, for the paper's KL rule
         super().__init__(*args, **kwargs)
 
     def reset(self) -> None:
@@ -61,7 +65,11 @@ class MaskedRolloutBuffer(RolloutBuffer):
 
     def get(self, batch_size: Optional[int] = None) -> Generator[RolloutBufferSamples, None, None]:
         assert self.full, "the rollout buffer is not full"
-        if not self.generator_ready:
+        if not self.generator_ready:  # the update's first pass
+            if self.per_car_advantages:
+                self.advantages = normalise_per_car(self.advantages, self.mask, self.layout.n_cars)
+            if self.kl_watch is not None:
+                self.kl_watch.start_update()
             for name in ("observations", "actions", "values", "log_probs", "advantages", "returns"):
                 self.__dict__[name] = self.swap_and_flatten(self.__dict__[name])
             self.flat_mask = self.mask.swapaxes(0, 1).reshape(-1)
@@ -112,7 +120,10 @@ class MaskedRolloutBuffer(RolloutBuffer):
         data = (obs, self.actions[batch_inds].astype(np.float32, copy=False),
                 self.values[batch_inds].flatten(), self.log_probs[batch_inds].flatten(),
                 self.advantages[batch_inds].flatten(), self.returns[batch_inds].flatten())
-        return RolloutBufferSamples(*tuple(map(self.to_torch, data)))
+        samples = RolloutBufferSamples(*tuple(map(self.to_torch, data)))
+        if self.kl_watch is not None:
+            self.kl_watch.minibatch(samples.old_log_prob)
+        return samples
 
     def _get_samples(self, batch_inds: np.ndarray, env=None) -> RolloutBufferSamples:
         return self._samples(self._team_rows(batch_inds), batch_inds)

@@ -150,6 +150,20 @@ class CTDEPolicy(ActorCriticPolicy):
         data.update(self.ctde_kwargs)
         return data
 
+    kl_watch = None  # a training.ppo.original_update.KLWatch when the paper's KL rule is on
+
+    def evaluate_actions(self, obs: th.Tensor, actions: th.Tensor):
+        values, log_prob, entropy = super().evaluate_actions(obs, actions)
+        if self.kl_watch is not None:  # PPO's update: the KL of this minibatch, before its step
+            self.kl_watch.measure(log_prob)
+        return values, log_prob, entropy
+
+    def actor_parameters(self) -> list[th.nn.Parameter]:
+        """The actor's parameters: its encoder and MLP and the action head (the critic's are
+        separate, so the two can be stepped apart)."""
+        net = self.mlp_extractor
+        return [*net.actor_encoder.parameters(), *net.actor_mlp.parameters(), *self.action_net.parameters()]
+
 
 def policy_kwargs_for(env: Any, critic: str = "mean") -> dict[str, Any]:
     """``policy_kwargs`` for :class:`CTDEPolicy` from a driving env (its observation layout)."""

@@ -264,6 +264,7 @@ class SlotVecEnv(CarSlots, VecEnv):
         super().__init__(len(env_fns) * self.n_cars, *spaces_)
         self._seed_base: Optional[int] = None
         self.seed_range: Any = None  # a training.common.seeds.SeedRange every seed must lie in, if set
+        self.bootstrap_truncation = True  # False: SB3 sees the horizon as terminal (no bootstrapped value)
         self._finalizer = weakref.finalize(self, _close_inner, self._inner)
 
     # -- instances ----------------------------------------------------------------------------
@@ -299,6 +300,10 @@ class SlotVecEnv(CarSlots, VecEnv):
         obs, rewards, terms, truncs, infos = self._inner.step_wait()
         dones = np.asarray(terms, dtype=bool) | np.asarray(truncs, dtype=bool)
         infos = _unshared(infos)
+        if not self.bootstrap_truncation:  # the horizon as a terminal state (the paper's code)
+            for info in infos:
+                if info.get("TimeLimit.truncated"):
+                    info["TimeLimit.truncated"] = False
         return np.asarray(obs, dtype=np.float32), np.asarray(rewards, dtype=np.float32), dones, infos
 
     def close(self) -> None:

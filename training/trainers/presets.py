@@ -5,17 +5,17 @@ experiment list runs it) as far as SB3's options reach: 20 env instances, an upd
 *joint* steps (each step one decision of every car of an instance still in its episode: with the
 preset's cars that stay after arriving, 32,000 x ``num_cars`` slot-decisions), one pass over them
 in 20 minibatches of whole steps, entropy 1e-4, the value clipped to +-0.2 around its rollout
-estimate, learning rate 1e-3, gamma 0.99, GAE lambda 0.97, clip 0.2, target KL 0.2. What SB3
-does differently (one Adam for actor and critic; the KL rule stops the whole update, not only the
-actor's steps; advantages normalised per minibatch, not per car over the epoch; a time limit
-bootstrapped, not treated as terminal) is tabled in the docs' page "Our world and the paper's".
+estimate, learning rate 1e-3, gamma 0.99, GAE lambda 0.97, clip 0.2, target KL 0.2; past the KL
+limit only the actor stops, advantages normalised per car over the update, Adam's epsilon 1e-8,
+no gradient clipping, the horizon terminal (:mod:`training.ppo.original_update`). What still
+differs is tabled in the docs' page "Our world and the paper's".
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Optional
 
 from box2d_driving.config import ConfigError
 
@@ -36,6 +36,12 @@ class TrainingPreset:
         ent_coef: entropy bonus (``--entropy-coeff``).
         clip_range_vf: the value estimate is clipped to this around the rollout's.
         learning_rate, gamma, gae_lambda, clip_range, target_kl: as the original command.
+        kl_stop: ``"actor"``: past the KL limit only the actor stops (the critic trains on).
+        advantage_normalisation: ``"per_car"``: over the update, per car index.
+        adam_eps: Adam's epsilon (``eps=1e-8`` in the original's two Adams).
+        max_grad_norm: None: gradients are not clipped (the original does not clip).
+        bootstrap_truncation: False: the horizon is terminal (value 0), as the original's
+            ``episode_runner`` treats its timeout.
     """
 
     n_envs: int = 20
@@ -49,6 +55,11 @@ class TrainingPreset:
     gae_lambda: float = 0.97
     clip_range: float = 0.2
     target_kl: float = 0.2
+    kl_stop: str = "actor"
+    advantage_normalisation: str = "per_car"
+    adam_eps: float = 1e-8
+    max_grad_norm: Optional[float] = None
+    bootstrap_truncation: bool = False
 
     def slot_decisions_per_update(self, num_cars: int) -> int:
         """The update's size in slot-decisions: every car of every joint step."""
@@ -64,6 +75,9 @@ class TrainingPreset:
         config.clip_range_vf = self.clip_range_vf
         config.learning_rate, config.gamma, config.gae_lambda = self.learning_rate, self.gamma, self.gae_lambda
         config.clip_range, config.target_kl = self.clip_range, self.target_kl
+        config.kl_stop, config.advantage_normalisation = self.kl_stop, self.advantage_normalisation
+        config.adam_eps, config.max_grad_norm = self.adam_eps, self.max_grad_norm
+        config.bootstrap_truncation = self.bootstrap_truncation
 
 
 TRAINING_PRESETS = {"paper": TrainingPreset()}

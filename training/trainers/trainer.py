@@ -39,6 +39,7 @@ from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.common.seeds import MAX_RUN_SEED, TRAINING
 from training.runs.run_dir import RunError, append_logger, check_new, check_resumable, check_same_run, write_config
 from training.runs.progress import RolloutMetrics, save_checkpoint  # noqa: F401  (re-exported)
+from training.ppo.original_update import ActorStopAdam, KLWatch
 from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
 from training.ppo.workers import worker_processes
 from training.runs.weights import WeightsError, source_fields, widen_state_dict
@@ -78,6 +79,16 @@ class TrainConfig:
             with 8 cars, as the paper does); observation layout and critic must match.
         clip_range_vf: clip the value estimate to this around the rollout's (the paper's code:
             0.2); None: unclipped.
+        kl_stop: ``"update"`` (SB3: the whole update ends once the KL exceeds 1.5 x
+            ``target_kl``) or ``"actor"`` (the paper's code: only the actor stops, the critic
+            trains on; :mod:`training.ppo.original_update`).
+        advantage_normalisation: ``"minibatch"`` (SB3) or ``"per_car"`` (over the whole update,
+            per car index, the paper's code).
+        adam_eps: Adam's epsilon (SB3: 1e-5; the paper's code: 1e-8).
+        max_grad_norm: gradients clipped to this global norm (SB3: 0.5); None: not clipped (the
+            paper's code).
+        bootstrap_truncation: a time limit is a truncation whose value is bootstrapped (True);
+            False treats it as terminal, value 0 (the paper's code).
         preset: the named preset the run was built from (``paper``), recorded for reading; its
             values are already in the other fields.
     """
@@ -105,6 +116,11 @@ class TrainConfig:
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
     clip_range_vf: Optional[float] = None
+    kl_stop: str = "update"
+    advantage_normalisation: str = "minibatch"
+    adam_eps: float = 1e-5
+    max_grad_norm: Optional[float] = 0.5
+    bootstrap_truncation: bool = True
     preset: Optional[str] = None
 
     def __post_init__(self) -> None:
@@ -121,7 +137,16 @@ class TrainConfig:
             "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
             "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
             "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None), "clip_range_vf": (0, None),
-        }, ConfigError, above=("learning_rate", "clip_range", "target_kl", "clip_range_vf"))
+            "adam_eps": (0, 1), "max_grad_norm": (0, None),
+        }, ConfigError, above=("learning_rate", "clip_range", "target_kl", "clip_range_vf", "adam_eps",
+                               "max_grad_norm"))
+        if self.kl_stop not in KL_STOPS:
+            raise ConfigError(f"TrainConfig: kl_stop must be one of {KL_STOPS}, got {self.kl_stop!r}")
+        if self.kl_stop == "actor" and self.target_kl is None:
+            raise ConfigError("TrainConfig: kl_stop='actor' needs a target_kl")
+        if self.advantage_normalisation not in ADVANTAGE_NORMALISATIONS:
+            raise ConfigError(f"TrainConfig: advantage_normalisation must be one of {ADVANTAGE_NORMALISATIONS}, "
+                              f"got {self.advantage_normalisation!r}")
         if self.device not in DEVICES:
             raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
         if self.critic not in CRITICS:
@@ -132,6 +157,8 @@ class TrainConfig:
 
 
 DEVICES = ("auto", "cpu", "cuda")
+KL_STOPS = ("update", "actor")
+ADVANTAGE_NORMALISATIONS = ("minibatch", "per_car")
 
 
 def resolve_device(device: str) -> str:
@@ -176,6 +203,7 @@ def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
     (``spline_policy``: the path picker of spline scenarios, as in ``make_vec_env_from``)."""
     venv = make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy)
     venv.seed_range = TRAINING  # episodes held out for selection and reports are never trained on
+    venv.bootstrap_truncation = config.bootstrap_truncation
     return venv
 
 
@@ -185,15 +213,26 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
     probe = venv.probe.env
     n_cars = len(probe.possible_agents)
     n_steps = config.n_steps(n_cars)
-    return PPO(
+    actor_only = config.kl_stop == "actor"
+    policy_kwargs = policy_kwargs_for(probe, config.critic)
+    policy_kwargs.update(optimizer_class=ActorStopAdam, optimizer_kwargs={"eps": config.adam_eps})
+    model = PPO(
         CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
         n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
         gae_lambda=config.gae_lambda, clip_range=config.clip_range, clip_range_vf=config.clip_range_vf,
-        ent_coef=config.ent_coef, target_kl=config.target_kl, policy_kwargs=policy_kwargs_for(probe, config.critic),
-        rollout_buffer_class=MaskedRolloutBuffer,
-        rollout_buffer_kwargs={"layout": venv.layout},
+        ent_coef=config.ent_coef, target_kl=None if actor_only else config.target_kl,
+        normalize_advantage=config.advantage_normalisation == "minibatch",
+        max_grad_norm=math.inf if config.max_grad_norm is None else config.max_grad_norm,
+        policy_kwargs=policy_kwargs, rollout_buffer_class=MaskedRolloutBuffer,
+        rollout_buffer_kwargs={"layout": venv.layout,
+                               "per_car_advantages": config.advantage_normalisation == "per_car"},
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
+    if actor_only:  # the paper's KL rule: buffer, policy and optimiser share one watch
+        watch = KLWatch(config.target_kl)
+        model.rollout_buffer.kl_watch = model.policy.kl_watch = model.policy.optimizer.watch = watch
+        model.policy.optimizer.actor_params = model.policy.actor_parameters()
+    return model
 
 
 def read_train_config(path: Path) -> TrainConfig:
