@@ -11,6 +11,7 @@ import pytest
 from training.evaluation.checkpoint_curve import CurveError
 from training.results.landing import TrialLander
 from training.sweeps import curves
+from training.sweeps import kept as kept_module
 from training.sweeps.spec import SweepSpec
 from training.sweeps.summary import summary_row, write_summary
 
@@ -37,10 +38,16 @@ def _sweep(tmp_path, done=("num_cars=1",), checkpoints=(100, 200)):
     return out, spec
 
 
+class _Calls(list):
+    """Drawn runs, with ``kept``: the trials whose weights were kept."""
+
+    kept: list
+
+
 @pytest.fixture
 def drawn(monkeypatch):
     """Fake curve drawing: one row per kept checkpoint; records which runs were drawn."""
-    calls = []
+    calls = _Calls()
 
     def fake_run_curve(run, episodes, seed, log=lambda line: None, skip=()):
         calls.append(run.parent.name)
@@ -49,6 +56,16 @@ def drawn(monkeypatch):
                 if c["decisions"] not in skip]
 
     monkeypatch.setattr(curves, "run_curve", fake_run_curve)
+
+    def fake_keep(run, dest):  # the run folders here hold no weights (tests/test_kept_weights.py keeps real ones)
+        kept.append(dest.name)
+        (dest / "config.json").parent.mkdir(parents=True, exist_ok=True)
+        (dest / "config.json").write_text("{}")
+        return dest
+
+    kept: list = []
+    monkeypatch.setattr(kept_module, "keep_final_weights", fake_keep)
+    calls.kept = kept
     return calls
 
 
@@ -73,6 +90,8 @@ def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
     assert [(r["trial"], r["seed"], r["num_cars"], r["decisions"], r["episodes"]) for r in rows] == [
         ("lights_num_cars=1_seed=0", "0", "1", "100", "3"), ("lights_num_cars=1_seed=0", "0", "1", "200", "3")]
     assert lander.land() == [] and drawn == ["lights_num_cars=1_seed=0"]
+    assert drawn.kept == ["lights_num_cars=1_seed=0"]  # its final weights kept, once
+    assert (folder / "weights" / "tiny" / "lights_num_cars=1_seed=0" / "config.json").exists()
 
     # the second trial finishes: only it is drawn, the first one's rows stay
     out2, spec = _sweep(tmp_path / "b", done=("num_cars=1", "num_cars=2"))

@@ -7,7 +7,8 @@ folder (``assets/sweeps/NAME.json`` and ``.csv``; only its finished and failed t
 started yet, and those stopped part-way when the sweep was interrupted, are left out, so a summary
 committed mid-sweep holds no empty rows and no row that the next run of the sweep replaces) and
 that trial's learning curve (every kept checkpoint on selection episodes) is drawn and merged
-into ``curves/NAME.csv``, while the next trial trains. A trial whose curve the curves file
+into ``curves/NAME.csv``, and its final actor weights are kept in ``weights/NAME/<trial>/``
+(:mod:`training.sweeps.kept`), while the next trial trains. A trial whose curve the curves file
 already holds, drawn from the same checkpoints on the same episodes, is not drawn again.
 
 When the sweep stops with trials part-way (Ctrl-C, the session's time running out),
@@ -83,12 +84,21 @@ class TrialLander:
             if trial["run"].is_dir():
                 if self._draw_missing(trial):
                     drawn.append(name)
+                self._keep_weights(trial)
                 self.drawn.add(name)
             # continued from a carried run, here or (a summary committed with its carry left
             # behind) elsewhere: the carry is stale now
             if (self.carried_folder / name).is_dir():
                 shutil.rmtree(self.carried_folder / name)
         return drawn
+
+    def _keep_weights(self, trial: dict) -> None:
+        """The finished trial's final actor weights into ``weights/NAME/<trial>/`` (once)."""
+        from training.sweeps.kept import keep_final_weights, kept_folder
+
+        dest = kept_folder(self.folder, self.name) / trial["trial"]
+        if not (dest / "config.json").exists() and not (dest / "accel").exists():
+            keep_final_weights(trial["run"], dest)
 
     @property
     def carried_folder(self) -> Path:
