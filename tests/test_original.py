@@ -75,8 +75,10 @@ def test_cli_refuses_bad_input_in_one_line(tmp_path, monkeypatch, capsys):
     assert cli.main(["train", "--lidar-noise", "0.25", "--out", str(tmp_path / "x"), "--time-limit", "0"]) == 2
     assert cli.main(["compare", "--episodes", "0", "--out", str(tmp_path / "c")]) == 2
     assert cli.main(["compare", "--first-seed", "5", "--out", str(tmp_path / "c")]) == 2  # a training seed
+    assert cli.main(["evaluate", "--run", str(busy), "--out", str(tmp_path / "m.json")]) == 2  # not a run
     lines = [line for line in capsys.readouterr().err.splitlines() if line]
-    assert len(lines) == 5 and all("error:" in line for line in lines)
+    assert len(lines) == 6 and all("error:" in line for line in lines)
+    assert not (tmp_path / "m.json").exists()
 
 
 def test_resume_needs_the_same_settings(tmp_path):
@@ -149,6 +151,11 @@ def test_sdriving_rollout_reads_as_our_table():
     assert stats["red_entry_share"]["value"] == 0.0  # the rule never enters on red here
     assert stats["collision_rate"]["value"] == 0.5
     assert stats["arrival_decision"]["value"] == pytest.approx(18.5)
+    # our lights report reads it too; time to goal is each car's first arrival, not its last row
+    report = cli.score_table(table)
+    assert report["mean_time_to_goal"] == pytest.approx(18.5)
+    assert report["red_light_violation_rate"] == 0.0 and report["junction_entries"] == 12
+    assert report["intervals"]["collision_rate"]["value"] == 0.5
 
 
 # -- the statistics on hand-built tables -----------------------------------------------------------

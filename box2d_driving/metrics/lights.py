@@ -123,17 +123,30 @@ def violation_causes(table: dict[str, np.ndarray], stop_value: float, max_brake:
 
 
 def outcome_rates(table: dict[str, np.ndarray]) -> dict[str, float]:
-    """Success and collision rates over cars, and mean time to goal (decisions) of arrivals."""
+    """Success and collision rates over cars (their last rows: where cars stay after arriving,
+    ``arrived`` stays true and a later crash counts too), and mean time to goal (decisions) of
+    arrivals: each arrived car's first decision with ``arrived`` set."""
     idx = last_rows(table)
     arrived = table["arrived"][idx]
     collided = table["collided"][idx]
-    times = table["decision"][idx][arrived]
+    times = _arrival_decisions(table)
     return {
         "cars": int(len(idx)),
         "success_rate": float(arrived.mean()) if len(idx) else float("nan"),
         "collision_rate": float(collided.mean()) if len(idx) else float("nan"),
         "mean_time_to_goal": float(times.mean()) if len(times) else float("nan"),
     }
+
+
+def _arrival_decisions(table: dict[str, np.ndarray]) -> np.ndarray:
+    """The first decision with ``arrived`` set of every car that arrived, cars ordered by (episode,
+    car) as :func:`last_rows` orders them."""
+    rows = np.flatnonzero(table["arrived"])
+    order = rows[np.lexsort((table["decision"][rows], table["car"][rows], table["episode"][rows]))]
+    ep, car = table["episode"][order], table["car"][order]
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = (ep[1:] != ep[:-1]) | (car[1:] != car[:-1])
+    return table["decision"][order[first]]
 
 
 def traffic_light_metrics(table: dict[str, np.ndarray], max_brake: float | None = None) -> dict:

@@ -107,6 +107,54 @@ def _compare(args) -> int:
     return 0
 
 
+def score_table(table: dict) -> dict:
+    """Our traffic-light report of a rollout table of the original world: the lights summary
+    (violations with their adopted stop value, success, collisions, time to goal) and the rates'
+    95 % intervals with episodes as clusters."""
+    from box2d_driving.metrics.intervals import rate_intervals
+    from box2d_driving.metrics.lights import traffic_light_metrics
+
+    # the original's hardest braking, -1.5 m/s^2 (fixed_track.py, configure_action_space)
+    metrics = traffic_light_metrics(table, max_brake=1.5)
+    metrics["intervals"] = rate_intervals(table, ("success_rate", "collision_rate", "red_light_violation_rate"))
+    return metrics
+
+
+def _evaluate(args) -> int:
+    from box2d_driving.metrics.rollouts import load_table
+
+    table_path = args.out.with_suffix(".npz")
+    try:
+        if args.episodes < 1:
+            raise OriginalError(f"--episodes must be >= 1, got {args.episodes}")
+        REPORT.episodes(args.episodes, args.first_seed)
+        for path in (args.run / "run.json", args.run / "weights.safetensors"):
+            if not path.is_file():
+                raise OriginalError(f"--run {args.run}: {path.name} is missing (not an original train run folder)")
+        for path in (args.out, table_path):
+            if path.exists():
+                raise OriginalError(f"--out: {path} exists (choose another name)")
+        if not venv_python().exists():
+            raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    except (OriginalError, SeedError, OSError) as exc:
+        return error(str(exc))
+    subprocess.run([str(venv_python()), str(WORKER), "rollout", str(args.run / "run.json"), "--driver", "trained",
+                    "--weights", str(args.run / "weights.safetensors"), "--episodes", str(args.episodes),
+                    "--first-seed", str(args.first_seed), "--out", str(table_path)], check=True,
+                   stderr=subprocess.DEVNULL)
+    state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
+    metrics = score_table(load_table(table_path))
+    metrics.update(episodes=args.episodes, first_seed=args.first_seed, run=str(args.run),
+                   epochs=state.get("epochs_done"), joint_steps=state.get("joint_steps"),
+                   car_decisions=state.get("car_decisions"))
+    tmp = args.out.with_name(args.out.name + ".partial")
+    tmp.write_text(json.dumps(metrics, indent=1, default=float) + "\n")
+    os.replace(tmp, args.out)
+    print(json.dumps({k: v for k, v in metrics.items() if not isinstance(v, dict)}, default=float))
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = OneLineParser(prog=prog_name(), description=DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -136,9 +184,18 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="also write the tables into this page's <!-- compare: NAME --> section")
     c.add_argument("--section", default=None,
                    help="the page's section name (default: the preset's name, or 'default')")
+    e = sub.add_parser("evaluate", help="an original-code run's policy on report episodes, scored by our metrics")
+    e.add_argument("--run", type=Path, required=True, help="an original train run folder")
+    e.add_argument("--episodes", type=int, default=200, help="report episodes (default: 200)")
+    e.add_argument("--first-seed", type=int, default=REPORT.start,
+                   help=f"first report seed (default: {REPORT.start})")
+    e.add_argument("--out", type=Path, required=True,
+                   help="metrics JSON to write (must not exist); the rollout table goes beside it (.npz)")
     args = parser.parse_args(argv)
     if args.command == "setup":
         return setup()
+    if args.command == "evaluate":
+        return _evaluate(args)
     if args.command == "compare":
         return _compare(args)
     try:
