@@ -4,8 +4,8 @@ import re
 import shutil
 from pathlib import Path
 
-from training.results.claims import (CLAIMS, NOT_REPRODUCED, REPRODUCED, UNDECIDED, Claim, Reading, SectionResult,
-                                     claim_row, reading_verdict)
+from training.results.claims import (CLAIMS, DIFFERS, NOT_DETECTED, NOT_RUN, OPPOSITE, REPRODUCED, Claim, Reading,
+                                     SectionResult, claim_row, combined_verdict, reading_verdict)
 from training.results.data import Group
 from training.results.rule_parts import LANES_BUDGET
 from training.results.sections import SECTIONS
@@ -26,16 +26,27 @@ def _result(lines: list[str], curves=None, seeds=(0, 1, 2), title: str = "Big ru
                          (16_000_512,) * len(seeds))
 
 
-def test_a_statement_agrees_differs_or_decides_nothing():
+def test_a_statement_is_reproduced_opposite_not_detected_or_differs():
     r = Reading(r"- x: ", agrees="as in the paper")
     assert reading_verdict("- x: 0.1 ± 0.02: fewer with noise, as in the paper.", r) == REPRODUCED
-    assert reading_verdict("- x: 0.1 ± 0.02: no fall shown (p = 0.4), unlike the paper.", r) == NOT_REPRODUCED
-    assert reading_verdict("- x: 0.1 ± 0.2: the interval straddles 0.1: neither shown.", r) == UNDECIDED
+    assert reading_verdict("- x: falls, paired by seed (4 seeds), high minus low noise -0.115 ± 0.071, p = 0.014, "
+                           "unlike the paper.", r) == OPPOSITE
+    assert reading_verdict("- x: 0.1 ± 0.02: no fall detected (p = 0.4); the interval allows a fall of up to 0.026.",
+                           r) == NOT_DETECTED
+    assert reading_verdict("- x: the intervals overlap: no difference detected.", r) == NOT_DETECTED
+    assert reading_verdict("- x: 0.1 ± 0.2: the interval straddles 0.1: neither shown.", r) == NOT_DETECTED
+    assert reading_verdict("- x: ours 0.957 ± 0.004 against the paper's 98.45 %: the paper's value lies outside "
+                           "our interval; all 3 seeds below it.", r) == DIFFERS
+    # a claim of several parts: the first of opposite, differs, not detected that any part has
+    assert combined_verdict({REPRODUCED, NOT_DETECTED}) == NOT_DETECTED
+    assert combined_verdict({REPRODUCED, DIFFERS, NOT_DETECTED}) == DIFFERS
+    assert combined_verdict({OPPOSITE, REPRODUCED, DIFFERS}) == OPPOSITE
+    assert combined_verdict({REPRODUCED}) == REPRODUCED and combined_verdict(set()) == NOT_DETECTED
 
 
 def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     flat = _curves({"0": [0.0, 0.0005, -0.0005], "1.0": [0.0, 0.0, 0.0]})
-    found = {"big": _result(["- violations: no fall shown, unlike the paper.", "- other: as in the paper."], flat),
+    found = {"big": _result(["- violations: no fall detected.", "- other: as in the paper."], flat),
              "small": _result(["- violations: fewer with noise, as in the paper."], title="Small run")}
     words, paper, ours, now, said = claim_row(CLAIM, found)
     assert (words, paper) == ("More noise, fewer violations", "the paper's 32 M")
@@ -47,8 +58,8 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     assert claim_row(CLAIM, {"big": rounds})[2].startswith("[R](#r): 4.8-5.9 M decisions per trial")
     rounds.ran = ()
     assert claim_row(CLAIM, {"big": rounds})[2] == "[R](#r): 150 bilevel rounds per trial, 3 seeds"
-    assert now == f"**{NOT_REPRODUCED}**; violations stopped moving at both grid points"
-    assert said == "violations: no fall shown, unlike the paper."
+    assert now == f"**{NOT_DETECTED}**; violations stopped moving at both grid points"
+    assert said == "violations: no fall detected."
     # the larger run's trials too few for a statement: the smaller run decides
     found["big"] = _result(["- other: as in the paper."], seeds=(0,))
     words, paper, ours, now, said = claim_row(CLAIM, found)
@@ -61,14 +72,14 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     # only a run that cannot decide yet: it is shown, undecided, and says why
     del found["small"]
     row = claim_row(CLAIM, found)
-    assert row[3].startswith(f"**{UNDECIDED}**") and row[4] == "no statement yet (too few seeds for an interval)"
+    assert row[3].startswith(f"**{NOT_DETECTED}**") and row[4] == "no statement yet (too few seeds for an interval)"
     assert claim_row(CLAIM, {})[2] == "not run yet"
     # no trials in any of its sections: the paper's run and the section that will test it, undecided
     planned = Claim("Lanes", ("lanes-joint", "lanes-paper"), (Reading(r"- x"),), "v", "violations")
     words, paper, ours, now, said = claim_row(planned, {})
     assert (paper, ours, said) == (LANES_BUDGET, "[Lanes with the paper's single 216-way path choice]"
                                    "(#lanes-with-the-papers-single-216-way-path-choice): not run yet", "no trials yet")
-    assert now.startswith(f"**{UNDECIDED}**")
+    assert now == f"**{NOT_RUN}**"
 
 
 def test_a_larger_run_that_speaks_to_one_part_of_a_claim_does_not_yet_replace_one_that_speaks_to_all():
@@ -77,12 +88,12 @@ def test_a_larger_run_that_speaks_to_one_part_of_a_claim_does_not_yet_replace_on
     small = _result(["- offset (8): 0.41 ± 0.2: one side.", "- offset (4): 0.33 ± 0.02: one side."], title="Small run")
     found = {"big": _result(["- offset (8): 0.36 ± 0.46: neither shown."], seeds=(0, 1)), "small": small}
     words, paper, ours, now, said = claim_row(two_parts, found)
-    assert ours.startswith("[Small run](#small-run): ") and now.startswith(f"**{NOT_REPRODUCED}**")
+    assert ours.startswith("[Small run](#small-run): ") and now.startswith(f"**{OPPOSITE}**")
     assert said == "offset (8): 0.41 ± 0.2: one side.<br>offset (4): 0.33 ± 0.02: one side."
     # once the larger run has a statement on both parts, it decides, whatever it says
     found["big"].lines.append("- offset (4): 0.34 ± 0.5: neither shown.")
     words, paper, ours, now, said = claim_row(two_parts, found)
-    assert ours.startswith("[Big run](#big-run): ") and now.startswith(f"**{UNDECIDED}**")
+    assert ours.startswith("[Big run](#big-run): ") and now.startswith(f"**{NOT_DETECTED}**")
     # a larger run with a statement on one part, and no smaller run: that part is what it shows
     del found["small"]
     found["big"].lines.pop()
@@ -140,4 +151,4 @@ def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tm
             assert "no statement yet (too few seeds for an interval)" in line, line
             continue
         assert "not run yet" not in line and "no statement yet" not in line, line
-        assert re.search(r"\*\*(reproduced|not reproduced|not decided)\*\*", line)
+        assert re.search(r"\*\*(reproduced|opposite|not detected|differs)\*\*", line)

@@ -29,9 +29,11 @@ def test_a_metric_is_a_column_its_size_or_the_difference_of_two_metrics():
 def test_mean_and_interval_match_a_hand_computation():
     e = mean_ci([0.10, 0.12, 0.08])
     sd = math.sqrt(((0.0) ** 2 + 0.02 ** 2 + 0.02 ** 2) / 2)
-    assert e.mean == pytest.approx(0.10) and e.high - e.mean == pytest.approx(4.303 * sd / math.sqrt(3))
+    assert e.mean == pytest.approx(0.10) and e.high - e.mean == pytest.approx(4.302653 * sd / math.sqrt(3))
     assert mean_ci([0.3]).low is None and mean_ci([]).n == 0 and mean_ci([1.0, float("nan")]).n == 1
-    assert t95(2) == 4.303 and t95(22) == t95(20) and t95(1000) == 1.96
+    # the exact quantiles, not a table's rounded ones (nor the next tabulated one between rows)
+    assert t95(2) == pytest.approx(4.302653, abs=1e-6) and t95(22) == pytest.approx(2.073873, abs=1e-6)
+    assert t95(1000) == pytest.approx(1.962339, abs=1e-6) and t95(22) < t95(20)
 
 
 def test_the_paper_comparison_says_inside_or_outside(tmp_path):
@@ -56,14 +58,17 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
     assert "both seeds below it; one-sample t-test" in "\n".join(paper_comparison(section.paper_values, two))
     # inside the interval: how many seeds this spread would need (differences -0.0145, 0.0055, 0.0105
     # from 0.9845: a mean of 0.0002 against an sd of 0.013, beyond any sweep)
-    assert "at this mean and spread more than 200 seeds would be needed" in text
+    assert "a planning estimate, taking this mean and spread as true: more than 200 seeds would be needed" in text
 
 
 def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():
-    from training.results.stats import _T95, incomplete_beta
+    from training.results.stats import incomplete_beta
 
-    for dof, t in _T95.items():  # the tabulated 95 % quantiles give p = 0.05
-        assert abs(incomplete_beta(dof / 2, 0.5, dof / (dof + t * t)) - 0.05) < 2e-4
+    # standard tables' 95 % quantiles (3 decimals) against the exact ones, which give p = 0.05
+    table = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 10: 2.228, 20: 2.086, 30: 2.042, 120: 1.980}
+    for dof, t in table.items():
+        assert abs(t95(dof) - t) < 6e-4
+        assert abs(incomplete_beta(dof / 2, 0.5, dof / (dof + t95(dof) ** 2)) - 0.05) < 1e-9
     assert t_test_p([1.0, 2.0, 3.0], 2.0) == pytest.approx(1.0)
     # t = (2 - 0) / (1 / sqrt 3) = 3.464 with 2 dof: p = 0.0742 (tables)
     assert t_test_p([1.0, 2.0, 3.0], 0.0) == pytest.approx(0.0742, abs=5e-4)
@@ -90,13 +95,16 @@ def test_welch_p_value_and_the_seeds_two_independent_rows_would_need():
     # sd 0.01 in each row, means 0.02 apart: k seeds per row tell once t95(dof) * sqrt(2e-4 / k) < 0.02,
     # with dof = 2 (k - 1): k = 4 (t95(6) = 2.447: 0.0173)
     assert seeds_needed_apart([0.09, 0.10, 0.11], [0.11, 0.12, 0.13]) == \
-        "; at this difference and spread about 4 seeds per row would tell"
+        "; a planning estimate, taking this difference and spread as true: about 4 seeds per row would tell"
     assert seeds_needed_apart([0.1, 0.2], [0.1, 0.2]) == ""
     more = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.118, 0.134, 0.127])})
     four = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.076, 0.077, 0.114])})
     line = reference_statement([more], four, "the 4-car row")[0]
-    assert "the intervals overlap: no difference shown, unlike the paper (Welch's t-test p = " in line
-    assert f"p = {welch_p([0.118, 0.134, 0.127], [0.076, 0.077, 0.114]):.3f}; at this difference" in line
+    # not detected, with the largest fall the two intervals still allow: 4-car high minus 8-car low
+    allow = four.estimates["red_light_violation_rate"].high - more.estimates["red_light_violation_rate"].low
+    assert (f"the intervals overlap: no difference detected; they allow a fall of up to {max(0.0, allow):.3f} "
+            "(Welch's t-test p = ") in line
+    assert f"p = {welch_p([0.118, 0.134, 0.127], [0.076, 0.077, 0.114]):.3f}; a planning estimate" in line
     # overlapping intervals whose difference Welch's test still separates (the 8-car 16 M row against
     # five 4-car seeds): the verdict follows the test and names no seed count
     five = Group({}, [0, 1, 2, 3, 4], {"red_light_violation_rate": mean_ci([0.076, 0.0775, 0.114, 0.076, 0.099])})
@@ -191,7 +199,7 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert f"{mean_ci([0.10, 0.12, 0.11]).format()} (0.100, 0.120, 0.110)" in section  # sizes, not signed values
     assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section
     # the same seeds at both levels: paired by seed
-    assert "- speaker consistency (bits): noise 0" in section and "no rise shown (paired by seed (3 seeds)" in section
+    assert "- speaker consistency (bits): noise 0" in section and "no rise detected (paired by seed (3 seeds)" in section
     assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, paired by seed (3 seeds)" in section
     # the ablation is differenced per trial (the seeds' own success spread cancels), then estimated over seeds
     lost_0, lost_05 = mean_ci([0.07, 0.06, 0.08]), mean_ci([-0.01, 0.01, 0.0])
@@ -219,7 +227,7 @@ def test_lanes_and_pedestrian_statements_read_the_intervals():
     assert "more one-sided with 8 cars, intervals apart, as in the paper" in text
     assert "- one-sided offset: num_cars=2" in text and "further off the axis on one side with 8 cars, intervals apart" in text
     lanes[1].estimates["lanes.majority_share"] = mean_ci([0.50, 0.70, 0.60])
-    assert "no difference shown, unlike the paper" in "\n".join(statements(section("lanes"), lanes, {}))
+    assert "no difference detected" in "\n".join(statements(section("lanes"), lanes, {}))
 
     walk = [Group({}, [0, 1, 2], {"share_more_than_6m": mean_ci([0.99, 0.98, 0.995]), "success_rate": mean_ci([0.9] * 3)})]
     assert "most samples keep more than 6 m, as in the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
@@ -239,8 +247,8 @@ def test_an_overlap_or_a_straddle_says_how_many_seeds_would_tell():
     many = Group({"num_cars": "8"}, [0, 1, 2], {"offset": mean_ci([0.20, 0.60, 0.70])})
     line = apart_statement("num_cars", "4", "8", "offset", "one-sided offset", "more with 8")([few, many], {})[0]
     more = seeds_needed_apart([0.30, 0.35, 0.40], [0.20, 0.60, 0.70])
-    assert more.startswith("; at this difference and spread about ")
-    assert line.endswith(f"the intervals overlap: no difference shown, unlike the paper{more}.")
+    assert more.startswith("; a planning estimate, taking this difference and spread as true: about ")
+    assert line.endswith(f"the intervals overlap: no difference detected{more}.")
     # apart: no seed count
     many.estimates["offset"] = mean_ci([0.60, 0.62, 0.64])
     line = apart_statement("num_cars", "4", "8", "offset", "one-sided offset", "more with 8")([few, many], {})[0]
@@ -251,9 +259,9 @@ def test_an_overlap_or_a_straddle_says_how_many_seeds_would_tell():
     # 2.776 * 0.265 / sqrt 5 = 0.33 < 0.4: five would tell
     lone = Group({"num_cars": "8"}, [0, 1, 2], {"offset": mean_ci([0.20, 0.60, 0.70])})
     say = above_statement("offset", "one-sided offset", "one side", "on the axis", level=0.1, level_text="0.1")
-    assert seeds_needed([0.1, 0.5, 0.6]) == "; at this mean and spread about 5 seeds would tell"
-    assert say([lone], {})[0].endswith(
-        "the interval straddles 0.1: neither shown; at this mean and spread about 5 seeds would tell.")
+    planning = "; a planning estimate, taking this mean and spread as true: about 5 seeds would tell"
+    assert seeds_needed([0.1, 0.5, 0.6]) == planning
+    assert say([lone], {})[0].endswith(f"the interval straddles 0.1: neither shown{planning}.")
     lone.estimates["offset"] = mean_ci([0.5, 0.6, 0.7])
     assert say([lone], {})[0].endswith("one side, as in the paper.")
 
@@ -310,7 +318,7 @@ def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_poin
     assert "- 4 cars, red-light violations: noise 0" in text and "rises, paired by seed (3 seeds)" in text
     assert "unlike the paper." in text
     groups[2] = point("0.75", "4", [0.10, 0.20, 0.30])
-    assert "no fall shown (paired by seed" in "\n".join(statements(section("traffic-lights"), groups, {}))
+    assert "no fall detected (paired by seed" in "\n".join(statements(section("traffic-lights"), groups, {}))
 
 
 def test_a_noise_trend_is_paired_by_seed_where_the_seeds_match():
@@ -328,17 +336,24 @@ def test_a_noise_trend_is_paired_by_seed_where_the_seeds_match():
     assert f"p = {t_test_p(diffs, 0.0):.3f}, as in the paper." in line
     # seeds that do not match (0-2 against 3-5): intervals only
     other = point("1.0", [0.08, 0.18, 0.29], seeds=(3, 4, 5))
-    assert "the intervals overlap: no fall shown" in noise_trend([low, other], [("v", "violations")], paper=-1)[0]
+    line = noise_trend([low, other], [("v", "violations")], paper=-1)[0]
+    # not detected: the largest fall the intervals allow, low's top minus high's bottom
+    allow = low.estimates["v"].high - other.estimates["v"].low
+    assert f"the intervals overlap: no fall detected; the interval allows a fall of up to {allow:.3f}" in line
     # how many seeds a spread would need: a mean of 0.01 with sd 0.01 needs 7 (t95(6) * 0.01 / sqrt(7) < 0.01)
-    assert seeds_needed([0.0, 0.01, 0.02]) == "; at this mean and spread about 7 seeds would tell"
+    assert seeds_needed([0.0, 0.01, 0.02]) == ("; a planning estimate, taking this mean and spread as true: "
+                                               "about 7 seeds would tell")
     assert seeds_needed([0.0, 0.0, 0.0]) == ""
-    assert "no fall shown" in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
-    # a difference not shown still says how many seeds moved the paper's way (here 1 of 3 fall)
-    assert ", unlike the paper; 1 of 3 seeds fall; at this mean" in noise_trend(
-        [low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
+    line = noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=-1)[0]
+    assert "no fall detected" in line and "unlike the paper" not in line  # not detected is not the opposite
+    # paired: the largest fall the interval of the differences allows is minus its lower end
+    d = mean_ci([0.01, -0.01, 0.0])
+    assert f"; the interval allows a fall of up to {-d.low:.3f}" in line
+    # a difference not detected still says how many seeds moved the paper's way (here 1 of 3 fall)
+    assert "; 1 of 3 seeds fall; a planning estimate" in line
     # every seed falls, by amounts too spread to show: 3 of 3
     line = noise_trend([low, point("1.0", [0.099, 0.15, 0.25])], [("v", "violations")], paper=-1)[0]
-    assert "no fall shown" in line and "; 3 of 3 seeds fall" in line
+    assert "no fall detected" in line and "; 3 of 3 seeds fall" in line
     # no direction reported by the paper: no count
     assert "seeds fall" not in noise_trend([low, point("1.0", [0.11, 0.19, 0.30])], [("v", "violations")], paper=0)[0]
 

@@ -1,9 +1,10 @@
 """Where the results page stands on the paper's claims: one table at the top of docs/results.md,
-a row per claim the page tests at the paper's own settings, saying "reproduced", "not reproduced" or
-"not decided" at the largest budget run so far, and whether the claim's metric had stopped moving there.
+a row per claim the page tests at the paper's own settings, saying "reproduced", "opposite", "not
+detected" or "differs" at the largest budget run so far, and whether the claim's metric had stopped
+moving there.
 
 Nothing here judges a number: a row reads the statements its section already printed (each says
-"as in the paper", "unlike the paper" or "neither shown" in its own words) and the section's
+"as in the paper", "unlike the paper", "no ... detected" or "neither shown" in its own words) and the section's
 learning curves through :func:`training.results.curves.plateau_verdict`, so the table can never
 disagree with the sections below it.
 """
@@ -22,11 +23,16 @@ from training.common.markdown import all_of, anchor, row, separator
 from training.results.sections import section
 from training.results.stats import ONE_SEED
 
-__all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "reading_verdict"]
+__all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "combined_verdict",
+           "reading_verdict"]
 
-# a claim is "not reproduced" both where we measure the opposite and where we show no effect the
-# paper reports (its statement says which)
-REPRODUCED, NOT_REPRODUCED, UNDECIDED = "reproduced", "not reproduced", "not decided"
+# the verdicts, one rule for all (stated once, in the page's legend): the effect shown in the
+# paper's direction or the paper's value inside our interval; the effect shown the other way; no
+# effect shown either way; a value of the paper's that our interval excludes
+REPRODUCED, OPPOSITE, NOT_DETECTED, DIFFERS = "reproduced", "opposite", "not detected", "differs"
+NOT_RUN = "not run yet"
+# how a claim of several parts is decided: the first of these any part has, else reproduced
+PRECEDENCE = (OPPOSITE, DIFFERS, NOT_DETECTED)
 
 
 @dataclass(frozen=True)
@@ -111,10 +117,22 @@ CLAIMS: tuple[Claim, ...] = (
 
 
 def reading_verdict(line: str, reading: Reading) -> str:
-    """One statement line read for its claim: :data:`REPRODUCED`, :data:`UNDECIDED` or :data:`NOT_REPRODUCED`."""
+    """One statement line read for its claim: :data:`REPRODUCED` (it agrees with the paper),
+    :data:`NOT_DETECTED` (its interval straddles the comparison: "no ... detected", "neither
+    shown"), :data:`DIFFERS` (a value of the paper's outside our interval or outside the paper's
+    spread) or :data:`OPPOSITE` (an effect shown the other way)."""
     if reading.agrees in line:
         return REPRODUCED
-    return UNDECIDED if "neither shown" in line else NOT_REPRODUCED
+    if "neither shown" in line or re.search(r"\bno [a-z ]+ detected\b", line):
+        return NOT_DETECTED
+    if "lies outside our interval" in line or "outside that spread" in line:
+        return DIFFERS
+    return OPPOSITE
+
+
+def combined_verdict(verdicts: set[str]) -> str:
+    """A claim's verdict from its parts' (:data:`PRECEDENCE`); no part read: not detected."""
+    return next((v for v in PRECEDENCE if v in verdicts), REPRODUCED if verdicts else NOT_DETECTED)
 
 
 def _plateau(result: SectionResult, metric: str, label: str) -> str:
@@ -164,14 +182,12 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
             paper, where = planned.paper_budget, f"[{planned.title}](#{anchor(planned.title)}): "
         except KeyError:  # a claim whose section is not on the page
             paper, where = "", ""
-        return [claim.words, paper, f"{where}not run yet", f"**{UNDECIDED}**; not run yet", "no trials yet"]
+        return [claim.words, paper, f"{where}not run yet", f"**{NOT_RUN}**", "no trials yet"]
     key = next((k for k in tried if _speaks_to_every_part(claim, found[k])),
                next((k for k in tried if _deciding_lines(claim, found[k])), tried[0]))
     result = found[key]
     lines = _deciding_lines(claim, result)
-    verdicts = {reading_verdict(line, r) for line, r in lines}
-    verdict = (NOT_REPRODUCED if NOT_REPRODUCED in verdicts else UNDECIDED if UNDECIDED in verdicts or not verdicts
-               else REPRODUCED)
+    verdict = combined_verdict({reading_verdict(line, r) for line, r in lines})
     seeds = sorted({len(g.seeds) for g in result.groups})
     seeds_text = "1 seed" if seeds == [1] else f"{seeds[0]} seeds" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]} seeds"
     ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text}"

@@ -184,10 +184,13 @@ def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
     return ["## Where the page stands on the paper's claims", "",
             "Each claim this page tests at the paper's own settings, read from its largest run so far that speaks to "
             "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
-            "section below): *reproduced* "
-            "where that section's statements agree with the paper, *not reproduced* where one of them does not (an "
-            "effect the paper reports that we do not show, or the opposite), *not decided* where an interval "
-            "straddles the comparison; and whether the claim's measure had stopped moving by the end of training "
+            "section below). One rule decides every verdict: *reproduced* where the interval shows the effect in "
+            "the paper's direction (excludes no effect), or holds the paper's value; *opposite* where it excludes no "
+            "effect in the other direction; *not detected* where it straddles no effect (the statement says the "
+            "largest effect in the paper's direction the interval still allows); *differs* where the paper gives a "
+            "value and our interval excludes it. A claim of several parts takes the first of opposite, differs, not "
+            "detected that any part has, else reproduced. Seed counts that would tell are planning estimates: they "
+            "take the observed mean and spread as true. And whether the claim's measure had stopped moving by the end of training "
             "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
             "noisy to tell, how many seeds with curves the observed spread would need to settle it.", "",
             *claims_table(found_sections), ""]

@@ -81,7 +81,8 @@ def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
     """The paper's first lights trend (more cars, fewer violations) read from the two intervals."""
     return {-1: "fewer violations with more cars, intervals apart, as in the paper.",
             1: "more violations with more cars, intervals apart, unlike the paper.",
-            0: "the intervals overlap: no difference shown, unlike the paper."}[apart(fewer, more)]
+            0: f"the intervals overlap: no difference detected; they allow a fall of up to "
+               f"{max(0.0, fewer.high - more.low):.3f}."}[apart(fewer, more)]
 
 
 def by_verdict(subject: str, readings: list[tuple[str, str, str]]) -> list[str]:
@@ -165,17 +166,20 @@ def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, p
         seen = 0 if d.low <= 0.0 <= d.high else (1 if d.mean > 0 else -1)
         how = (f"paired by seed ({len(diffs)} seeds), high minus low {name} {d.mean:+.3f} ± "
                f"{(d.high - d.low) / 2:.3f}, p = {p:.3f}")
-        moved, unmoved, more = f", {how}", f" shown ({how})", seeds_needed(diffs)
+        moved, unmoved, more = f", {how}", f" detected ({how})", seeds_needed(diffs)
+        allows = d.high if paper > 0 else -d.low  # the largest effect the paper's way the interval keeps
     else:
         seen = apart(a, b)
-        moved, unmoved, more = ", intervals apart", " shown", ""
+        moved, unmoved, more = ", intervals apart", " detected", ""
+        allows = b.high - a.low if paper > 0 else a.high - b.low
     expected = ("rise" if paper > 0 else "fall") if paper else "change"
     if seen:
         verdict = ("rises" if seen > 0 else "falls") + moved + (
             "" if not paper else ", as in the paper" if seen == paper else ", unlike the paper")
     else:
         verdict = ("" if paired else "the intervals overlap: ") + f"no {expected}{unmoved}" + (
-            ", unlike the paper" if paper else "") + _seeds_the_papers_way(diffs if paired else [], paper)
+            f"; the interval allows a {expected} of up to {max(0.0, allows):.3f}" if paper else ""
+        ) + _seeds_the_papers_way(diffs if paired else [], paper)
         verdict += more  # how many seeds would tell
     return f"- {label}: {name} {low.point[key]} {a.format()}, {name} {high.point[key]} {b.format()}: {verdict}."
 
@@ -237,8 +241,8 @@ def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
         return ""
     for k in range(2, most + 1):
         if half_width(sd, k) < abs(mean):
-            return f"; at this mean and spread about {k} seeds would tell"
-    return f"; at this mean and spread more than {most} seeds would be needed"
+            return f"; a planning estimate, taking this mean and spread as true: about {k} seeds would tell"
+    return f"; a planning estimate, taking this mean and spread as true: more than {most} seeds would be needed"
 
 
 def seeds_needed_apart(a: Sequence[float], b: Sequence[float], most: int = 200) -> str:
@@ -254,8 +258,9 @@ def seeds_needed_apart(a: Sequence[float], b: Sequence[float], most: int = 200) 
         # Welch-Satterthwaite degrees of freedom with k seeds in each row
         dof = (va + vb) ** 2 * (k - 1) / (va * va + vb * vb) if va * vb else k - 1
         if t95(max(1, int(dof))) * math.sqrt((va + vb) / k) < abs(ma - mb):
-            return f"; at this difference and spread about {k} seeds per row would tell"
-    return f"; at this difference and spread more than {most} seeds per row would be needed"
+            return f"; a planning estimate, taking this difference and spread as true: about {k} seeds per row would tell"
+    return (f"; a planning estimate, taking this difference and spread as true: more than {most} seeds per row "
+            f"would be needed")
 
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:
@@ -294,7 +299,7 @@ def apart_statement(key: str, few: str, many: str, metric: Metric, label: str, c
             # an overlap says how many seeds per row the observed difference would need (item: add
             # seeds where an interval straddles the comparison, or say how many)
             verdict = {1: f"{claim}, intervals apart{paper[0]}.",
-                       0: f"the intervals overlap: no difference shown{paper[1]}"
+                       0: f"the intervals overlap: no difference detected"
                           f"{seeds_needed_apart(a.values, b.values)}.",
                        -1: f"the opposite of {claim}, intervals apart{paper[1]}."}[apart(a, b)]
             where = f" ({_where(dict(rest))})" if rest else ""

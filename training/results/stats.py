@@ -6,6 +6,7 @@ of what three runs can say, and the reason every result page shows the per-seed 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
@@ -14,20 +15,27 @@ from typing import Iterable, Optional, Sequence
 # finds single-seed statements by it
 ONE_SEED = "(1 seed)"
 
-# two-sided 95 % quantiles of Student's t, by degrees of freedom (standard table values)
-_T95 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
-        10: 2.228, 11: 2.201, 12: 2.179, 13: 2.160, 14: 2.145, 15: 2.131, 16: 2.120, 17: 2.110,
-        18: 2.101, 19: 2.093, 20: 2.086, 25: 2.060, 30: 2.042, 40: 2.021, 60: 2.000, 120: 1.980}
-
-
-def t95(dof: int) -> float:
-    """The two-sided 95 % t quantile for ``dof`` degrees of freedom (the next tabulated smaller
-    dof where the table has a gap, which errs on the wide side; 1.96 beyond 120)."""
-    if dof < 1:
+def t95(dof: float) -> float:
+    """The two-sided 95 % quantile of Student's t for ``dof`` degrees of freedom, exact to 1e-12
+    (found by bisection on the distribution's tail, :func:`incomplete_beta`; 1.960 is only its
+    limit): ``P(|T| > t95(dof)) = 0.05``."""
+    if not dof >= 1:
         raise ValueError(f"degrees of freedom must be >= 1, got {dof}")
-    if dof > 120:
-        return 1.960
-    return _T95[max(k for k in _T95 if k <= dof)]
+    return _t95(float(dof))
+
+
+@functools.lru_cache(maxsize=None)
+def _t95(dof: float) -> float:
+    low, high = 1.9, 13.0  # the quantile lies between its normal limit and its value at dof = 1
+    for _ in range(100):
+        mid = 0.5 * (low + high)
+        if incomplete_beta(dof / 2.0, 0.5, dof / (dof + mid * mid)) > 0.05:
+            low = mid
+        else:
+            high = mid
+        if high - low < 1e-12:
+            break
+    return 0.5 * (low + high)
 
 
 def half_width(sd: float, n: int) -> float:
