@@ -129,6 +129,13 @@ def test_carry_restores_weights_optimisers_and_random_states(tmp_path):
     assert not list(tmp_path.glob("*.partial"))
     # the weights file is safetensors: no pickle anywhere in the carry
     assert (tmp_path / "weights.safetensors").read_bytes()[8:9] == b"{"
+    # a learning-curve point: the actor alone
+    from safetensors.torch import load_file
+
+    path = worker.save_actor(str(tmp_path), a, 5)
+    assert path.endswith("actors/epoch_0005.safetensors")
+    kept = load_file(path)
+    assert set(kept) == {f"actor.{k}" for k in a.ac.pi.state_dict()}
 
 
 # -- the adapter: an sdriving rollout read as our table ---------------------------------------------

@@ -128,9 +128,11 @@ def _evaluate(args) -> int:
         if args.episodes < 1:
             raise OriginalError(f"--episodes must be >= 1, got {args.episodes}")
         REPORT.episodes(args.episodes, args.first_seed)
-        for path in (args.run / "run.json", args.run / "weights.safetensors"):
+        weights = (args.run / "weights.safetensors" if args.epoch is None
+                   else args.run / "actors" / f"epoch_{args.epoch:04d}.safetensors")
+        for path in (args.run / "run.json", weights):
             if not path.is_file():
-                raise OriginalError(f"--run {args.run}: {path.name} is missing (not an original train run folder)")
+                raise OriginalError(f"--run {args.run}: {path.relative_to(args.run)} is missing")
         for path in (args.out, table_path):
             if path.exists():
                 raise OriginalError(f"--out: {path} exists (choose another name)")
@@ -140,14 +142,15 @@ def _evaluate(args) -> int:
     except (OriginalError, SeedError, OSError) as exc:
         return error(str(exc))
     subprocess.run([str(venv_python()), str(WORKER), "rollout", str(args.run / "run.json"), "--driver", "trained",
-                    "--weights", str(args.run / "weights.safetensors"), "--episodes", str(args.episodes),
+                    "--weights", str(weights), "--episodes", str(args.episodes),
                     "--first-seed", str(args.first_seed), "--out", str(table_path)], check=True,
                    stderr=subprocess.DEVNULL)
     state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
     metrics = score_table(load_table(table_path))
     metrics.update(episodes=args.episodes, first_seed=args.first_seed, run=str(args.run),
-                   epochs=state.get("epochs_done"), joint_steps=state.get("joint_steps"),
-                   car_decisions=state.get("car_decisions"))
+                   epochs=state.get("epochs_done") if args.epoch is None else args.epoch,
+                   weights=str(weights), joint_steps=state.get("joint_steps") if args.epoch is None else None,
+                   car_decisions=state.get("car_decisions") if args.epoch is None else None)
     tmp = args.out.with_name(args.out.name + ".partial")
     tmp.write_text(json.dumps(metrics, indent=1, default=float) + "\n")
     os.replace(tmp, args.out)
@@ -186,6 +189,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="the page's section name (default: the preset's name, or 'default')")
     e = sub.add_parser("evaluate", help="an original-code run's policy on report episodes, scored by our metrics")
     e.add_argument("--run", type=Path, required=True, help="an original train run folder")
+    e.add_argument("--epoch", type=int, default=None,
+                   help="score the actor kept after this epoch (actors/epoch_NNNN.safetensors; default: the latest)")
     e.add_argument("--episodes", type=int, default=200, help="report episodes (default: 200)")
     e.add_argument("--first-seed", type=int, default=REPORT.start,
                    help=f"first report seed (default: {REPORT.start})")

@@ -9,7 +9,8 @@ and keeps what a resumable run needs in plain files:
 * ``state.json``: epochs done, joint steps, car-decisions, seconds, numpy's and Python's random
   states (the next epoch is a function of these and the weights, so a resumed run continues
   bit for bit where it stopped);
-* ``progress.csv``: one row per epoch.
+* ``progress.csv``: one row per epoch;
+* ``actors/epoch_NNNN.safetensors``: the actor every 5 epochs and at the end, for learning curves.
 
 One Horovod worker instead of the original's 20 changes one thing: the original sums the
 gradients of its 20 workers' minibatches (each 1/20 of that worker's share of the epoch), this
@@ -36,6 +37,8 @@ WEIGHTS = "weights.safetensors"
 STATE = "state.json"
 PROGRESS = "progress.csv"
 RUN = "run.json"
+ACTORS = "actors"
+SNAPSHOT_EVERY = 5  # epochs between kept actors (run.json's "snapshot_every" overrides)
 PROGRESS_COLUMNS = ("epoch", "joint_steps", "car_decisions", "episodes", "episode_return", "entropy",
                     "kl", "stop_iter", "seconds")
 
@@ -129,6 +132,19 @@ def save_carry(folder: str, trainer, state: dict) -> None:
         tmp = os.path.join(folder, name + ".partial")
         write(tmp)
         os.replace(tmp, os.path.join(folder, name))
+
+
+def save_actor(folder: str, trainer, epoch: int) -> str:
+    """The actor after ``epoch`` epochs, alone (``actors/epoch_NNNN.safetensors``, 0.3 MB): the
+    points of the run's learning curve (``box2d-driving original evaluate`` scores any of them)."""
+    from safetensors.torch import save_file
+
+    os.makedirs(os.path.join(folder, ACTORS), exist_ok=True)
+    path = os.path.join(folder, ACTORS, f"epoch_{epoch:04d}.safetensors")
+    tensors = {f"actor.{k}": v.detach().clone().contiguous() for k, v in trainer.ac.pi.state_dict().items()}
+    save_file(tensors, path + ".partial")
+    os.replace(path + ".partial", path)
+    return path
 
 
 def _write_json(path: str, data: dict) -> None:
@@ -235,6 +251,9 @@ def train(folder: str, time_limit_s: float) -> int:
         with open(progress, "a", newline="") as f:
             csv.writer(f).writerow([row[c] for c in PROGRESS_COLUMNS])
         save_carry(folder, trainer, state)
+        every = run.get("snapshot_every", SNAPSHOT_EVERY)
+        if every and (state["epochs_done"] % every == 0 or state["epochs_done"] == run["epochs"]):
+            save_actor(folder, trainer, state["epochs_done"])
         print(f"epoch {state['epochs_done']}/{run['epochs']}: {decisions} car-decisions, {episodes} episodes, "
               f"return {row['episode_return']:.3f}, {seconds:.0f} s", flush=True)
     return 0
