@@ -72,6 +72,8 @@ class SectionResult:
     curves: Optional[list[dict[str, Any]]]
     keys: list[str]
     ran: tuple[int, ...] = ()
+    paper_joint_steps: int = 0
+    cars: int = 0
 
 
 def _budget(result: SectionResult) -> str:
@@ -81,7 +83,12 @@ def _budget(result: SectionResult) -> str:
     low, high = min(result.ran) / 1e6, max(result.ran) / 1e6
     ran = f"{low:.1f} M" if f"{low:.1f}" == f"{high:.1f}" else f"{low:.1f}-{high:.1f} M"
     asked = "" if "decisions" in result.budget else f" ({result.budget})"
-    return f"{ran} decisions per trial{asked}"
+    share = ""
+    if result.paper_joint_steps and result.cars:  # our slot-decisions are joint steps x cars
+        joint = max(result.ran) / result.cars
+        share = (f" = {joint / 1e6:.2f} M joint steps of {result.cars} cars, "
+                 f"{100 * joint / result.paper_joint_steps:.0f} % of the paper's {result.paper_joint_steps / 1e6:g} M")
+    return f"{ran} decisions per trial{asked}{share}"
 
 
 # "lanes with 8 cars, none with 4": whether each car count keeps to one side (both lanes sections)

@@ -64,6 +64,11 @@ class Section:
             against in a statement (same metrics, intervals apart or not).
         paper_budget: what the paper's own runs of this rule trained (from the original code's
             experiment list), shown beside ours; empty where we do not know it.
+        paper_joint_steps: joint env steps per trial of the paper's own runs of this rule (epochs x
+            32,000; 0 where the page does not compare); with ``cars``, the claims table gives our
+            trials' share of them.
+        cars: cars per instance in this section's trials (0: they vary): our joint steps are our
+            slot-decisions over it.
         curve_extra: learning-curve columns (``box2d-driving curve``'s names) drawn and judged
             beside the table's plain metrics, for table metrics derived from a summary's figures
             (which a curve computes from its samples instead).
@@ -90,6 +95,8 @@ class Section:
     headlines: tuple[Headline, ...] = ()
     compare_with: Optional[tuple[str, tuple[tuple[str, str], ...]]] = None
     paper_budget: str = ""
+    paper_joint_steps: int = 0
+    cars: int = 0
     curve_extra: tuple[tuple[str, str], ...] = ()
     joins: Optional[tuple[str, str]] = None
 

@@ -156,7 +156,7 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     baseline = section.baseline(summary, groups) if section.baseline is not None else {}
     notes = statements(section, groups, baseline, *reference(section, summaries))
     result = SectionResult(section.title, section.paper_budget, trial_budget(summary["sweep"]), groups, notes,
-                           curves, keys, tuple(ran_decisions(trials)))
+                           curves, keys, tuple(ran_decisions(trials)), section.paper_joint_steps, section.cars)
     if notes:
         parts += notes + [""]
     if section.figure is not None and groups:

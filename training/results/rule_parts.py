@@ -47,7 +47,8 @@ AGAINST_NOISE = (("communication.speaker_consistency_bits", "speaker consistency
 COMMUNICATION_METRICS = (*AGAINST_NOISE[:2], ("success_rate", "success"), AGAINST_NOISE[2])
 COMMUNICATION_CLAIM = ("Speaker consistency and |Pearson(heading change, bit)| both rise with LiDAR noise: cars rely "
                        "more on the message when their perception is less reliable.")
-COMMUNICATION_BUDGET = "12 cars at LiDAR noise 0, 0.5 and 0.75, 1,000 epochs (32 M decisions)"
+COMMUNICATION_BUDGET = ("12 cars at LiDAR noise 0, 0.5 and 0.75, entropy 1e-4, 1,000 epochs of 32,000 joint steps "
+                        "(32 M joint steps: up to 384 M car-decisions, fewer as arrived cars leave this junction)")
 # every turn-signal section's figure and statements: the trend with noise, then whether the
 # listeners rely on the message at each noise level
 COMMUNICATION_FIGURE = against_noise_figure(AGAINST_NOISE)
@@ -62,8 +63,14 @@ COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
 # the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
 LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
                   ("collision_rate", "collisions"))
-LIGHTS_NOISE_BUDGET = "4 cars at LiDAR noise 0.25, 0.5, 0.75 and 1.0, entropy 0.01, 75 epochs of 32,000 decisions (2.4 M)"
-DENSER_BUDGET = "8 cars fine-tuned from the 4-car policy for 500 epochs (16 M decisions); 12 cars for 1,000 epochs"
+LIGHTS_NOISE_BUDGET = ("4 cars at LiDAR noise 0.25, 0.5 and 0.75 for 75 epochs and 1.0 for 50, entropy 1e-4; an epoch "
+                       "is 32,000 joint steps, each a decision of every car (arrived cars stay): 75 epochs = 2.4 M "
+                       "joint steps, about 9.6 M car-decisions")
+DENSER_BUDGET = ("8 cars fine-tuned from the 4-car noise-0 policy for 500 epochs (16 M joint steps, about 128 M "
+                 "car-decisions), entropy 1e-4; a 12-car run was described, 1,000 epochs more (its listed command "
+                 "says 8 cars)")
+# joint steps per trial of the paper's runs (epochs x 32,000): our trials' fraction of them
+LIGHTS_NOISE_JOINT_STEPS, DENSER_JOINT_STEPS = 75 * 32_000, 500 * 32_000
 # the lanes rules' table columns, figure, statements (fewer cars against 8) and the paper's runs
 LANES_METRICS = (("lanes.majority_share", "crossings on the majority side"),
                  ("lanes.time_share_majority", "time on the majority side"),
@@ -87,8 +94,8 @@ LANES_NOISE_METRICS = ((ONE_SIDED, "one-sided offset"), ("lanes.time_share_major
 # the claim both paper-car-count lanes sections test (our path choice and the paper's)
 LANES_PAPER_CLAIM = ("With 8 cars and noisy LiDAR, cars settle on one side of the road; with fewer cars they do not "
                      "(the paper's runs: 4 and 8 cars).")
-LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, 150 to 1,000 epochs (4.8-32 M decisions), 1,200 "
-                "spline episodes per epoch")
+LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, entropy 1e-4, 150 to 1,000 epochs of 32,000 joint steps "
+                "(4.8-32 M joint steps, each a decision of every car), 1,200 spline episodes per epoch")
 
 
 def lanes_statements(fewer: str, paper_counts: bool) -> tuple[Statement, ...]:
@@ -149,4 +156,5 @@ def right_of_way(key: str, title: str, match: tuple[tuple[str, str], ...], comma
     return Section(key, title, "real-junction", (("communication", "false"), *match), RIGHT_OF_WAY_METRICS,
                    RIGHT_OF_WAY_CLAIM, command, setting=setting, paper_values=RIGHT_OF_WAY_PAPER,
                    figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
-                   paper_budget="8 cars, all junctions, 1,000 epochs (32 M decisions)", **extra)
+                   paper_budget="8 cars, all junctions, entropy 1e-4, 1,000 epochs of 32,000 joint steps (32 M joint "
+                                "steps: up to 256 M car-decisions, fewer as arrived cars leave)", **extra)
