@@ -68,7 +68,7 @@ SECTIONS: tuple[Section, ...] = (
             statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
                                               paper=-1),),
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            headlines=(Headline("stop at red lights, the paper's settings", "4 cars, LiDAR noise 1.0, 2.4 M decisions",
+            headlines=(Headline("stop at red lights, the noise grid at 2.4 M decisions", "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), entropy 0.01",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
@@ -115,8 +115,8 @@ SECTIONS: tuple[Section, ...] = (
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
             paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8,
-            headlines=(Headline("denser traffic, the paper's budget",
-                                "8 cars, LiDAR noise 0.5, 16 M decisions from the 4-car policy", (),
+            headlines=(Headline("denser traffic, 16 M decisions",
+                                "8 cars, LiDAR noise 0.5, 16 M decisions (an eighth of the paper's 128 M) from the 4-car policy", (),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
     Section("lanes", "Lanes", "lanes", (),
             LANES_METRICS,
@@ -282,7 +282,7 @@ SECTIONS: tuple[Section, ...] = (
                     "consistency (noise 0.75 minus noise 0) straddled zero, at a spread about four seeds "
                     "would decide.",
             # the README shows the largest run of the paper's settings (the smaller sweeps stay on the page)
-            headlines=tuple(Headline("turn signals, the paper's 12 cars",
+            headlines=tuple(Headline("turn signals, 12 cars, 32 M decisions",
                                      f"`real-junction-v0`, 12 cars, 1-bit message, LiDAR noise {noise}, 32 M decisions",
                                      (("lidar_noise", noise),),
                                      ("communication.speaker_consistency_bits", PEARSON, SUCCESS_LOST_UNHEARD))
