@@ -152,3 +152,15 @@ def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tm
             continue
         assert "not run yet" not in line and "no statement yet" not in line, line
         assert re.search(r"\*\*(reproduced|opposite|not detected|differs)\*\*", line)
+
+
+def test_a_second_reading_is_shown_beside_the_verdict_but_does_not_decide_it():
+    claim = Claim("98 % keep the distance", ("big",),
+                  (Reading(r"- share ", "lies inside our interval"),
+                   Reading(r"- share_moving ", "lies inside our interval", decides=False)), "v", "v")
+    lines = ["- share (x): ours 0.95 ± 0.01 against the paper's 98 %: the paper's value lies inside our interval.",
+             "- share_moving (x): ours 0.99 ± 0.003 against the paper's 98 %: the paper's value lies outside our "
+             "interval."]
+    words, paper, ours, now, said = claim_row(claim, {"big": _result(lines)})
+    assert now.startswith(f"**{REPRODUCED}**")  # the moving-leader reading differs, but does not decide
+    assert "share_moving (x)" in said and "share (x)" in said

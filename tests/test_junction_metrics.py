@@ -45,6 +45,17 @@ def test_fifo_metrics_overall_and_per_episode():
     assert m["fifo_share"] == pytest.approx(3 / 4)
     assert m["fifo_share_episode_mean"] == pytest.approx((0.5 + 1.0) / 2)
     assert m["fifo_share_episode_std"] == pytest.approx(0.25)
+    assert m["fifo_share_leaving"] == pytest.approx(3 / 4) and m["cars_leaving_junction"] == 4
+
+
+def test_the_two_fifo_readings_differ_where_a_car_never_leaves():
+    # car 0 enters first and stays inside (a wreck); cars 1 and 2 enter later and leave in order
+    rows = inside_rows(0, 0, "011111") + inside_rows(0, 1, "001100") + inside_rows(0, 2, "000110")
+    m = fifo_metrics(table_from_rows(rows, COLS))
+    # every car that entered: car 0 is overtaken by both (it never leaves: t_d infinite)
+    assert m["cars_through_junction"] == 3 and m["fifo_share"] == pytest.approx(2 / 3)
+    # only the cars that left: cars 1 and 2, in order
+    assert m["cars_leaving_junction"] == 2 and m["fifo_share_leaving"] == 1.0
 
 
 SAFE_COLS = ("episode", "car", "decision", "x", "y", "heading", "speed")

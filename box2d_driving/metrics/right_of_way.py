@@ -63,19 +63,29 @@ def fifo_violations(t_a: np.ndarray, t_d: np.ndarray) -> np.ndarray:
 
 def fifo_metrics(table: dict[str, np.ndarray]) -> dict:
     """Share of cars that went into the junction with no FIFO violation, overall and as mean
-    +- std over episodes (episodes with at least two such cars)."""
+    +- std over episodes (episodes with at least two such cars).
+
+    Two readings of the paper's definition: ``fifo_share`` counts every car that entered (one that
+    never leaves, a wreck in the junction, violates whenever a later car leaves: ``t_d`` is
+    infinite); ``fifo_share_leaving`` counts only the cars that left the junction, each against the
+    others that left."""
     times = junction_times(table)
     ok = np.zeros(len(times["car"]), dtype=bool)
+    leaving_ok: list[bool] = []
     per_episode = []
     for e in np.unique(times["episode"]):
         idx = np.flatnonzero(times["episode"] == e)
         v = fifo_violations(times["t_a"][idx], times["t_d"][idx])
         ok[idx] = ~v
+        left = idx[np.isfinite(times["t_d"][idx])]
+        leaving_ok += (~fifo_violations(times["t_a"][left], times["t_d"][left])).tolist()
         if len(idx) >= 2:
             per_episode.append(float(np.mean(~v)))
     return {
         "cars_through_junction": int(len(ok)),
         "fifo_share": float(np.mean(ok)) if len(ok) else float("nan"),
+        "cars_leaving_junction": len(leaving_ok),
+        "fifo_share_leaving": float(np.mean(leaving_ok)) if leaving_ok else float("nan"),
         "fifo_share_episode_mean": float(np.mean(per_episode)) if per_episode else float("nan"),
         "fifo_share_episode_std": float(np.std(per_episode)) if per_episode else float("nan"),
         "episodes": len(per_episode),

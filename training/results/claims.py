@@ -43,6 +43,7 @@ class Reading:
 
     pattern: str
     agrees: str = "as in the paper"
+    decides: bool = True  # False: shown beside the claim (another reading of its definition), not judged
 
 
 @dataclass(frozen=True)
@@ -113,8 +114,12 @@ CLAIMS: tuple[Claim, ...] = (
           ("communication-paper-32M", "communication-paper-16M", "communication-paper"),
           (Reading(r"- speaker consistency \(bits\): noise "), Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
           "communication.speaker_consistency_bits", "speaker consistency"),
-    Claim("98.45 % of following samples keep the speed-matching distance", ("right-of-way-paper-32M", "right-of-way"),
-          (Reading(r"- safety_distance\.safe_share ", "lies inside our interval"),),
+    # every leader counts (wrecks too: collided cars stay on the road in the paper's code as in
+    # ours), the reading the verdict uses; leaders that move are the other reading, shown beside it
+    Claim("98.45 % of following samples keep the speed-matching distance (the verdict counts every car ahead, "
+          "wrecks included; moving leaders only is shown beside it)", ("right-of-way-paper-32M", "right-of-way"),
+          (Reading(r"- safety_distance\.safe_share ", "lies inside our interval"),
+           Reading(r"- safety_distance\.safe_share_moving_leader ", "lies inside our interval", decides=False)),
           "safety_distance.safe_share", "safe-distance share"),
     Claim("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time",
           ("right-of-way-paper-32M", "right-of-way"),
@@ -173,7 +178,7 @@ def _speaks_to_every_part(claim: Claim, result: SectionResult) -> bool:
     """Whether ``result`` has a statement for each of the claim's readings: a larger run that so
     far speaks to one part only (say the 8-car lanes, not yet the 4-car ones) does not yet replace a
     smaller run that speaks to all of them."""
-    return {r for _, r in _deciding_lines(claim, result)} == set(claim.readings)
+    return {r for _, r in _deciding_lines(claim, result) if r.decides} == {r for r in claim.readings if r.decides}
 
 
 def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
@@ -194,7 +199,7 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
                next((k for k in tried if _deciding_lines(claim, found[k])), tried[0]))
     result = found[key]
     lines = _deciding_lines(claim, result)
-    verdict = combined_verdict({reading_verdict(line, r) for line, r in lines})
+    verdict = combined_verdict({reading_verdict(line, r) for line, r in lines if r.decides})
     seeds = sorted({len(g.seeds) for g in result.groups})
     seeds_text = "1 seed" if seeds == [1] else f"{seeds[0]} seeds" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]} seeds"
     ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text}"

@@ -137,11 +137,13 @@ def turn_signals_12_cars(key: str, title: str, match: tuple[tuple[str, str], ...
 # the right-of-way rules (FIFO order and safe distance at a real junction): columns, the paper's
 # claim, numbers and runs, and where the page explains the safe-distance shortfall
 RIGHT_OF_WAY_METRICS = (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
+                        ("safety_distance.safe_share_moving_leader", "safe-distance share, moving leaders"),
                         ("success_rate", "success"), ("collision_rate", "collisions"))
 RIGHT_OF_WAY_CLAIM = ("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time; 98.45 % of "
                       "following samples keep the speed-matching distance (human drivers in nuScenes: 99.56 %).")
 RIGHT_OF_WAY_PAPER = (PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
-                      PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %"))
+                      PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %"),
+                      PaperValue("safety_distance.safe_share_moving_leader", 0.9845, None, "98.45 %"))
 SAFE_SHORTFALL_WORDS = ("Why the safe-distance share falls short of 98.45 % (most unsafe samples are cars closing on a "
                         "wreck, which stays on the road here), and the share under other readings of the paper's "
                         "definition: [real_junctions.md](real_junctions.md#why-the-safe-distance-share-falls-short-"
