@@ -384,3 +384,22 @@ def test_every_one_of_a_count_reads_as_english():
                                                                   "all 8 seeds"]
     with pytest.raises(ValueError, match="grid point"):
         all_of(0, "grid point", "grid points")
+
+
+def test_a_rule_counts_as_learnt_only_beyond_every_scripted_driver():
+    from training.results.statements import scripted_baseline_statement
+
+    say = scripted_baseline_statement((("fifo", "FIFO share"),))
+    base = {"full-throttle/fifo": (0.71, 200), "random/fifo": (0.80, 200), "random/other": (0.1, 200)}
+    learnt = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.90, 0.91, 0.92])})]
+    line, = say(learnt, base)
+    assert line.startswith("- FIFO share against scripted drivers on the same 200 report episodes (shipped settings)")
+    assert "full-throttle 0.710, random 0.800" in line and line.endswith("the rule is learnt, as in the paper.")
+    inside = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.79, 0.80, 0.81])})]
+    assert say(inside, base)[0].endswith("no learnt rule detected (the interval holds random).")
+    below = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.60, 0.61, 0.62])})]
+    assert say(below, base)[0].endswith("below full-throttle and random: no rule learnt, unlike the paper.")
+    # lower is the rule (paper=-1): beyond means below every driver
+    lower = scripted_baseline_statement((("fifo", "FIFO share"),), paper=-1)
+    assert lower(below, base)[0].endswith("the rule is learnt, as in the paper.")
+    assert say(learnt, {}) == []  # no baseline: nothing said

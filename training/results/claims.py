@@ -119,11 +119,13 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("98.45 % of following samples keep the speed-matching distance (the verdict counts every car ahead, "
           "wrecks included; moving leaders only is shown beside it)", ("right-of-way-paper-32M", "right-of-way"),
           (Reading(r"- safety_distance\.safe_share ", "lies inside our interval"),
-           Reading(r"- safety_distance\.safe_share_moving_leader ", "lies inside our interval", decides=False)),
+           Reading(r"- safety_distance\.safe_share_moving_leader ", "lies inside our interval", decides=False),
+           Reading(r"- safe-distance share against scripted drivers ")),
           "safety_distance.safe_share", "safe-distance share"),
     Claim("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time",
           ("right-of-way-paper-32M", "right-of-way"),
-          (Reading(r"- right_of_way\.fifo_share ", "our mean is inside that spread"),),
+          (Reading(r"- right_of_way\.fifo_share ", "our mean is inside that spread"),
+           Reading(r"- FIFO share against scripted drivers ")),
           "right_of_way.fifo_share", "FIFO share"),
 )
 

@@ -214,3 +214,50 @@ def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> Baseline:
     return {g.point["lidar_noise"]: (light_blind_violation_rate(1, as_number(g.point["lidar_noise"]), first, episodes),
                                      episodes)
             for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}
+
+
+# the scripted drivers every rule metric is set beside (same report episodes, same env settings)
+SCRIPTED_BASELINES = ("full-throttle", "random")
+# the right-of-way measures a scripted driver is scored on
+RIGHT_OF_WAY_BASELINE_METRICS = ("right_of_way.fifo_share", "right_of_way.fifo_share_leaving",
+                                 "safety_distance.safe_share", "safety_distance.safe_share_moving_leader")
+
+
+@functools.lru_cache(maxsize=None)
+def scripted_junction_metrics(driver: str, num_cars: int, first_seed: int, episodes: int) -> tuple[tuple[str, float], ...]:
+    """The right-of-way measures (:data:`RIGHT_OF_WAY_BASELINE_METRICS`) of a scripted driver
+    (``full-throttle``: light-blind, every car at full throttle; ``random``: uniform actions) on the
+    given report episodes of ``real-junction-v0`` with ``num_cars`` cars and its other defaults."""
+    import box2d_driving
+    from box2d_driving.metrics.right_of_way import fifo_metrics, leader_samples, safety_distance_from_samples
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import make_policy
+
+    if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
+        raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
+    env = box2d_driving.make("real-junction-v0", num_cars=num_cars)
+    try:
+        table = run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed)
+        cfg = env.config
+        fifo = fifo_metrics(table)
+        safe = safety_distance_from_samples(leader_samples(table, cfg.car_length, wrecks_stay=cfg.wrecks_stay),
+                                            cfg.a_max)
+    finally:
+        env.close()
+    values = {"right_of_way.fifo_share": fifo["fifo_share"], "right_of_way.fifo_share_leaving": fifo["fifo_share_leaving"],
+              "safety_distance.safe_share": safe["safe_share"],
+              "safety_distance.safe_share_moving_leader": safe["safe_share_moving_leader"]}
+    return tuple((k, float(values[k])) for k in RIGHT_OF_WAY_BASELINE_METRICS)
+
+
+def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Baseline:
+    """The scripted drivers' right-of-way measures on the trials' report episodes, keyed
+    ``DRIVER/METRIC`` (the count: the report episodes)."""
+    first, episodes = report_episodes(summary)
+    cars = {int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
+            if r.get("status") == "done" and "env_config.num_cars" in r}
+    if len(cars) != 1:
+        return {}
+    n = cars.pop()
+    return {f"{driver}/{metric}": (value, episodes) for driver in SCRIPTED_BASELINES
+            for metric, value in scripted_junction_metrics(driver, n, first, episodes)}

@@ -89,6 +89,13 @@ def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] =
             ax.bar(i, e.mean, yerr=err, capsize=4, color="tab:blue", alpha=0.7)
             values = g.estimates[dots[0]].values if dots is not None else e.values
             ax.scatter([i] * len(values), values, color="black", s=12, zorder=3)
+        # scripted drivers on the same report episodes (a baseline keyed DRIVER/METRIC), as lines
+        for (key, (value, _)), style in zip(sorted((k, v) for k, v in baseline.items()
+                                                    if isinstance(k, str) and k.endswith(f"/{metric}")),
+                                             ("--", ":", "-.")):
+            ax.axhline(value, color="tab:red", ls=style, lw=1.2, label=key.split("/", 1)[0])
+        if any(isinstance(k, str) and k.endswith(f"/{metric}") for k in baseline):
+            ax.legend(fontsize=7, title="scripted drivers", title_fontsize=7)
         if dots is not None:
             ax.axhline(0.0, color="grey", lw=0.8, zorder=1)
             ax.set_title(f"bar: mean, 95 % interval over seeds\ndots: {dots[1]}", fontsize=8)

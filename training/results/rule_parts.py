@@ -9,10 +9,11 @@ from __future__ import annotations
 from typing import Any
 
 from training.evaluation import figure_data as fd
-from training.results.data import Difference, HistogramMean, PaperValue, Preferred, Size
+from training.results.data import Difference, HistogramMean, PaperValue, Preferred, Size, right_of_way_baselines
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, gap_figure
 from training.results.page_section import Section
-from training.results.statements import Statement, above_statement, apart_statement, noise_trend_statement
+from training.results.statements import (Statement, above_statement, apart_statement, noise_trend_statement,
+                                         scripted_baseline_statement)
 
 __all__ = ["AGAINST_NOISE", "COMMUNICATION_BUDGET", "COMMUNICATION_CLAIM", "COMMUNICATION_FIGURE",
            "COMMUNICATION_METRICS", "COMMUNICATION_STATEMENTS", "DENSER_BUDGET", "FAST_LANES_R", "LANE_SIDE_LEVEL",
@@ -144,6 +145,10 @@ RIGHT_OF_WAY_CLAIM = ("Cars leave the junction in the order they entered 85.25 +
 RIGHT_OF_WAY_PAPER = (PaperValue("right_of_way.fifo_share", 0.8525, 0.089, "85.25 +- 8.9 %"),
                       PaperValue("safety_distance.safe_share", 0.9845, None, "98.45 %"),
                       PaperValue("safety_distance.safe_share_moving_leader", 0.9845, None, "98.45 %"))
+# the right-of-way measures set beside the scripted drivers (light-blind full throttle, random)
+RIGHT_OF_WAY_BASELINE_STATEMENT = scripted_baseline_statement(
+    (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
+     ("safety_distance.safe_share_moving_leader", "safe-distance share, moving leaders")))
 SAFE_SHORTFALL_WORDS = ("Why the safe-distance share falls short of 98.45 % (most unsafe samples are cars closing on a "
                         "wreck, which stays on the road here), and the share under other readings of the paper's "
                         "definition: [real_junctions.md](real_junctions.md#why-the-safe-distance-share-falls-short-"
@@ -157,6 +162,7 @@ def right_of_way(key: str, title: str, match: tuple[tuple[str, str], ...], comma
     paper's budget; ``extra``: other :class:`Section` fields (shipped policy, headlines)."""
     return Section(key, title, "real-junction", (("communication", "false"), *match), RIGHT_OF_WAY_METRICS,
                    RIGHT_OF_WAY_CLAIM, command, setting=setting, paper_values=RIGHT_OF_WAY_PAPER,
+                   baseline=right_of_way_baselines, statements=(RIGHT_OF_WAY_BASELINE_STATEMENT,),
                    figure=gap_figure(bars_figure("right_of_way.fifo_share", "FIFO share")),
                    paper_budget="8 cars, all junctions, entropy 1e-4, 1,000 epochs of 32,000 joint steps (32 M joint "
                                 "steps: up to 256 M car-decisions, fewer as arrived cars leave)", **extra)

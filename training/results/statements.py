@@ -362,3 +362,36 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
         lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: "
                      f"{verdict.rstrip('.')}{test}).")
     return lines
+
+
+def scripted_baseline_statement(metrics: tuple[tuple[Metric, str], ...], paper: int = 1) -> Statement:
+    """Our estimate of each metric against the scripted drivers' values on the same report episodes
+    (the section's baseline, keyed ``DRIVER/METRIC``): a rule counts as learnt only where our
+    interval lies beyond every scripted driver's value in the paper's direction (``paper``: 1,
+    higher is the rule; -1, lower)."""
+    def say(groups: list[Group], baseline: Baseline) -> list[str]:
+        lines = []
+        for metric, label in metrics:
+            drivers = {key.split("/", 1)[0]: value for key, (value, _) in baseline.items()
+                       if key.split("/", 1)[1] == metric}
+            if not drivers:
+                continue
+            episodes = next(n for key, (_, n) in baseline.items() if key.endswith(f"/{metric}"))
+            for g in groups:
+                e = g.estimates.get(metric)
+                if e is None or e.high is None:
+                    continue
+                beyond = [d for d, v in drivers.items() if (e.low > v if paper > 0 else e.high < v)]
+                behind = [d for d, v in drivers.items() if (e.high < v if paper > 0 else e.low > v)]
+                them = ", ".join(f"{d} {v:.3f}" for d, v in drivers.items())
+                if len(beyond) == len(drivers):
+                    verdict = "beyond every scripted driver: the rule is learnt, as in the paper"
+                elif behind:
+                    verdict = f"{'below' if paper > 0 else 'above'} {' and '.join(behind)}: no rule learnt, unlike the paper"
+                else:
+                    inside = [d for d in drivers if d not in beyond]
+                    verdict = f"no learnt rule detected (the interval holds {' and '.join(inside)})"
+                lines.append(f"- {label} against scripted drivers on the same {episodes} report episodes "
+                             f"({_where(g.point)}): ours {e.format()}; {them}: {verdict}.")
+        return lines
+    return say
