@@ -1,6 +1,8 @@
 """The results page's claims table: each row reads its section's own statements and learning curves."""
 
 import re
+
+import pytest
 import shutil
 from pathlib import Path
 
@@ -164,3 +166,17 @@ def test_a_second_reading_is_shown_beside_the_verdict_but_does_not_decide_it():
     words, paper, ours, now, said = claim_row(claim, {"big": _result(lines)})
     assert now.startswith(f"**{REPRODUCED}**")  # the moving-leader reading differs, but does not decide
     assert "share_moving (x)" in said and "share (x)" in said
+
+
+def test_holm_adjusts_the_tables_family_of_p_values():
+    from training.results.claims import holm, with_holm
+
+    # three tests: 0.01 x 3, 0.04 x 2, 0.30 x 1 (kept non-decreasing)
+    assert holm([0.04, 0.01, 0.30]) == pytest.approx([0.08, 0.03, 0.30])
+    assert holm([0.5, 0.6]) == pytest.approx([1.0, 1.0])  # capped at 1 and non-decreasing
+    rows = [["a", "", "", "", "x: p = 0.010, y: p = 0.040"], ["b", "", "", "", "z: p = 0.300."], ["c", "", "", "", "-"]]
+    out = with_holm(rows)
+    assert out[0][4] == ("x: p = 0.010 (Holm-adjusted over the table's 3 tests: 0.030), "
+                         "y: p = 0.040 (Holm-adjusted over the table's 3 tests: 0.080)")
+    assert out[1][4] == "z: p = 0.300 (Holm-adjusted over the table's 3 tests: 0.300)."
+    assert out[2] == rows[2] and rows[0][4] == "x: p = 0.010, y: p = 0.040"  # the input is left alone

@@ -75,7 +75,10 @@ def test_shipped_report_agrees_with_its_rollouts(report):
     if metrics["env_id"] == "real-junction-v0":
         # evaluated as trained unless the report says otherwise (e.g. --remove-collided)
         cfg = box2d_driving.make(metrics["env_id"], **{**metrics["trained_on"], **metrics["env_config"]}).config
-        assert metrics["right_of_way"] == pytest.approx(fifo_metrics(table))
+        # every number the report holds (a report written before a reading was added lacks that key)
+        fifo = fifo_metrics(table)
+        assert set(metrics["right_of_way"]) <= set(fifo)
+        assert metrics["right_of_way"] == pytest.approx({k: fifo[k] for k in metrics["right_of_way"]})
         assert metrics["safety_distance"] == pytest.approx(safety_distance_metrics(
             table, cfg.a_max, cfg.car_length, wrecks_stay=cfg.wrecks_stay))
         if cfg.wrecks_stay:

@@ -210,7 +210,43 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     return [claim.words, result.paper_budget, ours, now, said]
 
 
+# a test's p-value as its statement prints it ("p = 0.014", "p = 0.164")
+P_VALUE = re.compile(r"\bp = (\d\.\d{3})\b")
+
+
+def holm(p_values: list[float]) -> list[float]:
+    """Holm's step-down adjustment of a family of p-values (same order): the k-th smallest of
+    ``m`` is multiplied by ``m - k + 1``, capped at 1, and kept non-decreasing."""
+    order = sorted(range(len(p_values)), key=lambda i: p_values[i])
+    out, running = [0.0] * len(p_values), 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (len(p_values) - rank) * p_values[i]))
+        out[i] = running
+    return out
+
+
+def with_holm(rows: list[list[str]]) -> list[list[str]]:
+    """The claims rows with every printed p-value of their deciding statements followed by its
+    Holm-adjusted value over the table's family (all the tests the table's verdicts rest on)."""
+    found = [(r, m) for r, cells in enumerate(rows) for m in P_VALUE.finditer(cells[4])]
+    if len(found) < 2:
+        return rows
+    adjusted = holm([float(m.group(1)) for _, m in found])
+    out = [list(cells) for cells in rows]
+    by_row: dict[int, list[tuple[re.Match, float]]] = {}
+    for (r, m), a in zip(found, adjusted):
+        by_row.setdefault(r, []).append((m, a))
+    for r, items in by_row.items():
+        text = rows[r][4]
+        for m, a in reversed(items):  # from the end, so earlier positions stay valid
+            text = f"{text[:m.end()]} (Holm-adjusted over the table's {len(found)} tests: {a:.3f}){text[m.end():]}"
+        out[r][4] = text
+    return out
+
+
 def claims_table(found: dict[str, SectionResult]) -> list[str]:
-    """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry."""
+    """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry, every p-value
+    with its Holm-adjusted value beside it (:func:`with_holm`)."""
     header = ["the paper's claim", "the paper's run", "our largest run so far", "now", "what decides it"]
-    return [row(header), separator(len(header)), *(row(claim_row(c, found)) for c in CLAIMS)]
+    return [row(header), separator(len(header)), *(row(cells) for cells in with_holm([claim_row(c, found)
+                                                                                      for c in CLAIMS]))]
