@@ -393,7 +393,7 @@ def test_a_rule_counts_as_learnt_only_beyond_every_scripted_driver():
     base = {"full-throttle/fifo": (0.71, 200), "random/fifo": (0.80, 200), "random/other": (0.1, 200)}
     learnt = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.90, 0.91, 0.92])})]
     line, = say(learnt, base)
-    assert line.startswith("- FIFO share against scripted drivers on the same 200 report episodes (shipped settings)")
+    assert line.startswith("- FIFO share against scripted drivers on the same 200 report episodes (the sweep's one setting)")
     assert "full-throttle 0.710, random 0.800" in line and line.endswith("the rule is learnt, as in the paper.")
     inside = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.79, 0.80, 0.81])})]
     assert say(inside, base)[0].endswith("no learnt rule detected (the interval holds random).")

@@ -216,6 +216,8 @@ def light_blind_rates(summary: dict[str, Any], groups: list[Group]) -> Baseline:
             for g in groups if as_number(g.point.get("num_cars")) == 1.0 and "lidar_noise" in g.point}
 
 
+# how a sweep without a grid (one setting for every trial) names its one point in lines and figures
+SINGLE_POINT = "the sweep's one setting"
 # the scripted drivers every rule metric is set beside (same report episodes, same env settings)
 SCRIPTED_BASELINES = ("full-throttle", "random")
 # the right-of-way measures a scripted driver is scored on

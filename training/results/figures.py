@@ -8,7 +8,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from training.evaluation import figure_data as fd
-from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, as_number
+from training.results.data import LEARNT_SUCCESS, SINGLE_POINT, Baseline, Group, Metric, as_number
 
 # every figure is drawn as figure(groups, grid keys, PNG path, baseline); only the lights figure
 # draws a baseline (the light-blind driver), the others take it to share one signature
@@ -99,7 +99,7 @@ def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] =
         if dots is not None:
             ax.axhline(0.0, color="grey", lw=0.8, zorder=1)
             ax.set_title(f"bar: mean, 95 % interval over seeds\ndots: {dots[1]}", fontsize=8)
-        ax.set_xticks(range(len(groups)), [", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
+        ax.set_xticks(range(len(groups)), [", ".join(f"{k}={g.point[k]}" for k in keys) or SINGLE_POINT
                                            for g in groups], fontsize=8, rotation=20)
         ax.set_ylabel(label)
         fig.tight_layout()
@@ -109,7 +109,7 @@ def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] =
 
 
 def _label(g: Group, keys: list[str]) -> str:
-    return ", ".join(f"{k}={g.point[k]}" for k in keys) or "shipped settings"
+    return ", ".join(f"{k}={g.point[k]}" for k in keys) or SINGLE_POINT
 
 
 def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Figure,

@@ -120,7 +120,10 @@ SECTIONS: tuple[Section, ...] = (
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
     Section("lanes", "Lanes", "lanes", (),
             LANES_METRICS,
-            "With 8 cars and noisy LiDAR, cars settle on one side of the road; with 2 cars they do not.",
+            "The paper's figure 'Lanes emerge with more agents' (its caption): at a low density of agents the "
+            "paths converge to a roundabout motion; with more agents they follow lanes, and agents trained at a "
+            "higher density follow two lanes on one side of the road only. The paper gives no car counts for "
+            "that figure (its experiment list runs 4 and 8 cars); this sweep sets 2 cars against 8.",
             f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=48 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--out runs/sweep-lanes",

@@ -11,7 +11,7 @@ from collections import defaultdict
 from typing import Callable, Sequence
 
 from training.common.markdown import all_of
-from training.results.data import LEARNT_SUCCESS, Baseline, Group, Metric, PaperValue, as_number
+from training.results.data import LEARNT_SUCCESS, SINGLE_POINT, Baseline, Group, Metric, PaperValue, as_number
 from training.results.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
@@ -25,7 +25,7 @@ Statement = Callable[[list[Group], Baseline], list[str]]
 
 
 def _where(point: dict[str, str]) -> str:
-    return ", ".join(f"{k}={v}" for k, v in point.items()) or "shipped settings"
+    return ", ".join(f"{k}={v}" for k, v in point.items()) or SINGLE_POINT
 
 
 def _unlearnt(g: Group) -> bool:
