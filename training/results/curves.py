@@ -158,16 +158,26 @@ def curve_figure(rows: list[dict[str, Any]], keys: list[str], metrics: list[tupl
                         alpha=0.45)
             if common:
                 at = {s: {r["decisions"]: r[metric] for r in t} for s, t in seeds.items()}
-                ax.plot([d / 1e6 for d in common], [np.nanmean([at[s][d] for s in at]) for d in common],
+                means = [np.nanmean([at[s][d] for s in at]) for d in common]
+                ax.plot([d / 1e6 for d in common], means,
                         color=colour, lw=2, marker="o", ms=3,
                         label=", ".join(f"{k} {v}" for k, v in zip(keys, point)) or "mean")
+                # the band a late change must stay inside to count as stopped moving, at the last mean
+                ax.axhspan(means[-1] - PLATEAU_TOLERANCE, means[-1] + PLATEAU_TOLERANCE, color=colour, alpha=0.12,
+                           lw=0)
         ax.set_xlabel("decisions (M)")
         ax.set_ylabel(label)
-        ax.set_ylim(-0.02, 1.02)
+        # the data's own range (not a fixed 0-1), so the +-tolerance band can be seen
+        values = np.array([r[metric] for trial in (t for p in points.values() for t in p.values()) for r in trial],
+                          dtype=float)
+        values = values[np.isfinite(values)]
+        if len(values):
+            pad = max(0.05 * (values.max() - values.min()), 2 * PLATEAU_TOLERANCE)
+            ax.set_ylim(values.min() - pad, values.max() + pad)
     axes[0][0].legend(fontsize=7)
     episodes = int(rows[0].get("episodes", 0))
     fig.suptitle(f"every checkpoint on the same {episodes} selection episodes; thick: mean over seeds, thin: "
-                 "each seed", fontsize=9)
+                 f"each seed; band: +-{PLATEAU_TOLERANCE:g} around the last mean", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
