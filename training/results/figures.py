@@ -99,8 +99,7 @@ def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] =
         if dots is not None:
             ax.axhline(0.0, color="grey", lw=0.8, zorder=1)
             ax.set_title(f"bar: mean, 95 % interval over seeds\ndots: {dots[1]}", fontsize=8)
-        ax.set_xticks(range(len(groups)), [", ".join(f"{k}={g.point[k]}" for k in keys) or SINGLE_POINT
-                                           for g in groups], fontsize=8, rotation=20)
+        ax.set_xticks(range(len(groups)), [_label(g, keys) for g in groups], fontsize=8, rotation=20)
         ax.set_ylabel(label)
         fig.tight_layout()
         fig.savefig(path, dpi=110)
@@ -108,7 +107,13 @@ def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] =
     return draw
 
 
+# the point key of a bar that is not one of the section's grid points (the row it is compared with)
+COMPARED = "compared with"
+
+
 def _label(g: Group, keys: list[str]) -> str:
+    if COMPARED in g.point:
+        return g.point[COMPARED]
     return ", ".join(f"{k}={g.point[k]}" for k in keys) or SINGLE_POINT
 
 

@@ -14,6 +14,8 @@ episodes is refused.
 
 from __future__ import annotations
 
+import dataclasses
+
 import sys
 from pathlib import Path
 from typing import Any, Optional
@@ -23,6 +25,7 @@ from training.results.claims import SectionResult, claims_table
 from training.results.matching import grid_order, joined_groups, reference, section_summaries
 from training.results.readme import README_START, readme_table, readme_text, update_readme
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
+from training.results.figures import COMPARED
 from training.results.data import Group, ResultsError, grid_product, groups_of, load_summary
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
 from training.results.sections import SECTIONS, PaperValue, Section, statements
@@ -161,7 +164,10 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
         parts += notes + [""]
     if section.figure is not None and groups:
         name = f"{section.key}.png"
-        section.figure(groups, keys, figures / name, baseline)
+        compared, words = reference(section, summaries)
+        shown = groups if compared is None else groups + [  # the row the statements compare with, its own bar
+            dataclasses.replace(compared, point={COMPARED: words.removeprefix("the row ").replace(" of ", "\nof ", 1)})]
+        section.figure(shown, keys, figures / name, baseline)
         parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
     if curves is not None:
         shown = [(m, label) for m, label in section.metrics if isinstance(m, str)] + list(section.curve_extra)
