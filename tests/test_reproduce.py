@@ -397,3 +397,13 @@ def test_every_section_states_the_papers_budget_beside_ours_and_the_plateau_ques
     from training.results.sections import SECTIONS
 
     assert all("stopped moving" in budget_note(s) for s in SECTIONS)
+
+
+def test_seeds_added_after_an_interim_look_are_marked():
+    from training.results.reproduce import ADDED_MARK, _estimate_cell
+    from training.results.stats import mean_ci
+
+    e = mean_ci([0.1, 0.2, 0.3, 0.4])
+    assert _estimate_cell(e, [0, 1, 2, 3], planned=3).endswith(f"(0.100, 0.200, 0.300, 0.400{ADDED_MARK})")
+    assert ADDED_MARK not in _estimate_cell(e, [0, 1, 2, 3], planned=None)
+    assert ADDED_MARK not in _estimate_cell(e, [0, 1, 2], planned=1)  # values and seeds do not line up: no marks

@@ -69,6 +69,8 @@ class Section:
             trials' share of them.
         cars: cars per instance in this section's trials (0: they vary): our joint steps are our
             slot-decisions over it.
+        seeds_before_look: the seeds planned before any look at the results (0 .. N-1); seeds from
+            N on were added after an interim look and are marked in the tables. None: all planned.
         curve_extra: learning-curve columns (``box2d-driving curve``'s names) drawn and judged
             beside the table's plain metrics, for table metrics derived from a summary's figures
             (which a curve computes from its samples instead).
@@ -97,6 +99,7 @@ class Section:
     paper_budget: str = ""
     paper_joint_steps: int = 0
     cars: int = 0
+    seeds_before_look: Optional[int] = None
     curve_extra: tuple[tuple[str, str], ...] = ()
     joins: Optional[tuple[str, str]] = None
 

@@ -55,13 +55,21 @@ def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
     return path
 
 
-def _estimate_cell(e: Estimate) -> str:
+def _estimate_cell(e: Estimate, seeds: Optional[list[int]] = None, planned: Optional[int] = None) -> str:
+    """An estimate with its per-seed values; with ``planned`` (the seeds run before any look at
+    the results) each value of a seed added after an interim look is marked :data:`ADDED_MARK`."""
     if e.n == 0:
         return "n/a"
     if e.n == 1:
         return e.format()  # "x (1 seed)"
-    seeds = ", ".join(f"{v:.3f}" for v in e.values)
-    return f"{e.format()} ({seeds})"
+    marks = ([ADDED_MARK if planned is not None and s >= planned else "" for s in seeds]
+             if seeds is not None and len(seeds) == len(e.values) else [""] * len(e.values))
+    values = ", ".join(f"{v:.3f}{m}" for v, m in zip(e.values, marks))
+    return f"{e.format()} ({values})"
+
+
+# marks a seed's value where the seed was added after an interim look at the results
+ADDED_MARK = "†"  # not "*": Markdown would read pairs of them as emphasis
 
 
 def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: bool = False) -> str:
@@ -153,9 +161,13 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     parts += [row(header), separator(len(header))]
     for g in groups:
         cells = [g.point[k] for k in keys] + [str(len(g.seeds))]
-        cells += [_estimate_cell(g.estimates[m]) for m in metrics]
+        cells += [_estimate_cell(g.estimates[m], g.seeds, section.seeds_before_look) for m in metrics]
         parts.append(row(cells))
     parts.append("")
+    if section.seeds_before_look is not None and any(s >= section.seeds_before_look for g in groups for s in g.seeds):
+        parts += [f"Values marked {ADDED_MARK} are of seeds added after an interim look at the results (seeds "
+                  f"0-{section.seeds_before_look - 1} were planned first; the setting above says why more were "
+                  "added); the intervals are not corrected for that look.", ""]
     baseline = section.baseline(summary, groups) if section.baseline is not None else {}
     notes = statements(section, groups, baseline, *reference(section, summaries))
     result = SectionResult(section.title, section.paper_budget, trial_budget(summary["sweep"]), groups, notes,

@@ -67,7 +67,7 @@ SECTIONS: tuple[Section, ...] = (
                                          ("success_rate", "success"))),
             statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
                                               paper=-1),),
-            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
+            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4, seeds_before_look=5,
             headlines=(Headline("stop at red lights, the noise grid at 2.4 M decisions", "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), entropy 0.01",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
@@ -114,7 +114,7 @@ SECTIONS: tuple[Section, ...] = (
                     "spread that put the seeds needed at about 10 per row.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
-            paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8,
+            paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8, seeds_before_look=5,
             headlines=(Headline("denser traffic, 16 M decisions",
                                 "8 cars, LiDAR noise 0.5, 16 M decisions (an eighth of the paper's 128 M) from the 4-car policy", (),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
@@ -261,6 +261,7 @@ SECTIONS: tuple[Section, ...] = (
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 6 --timesteps 16000000 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-16M",
+            seeds_before_look=3,
             setting="The 12-car turn-signal runs above trained 2.7 times as long: 16 M decisions per trial, half "
                     "the paper's 32 M, from the same shipped 8-car base policy and with the same training "
                     "seeds, with learning curves (whether the message measures had stopped moving by 16 M). "
@@ -273,7 +274,7 @@ SECTIONS: tuple[Section, ...] = (
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 4 --timesteps 32000000 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-32M",
-            paper_joint_steps=32_000_000, cars=12,
+            paper_joint_steps=32_000_000, cars=12, seeds_before_look=3,
             setting="The 12-car turn-signal runs above for 32 M decisions per trial (the paper's 1,000 epochs "
                     "are 32 M joint steps, each a decision of every car still driving: ours are 2.7 M joint steps "
                     "of 12 cars), from the same shipped 8-car base policy and with the same training "
