@@ -403,3 +403,19 @@ def test_a_rule_counts_as_learnt_only_beyond_every_scripted_driver():
     lower = scripted_baseline_statement((("fifo", "FIFO share"),), paper=-1)
     assert lower(below, base)[0].endswith("the rule is learnt, as in the paper.")
     assert say(learnt, {}) == []  # no baseline: nothing said
+
+
+def test_an_interval_stays_inside_its_metrics_range():
+    from training.results.data import Difference, Size, metric_bounds
+
+    e = mean_ci([0.0, 0.05, 0.3], bounds=(0.0, 1.0))  # the t-interval reaches below 0, not above 1
+    raw = mean_ci([0.0, 0.05, 0.3])
+    assert raw.low < 0.0 and e.clipped and e.low == 0.0 and e.high == pytest.approx(raw.high)
+    assert e.format() == f"{e.mean:.3f} [0.000, {e.high:.3f}]"
+    inside = mean_ci([0.4, 0.5, 0.6], bounds=(0.0, 1.0))
+    assert not inside.clipped and inside.format() == mean_ci([0.4, 0.5, 0.6]).format()
+    assert metric_bounds("success_rate") == (0.0, 1.0) and metric_bounds("mean_time_to_goal") is None
+    assert metric_bounds("fast_lanes.pearson_rating_lateral") == (-1.0, 1.0)
+    assert metric_bounds(Size("fast_lanes.pearson_rating_lateral")) == (0.0, 1.0)
+    assert metric_bounds(Difference("success_rate", "messages_unheard.success_rate")) == (-1.0, 1.0)
+    assert metric_bounds("lanes.mean_abs_lane_position") == (0.0, 1.0)

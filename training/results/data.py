@@ -80,6 +80,34 @@ class Preferred:
 Metric = Union[str, Size, Difference, HistogramMean, Preferred]
 
 
+def metric_bounds(metric: "Metric") -> Optional[tuple[float, float]]:
+    """The range a metric's values can take, where its name tells: shares and rates (a success,
+    a collision, a violation, a FIFO or safe-distance share, a majority share) [0, 1]; the size of
+    a value in [-1, 1] or of a lane offset [0, 1]; a correlation [-1, 1]; mutual information in
+    bits [0, 1] (one bit sent); a difference of two bounded metrics, what their ranges allow. None:
+    unbounded or unknown (a mean time)."""
+    if isinstance(metric, Size):
+        inner = metric_bounds(metric.column)
+        return None if inner is None else (0.0, max(abs(inner[0]), abs(inner[1])))
+    if isinstance(metric, Preferred):
+        return metric_bounds(metric.column)
+    if isinstance(metric, Difference):
+        a, b = metric_bounds(metric.first), metric_bounds(metric.second)
+        return None if a is None or b is None else (a[0] - b[1], a[1] - b[0])
+    if not isinstance(metric, str):
+        return None
+    name = metric.lower()
+    if "abs_lane_position" in name:
+        return (0.0, 1.0)
+    if "pearson" in name or "lane_position" in name or "offset" in name:
+        return (-1.0, 1.0)
+    if name.endswith("_bits"):
+        return (0.0, 1.0)
+    if name.endswith(("_rate", "_share", "majority")) or "_share_" in name or name.endswith("share_moving_leader"):
+        return (0.0, 1.0)
+    return None
+
+
 @dataclass(frozen=True)
 class PaperValue:
     """A number the paper reports for a metric: value and, where given, its +- spread."""
@@ -142,7 +170,8 @@ def groups_of(summary: dict[str, Any], metrics: list[Metric]) -> list[Group]:
                 counts = to_majority_side(name, counts)  # a side each seed picks is not pooled away
                 figures[name] = figures[name] + counts if name in figures else counts
         groups.append(Group(dict(zip(keys, values)), [r["seed"] for r in rows],
-                            {m: mean_ci(metric_value(r, m) for r in rows) for m in metrics}, figures))
+                            {m: mean_ci((metric_value(r, m) for r in rows), metric_bounds(m)) for m in metrics},
+                            figures))
     return groups
 
 

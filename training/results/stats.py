@@ -59,9 +59,13 @@ class Estimate:
             return None
         return self.low <= x <= self.high
 
+    clipped: bool = False  # the t-interval reached past the metric's range and was cut there
+
     def format(self, digits: int = 3) -> str:
         if self.low is None:
             return f"{self.mean:.{digits}f} {ONE_SEED}"
+        if self.clipped:  # asymmetric once cut: both ends
+            return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
         half = (self.high - self.low) / 2
         return f"{self.mean:.{digits}f} ± {half:.{digits}f}"
 
@@ -77,9 +81,10 @@ def mean_var(xs: Sequence[float]) -> tuple[float, float]:
     return mean, sum((x - mean) ** 2 for x in xs) / (len(xs) - 1)
 
 
-def mean_ci(values: Iterable[float]) -> Estimate:
+def mean_ci(values: Iterable[float], bounds: Optional[tuple[float, float]] = None) -> Estimate:
     """Mean and 95 % t-interval of the finite ``values`` (NaNs, e.g. a metric a run could not
-    measure, are left out and not counted)."""
+    measure, are left out and not counted). ``bounds``: the metric's range (a share's [0, 1]); an
+    interval reaching past it is cut at it (``clipped``), since no seed can lie outside."""
     xs = finite(values)
     if not xs:
         return Estimate(math.nan, None, None, 0, ())
@@ -87,7 +92,10 @@ def mean_ci(values: Iterable[float]) -> Estimate:
         return Estimate(sum(xs) / len(xs), None, None, 1, xs)
     mean, var = mean_var(xs)
     half = half_width(math.sqrt(var), len(xs))
-    return Estimate(mean, mean - half, mean + half, len(xs), xs)
+    low, high = mean - half, mean + half
+    if bounds is not None and (low < bounds[0] or high > bounds[1]):
+        return Estimate(mean, max(low, bounds[0]), min(high, bounds[1]), len(xs), xs, clipped=True)
+    return Estimate(mean, low, high, len(xs), xs)
 
 
 def _beta_fraction(a: float, b: float, x: float, iterations: int = 300, eps: float = 1e-14) -> float:
