@@ -98,7 +98,9 @@ LANES_READINGS = (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep t
 
 CLAIMS: tuple[Claim, ...] = (
     Claim("With more LiDAR noise, fewer cars enter on red", ("traffic-lights-paper",),
-          (Reading(r"- 4 cars, red-light violations: "),), "red_light_violation_rate", "red-light violations"),
+          (Reading(r"- 4 cars, red-light violations: "),
+           Reading(r"- red-light violations against scripted drivers ", decides=False)),
+          "red_light_violation_rate", "red-light violations"),
     Claim("With more cars, fewer cars enter on red", ("denser-traffic-paper",),
           (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
     Claim("Lanes with 8 cars, none with 4", ("lanes-paper-16M", "lanes-noise", "lanes-paper"),

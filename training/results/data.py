@@ -292,3 +292,36 @@ def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Base
     n = cars.pop()
     return {f"{driver}/{metric}": (value, episodes) for driver in SCRIPTED_BASELINES
             for metric, value in scripted_junction_metrics(driver, n, first, episodes)}
+
+
+@functools.lru_cache(maxsize=None)
+def scripted_violation_rate(driver: str, num_cars: int, first_seed: int, episodes: int) -> float:
+    """The red-light violation rate of a scripted driver that knows no rule (``full-throttle``,
+    ``random``) on the given report episodes of ``intersection-v0`` with ``num_cars`` cars (LiDAR
+    noise does not matter to either: neither reads the LiDAR)."""
+    import box2d_driving
+    from box2d_driving.metrics.lights import traffic_light_metrics
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import make_policy
+
+    if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
+        raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
+    env = box2d_driving.make("intersection-v0", num_cars=num_cars)
+    try:
+        table = run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed)
+    finally:
+        env.close()
+    return float(traffic_light_metrics(table)["red_light_violation_rate"])
+
+
+def lights_baselines(summary: dict[str, Any], groups: list[Group]) -> Baseline:
+    """The rule-free scripted drivers' red-light violation rates on the trials' report episodes,
+    keyed ``DRIVER/red_light_violation_rate`` (a section whose trials share one car count)."""
+    first, episodes = report_episodes(summary)
+    cars = {int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
+            if r.get("status") == "done" and "env_config.num_cars" in r}
+    if len(cars) != 1:
+        return {}
+    n = cars.pop()
+    return {f"{driver}/red_light_violation_rate": (scripted_violation_rate(driver, n, first, episodes), episodes)
+            for driver in SCRIPTED_BASELINES}

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Optional
 
 from training.evaluation import figure_data as fd
-from training.results.data import Baseline, Group, PaperValue, light_blind_rates
+from training.results.data import Baseline, Group, PaperValue, light_blind_rates, lights_baselines
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
 from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLAIM, COMMUNICATION_FIGURE,
@@ -24,6 +24,7 @@ from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLA
                                          ONE_SIDED_WORDS, PEARSON, SAFE_SHORTFALL_WORDS, SUCCESS_LOST_UNHEARD, SWEEP,
                                          lanes_4_vs_8, lanes_statements, right_of_way, turn_signals_12_cars)
 from training.results.statements import (above_statement, level_change_statement, lights_statement,
+                                         scripted_baseline_statement,
                                          noise_trend_statement, paper_comparison, reference_statement,
                                          unlearnt_statement)
 
@@ -65,8 +66,10 @@ SECTIONS: tuple[Section, ...] = (
                     "their spread put the seeds needed at about 6.",
             figure=against_noise_figure((("red_light_violation_rate", "red-light violations"),
                                          ("success_rate", "success"))),
+            baseline=lights_baselines,
             statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
-                                              paper=-1),),
+                                              paper=-1),
+                        scripted_baseline_statement((("red_light_violation_rate", "red-light violations"),), paper=-1)),
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4, seeds_before_look=5,
             headlines=(Headline("stop at red lights, the noise grid at 2.4 M decisions", "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), entropy 0.01",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
