@@ -114,7 +114,10 @@ def _page_intro() -> list[str]:
             f"({REPORT.describe()}), never seen in training or checkpoint selection, and given as the mean "
             "over training seeds with a 95 % t-interval (`mean ± half-width`), the per-seed values in "
             "brackets. How sweeps run: [sweeps.md](sweeps.md). `box2d-driving reproduce --run` runs every "
-            "rule's sweep below in turn, continuing from the committed summaries, and rewrites this page.", ""]
+            "rule's sweep below in turn, continuing from the committed summaries, and rewrites this page. "
+            "Each trial it lands keeps its final actor (`assets/sweeps/weights/NAME/TRIAL/`, about 0.3 MB a "
+            "trial, so a new measure can be read without retraining); trials landed before 2026-12-04 kept none. "
+            "All of `assets/` stays within 25 MiB, no file over 2 MiB (`tests/test_shipped_policies.py`).", ""]
 
 
 def _section_head(section: Section, figures: Path, rel: Path, gifs: bool) -> list[str]:
