@@ -203,9 +203,12 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
 def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
     """The table of where the page stands on each of the paper's claims, with how to read it."""
     return ["## Where the page stands on the paper's claims", "",
-            "Each claim this page tests at the paper's own settings, read from its largest run so far that speaks to "
+            "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
             "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
-            "section below). One rule decides every verdict: *reproduced* where the interval shows the effect in "
+            "section below). None of these runs is yet in the paper's own world and update (its arrived cars stay, "
+            "its epochs are 32,000 joint steps, its entropy 1e-4: the `paper` preset, "
+            "[paper_world.md](paper_world.md)); each row gives its share of the paper's joint steps. "
+            "One rule decides every verdict: *reproduced* where the interval shows the effect in "
             "the paper's direction (excludes no effect), or holds the paper's value; *opposite* where it excludes no "
             "effect in the other direction; *not detected* where it straddles no effect (the statement says the "
             "largest effect in the paper's direction the interval still allows); *differs* where the paper gives a "
