@@ -47,6 +47,19 @@ def venv_dir() -> Path:
     return cache / "box2d-driving" / "sdriving-venv"
 
 
+def require_venv() -> None:
+    """:class:`OriginalError` unless ``original setup`` has built the sdriving environment."""
+    if not venv_python().exists():
+        raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+
+
+def check_report_episodes(episodes: int, first_seed: int) -> None:
+    """``--episodes`` report episodes from ``--first-seed``, all in the report range."""
+    if episodes < 1:
+        raise OriginalError(f"--episodes must be >= 1, got {episodes}")
+    REPORT.episodes(episodes, first_seed)
+
+
 def venv_python() -> Path:
     return venv_dir() / "bin" / "python"
 
@@ -89,11 +102,8 @@ def _compare(args) -> int:
     from training.original.compare import compare, write_section
 
     try:
-        if args.episodes < 1:
-            raise OriginalError(f"--episodes must be >= 1, got {args.episodes}")
-        REPORT.episodes(args.episodes, args.first_seed)
-        if not venv_python().exists():
-            raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+        check_report_episodes(args.episodes, args.first_seed)
+        require_venv()
         overrides = _parse_overrides(args.set)
         if args.preset is not None:  # an unknown preset is refused before either world runs
             preset_overrides(args.preset, "intersection-v0")
@@ -125,9 +135,7 @@ def _evaluate(args) -> int:
 
     table_path = args.out.with_suffix(".npz")
     try:
-        if args.episodes < 1:
-            raise OriginalError(f"--episodes must be >= 1, got {args.episodes}")
-        REPORT.episodes(args.episodes, args.first_seed)
+        check_report_episodes(args.episodes, args.first_seed)
         weights = (args.run / "weights.safetensors" if args.epoch is None
                    else args.run / "actors" / f"epoch_{args.epoch:04d}.safetensors")
         for path in (args.run / "run.json", weights):
@@ -136,8 +144,7 @@ def _evaluate(args) -> int:
         for path in (args.out, table_path):
             if path.exists():
                 raise OriginalError(f"--out: {path} exists (choose another name)")
-        if not venv_python().exists():
-            raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+        require_venv()
         args.out.parent.mkdir(parents=True, exist_ok=True)
     except (OriginalError, SeedError, OSError) as exc:
         return error(str(exc))
@@ -207,8 +214,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         run = OriginalRun(lidar_noise=args.lidar_noise, seed=args.seed, epochs=args.epochs)
         if args.time_limit is not None and not args.time_limit > 0:
             raise OriginalError(f"--time-limit must be a positive number of minutes, got {args.time_limit}")
-        if not venv_python().exists():
-            raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
+        require_venv()
         prepare_folder(run, args.out, args.resume)
     except (OriginalError, OSError) as exc:
         return error(str(exc))

@@ -216,23 +216,40 @@ def report_episodes(summary: dict[str, Any]) -> tuple[int, int]:
     return next(iter(sets))
 
 
-@functools.lru_cache(maxsize=None)
-def light_blind_violation_rate(num_cars: int, lidar_noise: float, first_seed: int, episodes: int) -> float:
-    """The red-light violation rate of a light-blind driver (every car at full throttle) on the
-    given report episodes of ``intersection-v0``: what a policy that ignores the light scores on
-    the very episodes a trial was evaluated on. Scripted, so no checkpoint is needed."""
+def scripted_table(env_id: str, driver: str, first_seed: int, episodes: int,
+                   **overrides: Any) -> tuple[dict[str, Any], Any]:
+    """The rollout table of a scripted driver (``box2d_driving.policies.make_policy`` by name) on
+    the given report episodes of ``env_id`` with config ``overrides``, and the env's config;
+    :class:`ResultsError` for episodes outside the report range."""
     import box2d_driving
-    from box2d_driving.metrics.lights import traffic_light_metrics
     from box2d_driving.metrics.rollouts import run_episodes
     from box2d_driving.policies import make_policy
 
     if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
         raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
-    env = box2d_driving.make("intersection-v0", num_cars=num_cars, lidar_noise=lidar_noise)
+    env = box2d_driving.make(env_id, **overrides)
     try:
-        table = run_episodes(env, make_policy("full-throttle", env, seed=first_seed), episodes, seed=first_seed)
+        return run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed), env.config
     finally:
         env.close()
+
+
+def _one_car_count(summary: dict[str, Any]) -> Optional[int]:
+    """The cars per instance every finished trial of ``summary`` ran with, None where they differ."""
+    cars = {int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
+            if r.get("status") == "done" and "env_config.num_cars" in r}
+    return cars.pop() if len(cars) == 1 else None
+
+
+@functools.lru_cache(maxsize=None)
+def light_blind_violation_rate(num_cars: int, lidar_noise: float, first_seed: int, episodes: int) -> float:
+    """The red-light violation rate of a light-blind driver (every car at full throttle) on the
+    given report episodes of ``intersection-v0``: what a policy that ignores the light scores on
+    the very episodes a trial was evaluated on. Scripted, so no checkpoint is needed."""
+    from box2d_driving.metrics.lights import traffic_light_metrics
+
+    table, _ = scripted_table("intersection-v0", "full-throttle", first_seed, episodes, num_cars=num_cars,
+                              lidar_noise=lidar_noise)
     return float(traffic_light_metrics(table)["red_light_violation_rate"])
 
 
@@ -259,22 +276,12 @@ def scripted_junction_metrics(driver: str, num_cars: int, first_seed: int, episo
     """The right-of-way measures (:data:`RIGHT_OF_WAY_BASELINE_METRICS`) of a scripted driver
     (``full-throttle``: light-blind, every car at full throttle; ``random``: uniform actions) on the
     given report episodes of ``real-junction-v0`` with ``num_cars`` cars and its other defaults."""
-    import box2d_driving
     from box2d_driving.metrics.right_of_way import fifo_metrics, leader_samples, safety_distance_from_samples
-    from box2d_driving.metrics.rollouts import run_episodes
-    from box2d_driving.policies import make_policy
 
-    if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
-        raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
-    env = box2d_driving.make("real-junction-v0", num_cars=num_cars)
-    try:
-        table = run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed)
-        cfg = env.config
-        fifo = fifo_metrics(table)
-        safe = safety_distance_from_samples(leader_samples(table, cfg.car_length, wrecks_stay=cfg.wrecks_stay),
-                                            cfg.a_max)
-    finally:
-        env.close()
+    table, cfg = scripted_table("real-junction-v0", driver, first_seed, episodes, num_cars=num_cars)
+    fifo = fifo_metrics(table)
+    safe = safety_distance_from_samples(leader_samples(table, cfg.car_length, wrecks_stay=cfg.wrecks_stay),
+                                        cfg.a_max)
     values = {"right_of_way.fifo_share": fifo["fifo_share"], "right_of_way.fifo_share_leaving": fifo["fifo_share_leaving"],
               "safety_distance.safe_share": safe["safe_share"],
               "safety_distance.safe_share_moving_leader": safe["safe_share_moving_leader"]}
@@ -285,11 +292,9 @@ def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Base
     """The scripted drivers' right-of-way measures on the trials' report episodes, keyed
     ``DRIVER/METRIC`` (the count: the report episodes)."""
     first, episodes = report_episodes(summary)
-    cars = {int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
-            if r.get("status") == "done" and "env_config.num_cars" in r}
-    if len(cars) != 1:
+    n = _one_car_count(summary)
+    if n is None:
         return {}
-    n = cars.pop()
     return {f"{driver}/{metric}": (value, episodes) for driver in SCRIPTED_BASELINES
             for metric, value in scripted_junction_metrics(driver, n, first, episodes)}
 
@@ -299,18 +304,9 @@ def scripted_violation_rate(driver: str, num_cars: int, first_seed: int, episode
     """The red-light violation rate of a scripted driver that knows no rule (``full-throttle``,
     ``random``) on the given report episodes of ``intersection-v0`` with ``num_cars`` cars (LiDAR
     noise does not matter to either: neither reads the LiDAR)."""
-    import box2d_driving
     from box2d_driving.metrics.lights import traffic_light_metrics
-    from box2d_driving.metrics.rollouts import run_episodes
-    from box2d_driving.policies import make_policy
 
-    if first_seed not in REPORT or first_seed + episodes - 1 not in REPORT:
-        raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
-    env = box2d_driving.make("intersection-v0", num_cars=num_cars)
-    try:
-        table = run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed)
-    finally:
-        env.close()
+    table, _ = scripted_table("intersection-v0", driver, first_seed, episodes, num_cars=num_cars)
     return float(traffic_light_metrics(table)["red_light_violation_rate"])
 
 
@@ -318,10 +314,8 @@ def lights_baselines(summary: dict[str, Any], groups: list[Group]) -> Baseline:
     """The rule-free scripted drivers' red-light violation rates on the trials' report episodes,
     keyed ``DRIVER/red_light_violation_rate`` (a section whose trials share one car count)."""
     first, episodes = report_episodes(summary)
-    cars = {int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
-            if r.get("status") == "done" and "env_config.num_cars" in r}
-    if len(cars) != 1:
+    n = _one_car_count(summary)
+    if n is None:
         return {}
-    n = cars.pop()
     return {f"{driver}/red_light_violation_rate": (scripted_violation_rate(driver, n, first, episodes), episodes)
             for driver in SCRIPTED_BASELINES}
