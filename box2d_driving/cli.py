@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import argparse
 import ast
+import os
 import sys
 from pathlib import Path
+from typing import Optional
 
 import box2d_driving
 from box2d_driving import plugins
@@ -95,9 +97,16 @@ def _float_pair(text: str, flag: str, names: str) -> tuple[float, float]:
 
 
 def _new_output(args: argparse.Namespace) -> Path:
+    """The map importers' ``--out`` (and ``--png``), checked before anything is read: an existing
+    file is replaced only with ``--overwrite``."""
     out = Path(args.out)
-    if out.exists() and not args.overwrite:
-        raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+    for flag, path in (("--out", out), ("--png", args.png)):
+        if path is not None and path.exists() and not args.overwrite:
+            raise FileExistsError(f"{flag} {path} exists; pass --overwrite to replace it")
+    if args.png is not None and Path(args.png).resolve() == out.resolve():
+        raise ValueError("--png and --out name the same file")
+    _check_writable("--out", out)
+    _check_writable("--png", args.png)
     return out
 
 
@@ -125,16 +134,24 @@ def _import_nuscenes(args: argparse.Namespace) -> int:
 
 
 def _report_map(roadmap, out: Path, args: argparse.Namespace) -> None:
-    roadmap.save(out, overwrite=args.overwrite)
+    png = None
+    if args.png is not None:  # drawn first: a picture that cannot be written leaves no map behind
+        from box2d_driving.maps.plot import plot_map
+
+        png = plot_map(roadmap, args.png)
+    try:
+        roadmap.save(out, overwrite=args.overwrite)
+    except BaseException:
+        if png is not None:
+            png.unlink(missing_ok=True)
+        raise
     arms = ", ".join(f"{a.name or a.id} ({len(a.lanes_in)} in/{len(a.lanes_out)} out)" for a in roadmap.arms)
     print(f"wrote {out}: {len(roadmap.arms)} arms [{arms}], {len(roadmap.connectors)} connectors, "
           f"{len(roadmap.signals)} signal heads, {len(roadmap.crosswalks)} crosswalks")
     for note in roadmap.notes:
         print(f"  note: {note}")
-    if args.png is not None:
-        from box2d_driving.maps.plot import plot_map
-
-        print(f"wrote {plot_map(roadmap, args.png)}")
+    if png is not None:
+        print(f"wrote {png}")
 
 
 def _map_output_arguments(p: argparse.ArgumentParser) -> None:
@@ -142,7 +159,7 @@ def _map_output_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--size", type=float, default=100.0, help="side of the square cut out (m, default 100)")
     p.add_argument("--out", required=True, help="map JSON to write")
     p.add_argument("--png", type=Path, help="also draw the map to this PNG (needs matplotlib)")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out (and --png) file")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -248,8 +265,35 @@ def _delegate(argv: list[str]) -> int:
     saved, sys.argv[0] = sys.argv[0], "box2d-driving " + " ".join(argv[:1] if argv[0] != "train" else argv[:2])
     try:
         return script(rest)
+    except OSError as exc:
+        return _file_error(sys.argv[0], exc)
     finally:
         sys.argv[0] = saved
+
+
+def _file_error(prog: str, exc: OSError) -> int:
+    """A file or folder the command could not read or write (``--out`` a file where a folder
+    goes, a folder that cannot be created, a full disk): one line naming it, exit status 2.
+    Errors that name no file are not the user's input: they propagate."""
+    if exc.filename is None:
+        raise exc
+    name = str(exc.filename)
+    for scratch in (".partial", ".tmp"):  # the file written beside the one asked for, then renamed
+        name = name[: -len(scratch)] if name.endswith(scratch) else name
+    print(f"{prog}: error: {name}: {exc.strerror or exc}", file=sys.stderr)
+    return 2
+
+
+def _check_writable(flag: str, path: Optional[Path]) -> None:
+    """``path`` can be created: its folder exists (or can be made) and is writable; checked
+    before any work, so that nothing is left half done."""
+    if path is None:
+        return
+    folder = Path(path).resolve().parent
+    while not folder.exists():
+        folder = folder.parent
+    if not folder.is_dir() or not os.access(folder, os.W_OK):
+        raise ValueError(f"{flag} {path}: cannot write there ({folder} is not a writable folder)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -269,6 +313,8 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, FileExistsError) as exc:  # ConfigError is a ValueError
         print(f"box2d-driving {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        return _file_error(f"box2d-driving {args.command}", exc)
 
 
 if __name__ == "__main__":

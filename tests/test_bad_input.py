@@ -139,3 +139,55 @@ def test_every_command_reports_a_bad_input_in_one_line_with_status_2(tmp_path, m
     assert not any(line.startswith("usage:") for line in err), err  # the error line alone, no usage dump
     assert not any("Traceback" in line for line in err)
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.parametrize("command", [
+    ["render", "intersection-v0", "--episodes", "1", "--frames", "{file}"],
+    ["render", "intersection-v0", "--episodes", "1", "--out", "{file}/x.mp4"],
+    ["evaluate", "--checkpoint", "traffic_lights_4cars", "--episodes", "1", "--out", "{file}"],
+    ["curve", "{file}"],
+    ["train", "lights", "--timesteps", "80", "--out", "{file}"],
+    ["train", "lights", "--timesteps", "80", "--out", "{file}/run"],
+    ["import-osm", "{osm}", "--node", "1", "--out", "{file}/map.json"],
+    ["import-osm", "{osm}", "--node", "1", "--out", "{dir}/map.json", "--png", "{file}/map.png"],
+])
+def test_an_output_path_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, capsys, command):
+    """An output where a file stands in the way: exit 2, one line naming the path, nothing left."""
+    from tests.osm_fixtures import four_way
+
+    blocker = tmp_path / "afile"
+    blocker.write_text("mine")
+    (tmp_path / "dir").mkdir()
+    osm = four_way(tmp_path / "four.osm")
+    argv = [a.format(file=blocker, osm=osm, dir=tmp_path / "dir") for a in command]
+    assert cli(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1 and str(blocker) in err, err
+    assert blocker.read_text() == "mine" and not list((tmp_path / "dir").iterdir())
+
+
+def test_env_corners_are_our_errors_naming_the_culprit():
+    import numpy as np
+
+    from box2d_driving.config import ConfigError
+
+    with pytest.raises(ConfigError, match=r"pedestrian_size must be in \[0.05, 10\] m"):
+        box2d_driving.make("crosswalk-v0", pedestrian_size=1e-5)
+    with pytest.raises(ConfigError, match="unknown map 'xxxx"):
+        box2d_driving.make("real-junction-v0", map="x" * 300)  # longer than any file name may be
+    spline = box2d_driving.make("intersection-spline-v0")
+    with pytest.raises(ConfigError, match="reset: options must be a dict or None, got str"):
+        spline.reset(seed=0, options="abc")
+    env = box2d_driving.make("intersection-v0")
+    first = env.reset(seed=np.int64(5))[0]  # a numpy integer is a seed like any other
+    again = env.reset(seed=5)[0]
+    assert all(np.array_equal(first[a], again[a]) for a in first)
+    for bad in (True, -1, 2.5, "5"):
+        with pytest.raises(ConfigError, match="reset: seed must be"):
+            env.reset(seed=bad)
+    import gymnasium as gym
+
+    single = gym.make("box2d_driving/Intersection-v0").unwrapped
+    single.reset(seed=np.int64(3))
+    with pytest.raises(ConfigError, match="reset: seed must be"):
+        single.reset(seed=True)

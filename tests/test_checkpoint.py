@@ -134,7 +134,12 @@ def test_own_old_checkpoint_converts_with_trust_pickle(run, tmp_path):
     assert read_checkpoint(old).optimizer is not None  # a converted run can be resumed
     with pytest.raises(RunError, match="state.json"):
         train(_tiny(timesteps=240), old, resume=True)
-    shutil.copy(run / "state.json", old / "state.json")
+    # the state.json saved with that checkpoint (its decisions match) makes it resumable
+    at = read_checkpoint(old).counters["num_timesteps"]
+    (old / "state.json").write_text(json.dumps({"decisions": at + 80, "agent_steps": 0, "wall_s": 1.0}))
+    with pytest.raises(RunError, match="state.json is missing or is not model.safetensors's"):
+        train(_tiny(timesteps=240), old, resume=True)  # another checkpoint's state is not taken
+    (old / "state.json").write_text(json.dumps({"decisions": at, "agent_steps": 0, "wall_s": 1.0}))
     train(_tiny(timesteps=240), old, resume=True)
 
 

@@ -235,6 +235,12 @@ def test_import_osm_command(tmp_path, capsys):
     left = tmp_path / "left.json"
     assert cli(["import-osm", str(src), "--node", "1", "--drive-on", "left", "--out", str(left)]) == 0
     assert load_map(left).source["drive_on"] == "left"
+    # an existing picture is not replaced silently either, and the map is not written
+    png = tmp_path / "mine.png"
+    png.write_bytes(b"my picture")
+    fresh = tmp_path / "fresh.json"
+    assert cli(["import-osm", str(src), "--node", "1", "--out", str(fresh), "--png", str(png)]) == 2
+    assert "--png" in capsys.readouterr().err and png.read_bytes() == b"my picture" and not fresh.exists()
 
 
 def test_junction_area_reaches_the_stop_lines(junction):
@@ -357,3 +363,27 @@ def test_build_map_names_the_arm_and_field_it_cannot_use(field, value, message, 
     arms[1] = ArmSpec(centreline=arms[0].centreline * [0.0, 1.0], lanes_in=0, lanes_out=0, lane_width=3.5)
     with pytest.raises(MapError, match="arm 1: it has no lanes"):
         build_map(arms, ImportConfig(drive_on=drive_on), "t", {})
+
+
+def test_osm_corner_cases_import_or_fail_naming_the_cause(tmp_path):
+    """Negative ids (valid OSM, written by editors) import; a position that is no position, a
+    junction nothing can cross and a file with a node twice are each said."""
+    from tests.osm_fixtures import write_osm
+
+    plus = {"highway": "primary"}
+    nodes = {-1: (0, 0, {}), -2: (60, 0, {}), -3: (-60, 0, {}), -4: (0, 60, {}), -5: (0, -60, {})}
+    ways = {-10: ([-1, -2], plus), -11: ([-3, -1], plus), -12: ([-1, -4], plus), -13: ([-1, -5], plus)}
+    negative = write_osm(tmp_path / "negative.osm", nodes, ways)
+    assert len(import_junction(negative, -1).arms) == 4
+    with pytest.raises(MapError, match=r"junction position \(nan, nan\) is not a latitude"):
+        import_junction(negative, (float("nan"), float("nan")))
+    inbound = write_osm(tmp_path / "inbound.osm", {1: (0, 0, {}), 2: (60, 0, {}), 3: (-60, 0, {}), 4: (0, 60, {})},
+                        {10: ([2, 1], {**plus, "oneway": "yes"}), 11: ([3, 1], {**plus, "oneway": "yes"}),
+                         12: ([4, 1], {**plus, "oneway": "yes"})})
+    with pytest.raises(MapError, match="junction at node 1 has no way through"):
+        import_junction(inbound, 1)
+    text = negative.read_text().splitlines()
+    twice = [line for line in text if line.startswith('<node id="-2"')]
+    doubled = tmp_path / "doubled.osm"
+    doubled.write_text("\n".join(text[:text.index(twice[0]) + 1] + twice + text[text.index(twice[0]) + 1:]))
+    assert any("node id(s) appear twice (-2)" in n for n in import_junction(doubled, -1).notes)

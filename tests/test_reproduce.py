@@ -409,3 +409,15 @@ def test_seeds_added_after_an_interim_look_are_marked():
     assert _estimate_cell(e, [0, 1, 2, 3], planned=3).endswith(f"(0.100, 0.200, 0.300, 0.400{ADDED_MARK})")
     assert ADDED_MARK not in _estimate_cell(e, [0, 1, 2, 3], planned=None)
     assert ADDED_MARK not in _estimate_cell(e, [0, 1, 2], planned=1)  # values and seeds do not line up: no marks
+
+
+@pytest.mark.parametrize("folder", ["missing", "empty"])
+def test_a_page_is_never_written_from_no_summaries(tmp_path, capsys, folder):
+    from training.results import reproduce
+
+    (tmp_path / "empty").mkdir()
+    page = tmp_path / "results.md"
+    page.write_text("the committed page")
+    code = reproduce.main(["--summaries", str(tmp_path / folder), "--out", str(page)])
+    assert code == 2 and "no s" in capsys.readouterr().err
+    assert page.read_text() == "the committed page"

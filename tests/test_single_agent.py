@@ -68,9 +68,11 @@ def test_backgrounds_shipped_scripted_and_without_the_assets_folder(monkeypatch)
     assert env.background_name == "shipped:traffic_lights_4cars_noise05"
     assert env.parallel.config.lidar_noise == 0.5  # the settings its policy was trained with
     assert gym.make("box2d_driving/Intersection-v0", num_cars=8).unwrapped.parallel.config.num_cars == 8
-    monkeypatch.setattr(single_agent, "SHIPPED", single_agent.SHIPPED / "absent")  # as installed from a wheel
-    assert gym.make("box2d_driving/Intersection-v0").unwrapped.background_name == "rule"
-    assert gym.make("box2d_driving/Crosswalk-v0").unwrapped.background_name == "pedestrian-oracle"
+    monkeypatch.setattr(single_agent, "SHIPPED", single_agent.SHIPPED / "absent")  # an install without them
+    with pytest.warns(UserWarning, match="'traffic_lights_4cars_noise05' is not in .*scripted 'rule' policy"):
+        assert gym.make("box2d_driving/Intersection-v0").unwrapped.background_name == "rule"
+    with pytest.warns(UserWarning, match="scripted 'pedestrian-oracle'"):
+        assert gym.make("box2d_driving/Crosswalk-v0").unwrapped.background_name == "pedestrian-oracle"
     with pytest.raises(ValueError, match="not a scripted policy"):
         gym.make("box2d_driving/Intersection-v0", background="no/such/run")
 

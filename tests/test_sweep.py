@@ -329,3 +329,33 @@ def test_curves_read_a_trials_reported_checkpoints_never_a_half_written_one(tmp_
     done = {"status": "done", "run": str(trial / "checkpoint_000001")}
     assert run_folder(tmp_path, "lights_seed=0", done) == trial / "checkpoint_000001"  # finished: the summary's
     assert not run_folder(tmp_path, "lights_seed=1", None).exists()  # not started: nothing to read
+
+
+_IGNORED_EXIT = """
+import sys, weakref
+from training.sweeps.worker_exit import exit_on_ignored_system_exit
+if sys.argv[1] == "hook":
+    exit_on_ignored_system_exit()
+class Thing: pass
+def stop(_):  # as Ray's SIGTERM handler does, landing in a callback Python cannot raise from
+    raise SystemExit(3)
+def other(_):
+    raise ValueError("an ordinary ignored error")
+thing, more = Thing(), Thing()
+refs = [weakref.ref(more, other), weakref.ref(thing, stop)]
+print("before", flush=True)
+del more  # an ordinary ignored exception is still reported
+del thing
+print("still running")
+"""
+
+
+@pytest.mark.parametrize("hook", ["hook", "none"])
+def test_a_stopped_trial_worker_exits_instead_of_printing_an_ignored_system_exit(hook):
+    done = subprocess.run([sys.executable, "-c", _IGNORED_EXIT, hook], cwd=ROOT, capture_output=True, text=True,
+                          timeout=60)
+    assert "an ordinary ignored error" in done.stderr  # other ignored exceptions reported as before
+    if hook == "hook":
+        assert done.returncode == 3 and "still running" not in done.stdout and "SystemExit" not in done.stderr
+    else:  # Python's own behaviour, which the sweep's test saw: a traceback, and the process carries on
+        assert done.returncode == 0 and "still running" in done.stdout and "SystemExit" in done.stderr

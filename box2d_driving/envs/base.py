@@ -15,7 +15,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 from pettingzoo import ParallelEnv
 
-from box2d_driving.config import DrivingConfig
+from box2d_driving.config import ConfigError, DrivingConfig
 from box2d_driving.envs import core
 from box2d_driving.envs.actions import ActionError, check_actions  # noqa: F401  (ActionError: part of this module's API)
 from box2d_driving.envs.observation import FrameHistory, ObservationLayout
@@ -32,6 +32,20 @@ if TYPE_CHECKING:
 # remaining / initial path length, active, arrived, collided, rating.
 STATE_FIELDS = ("x", "y", "cos_heading", "sin_heading", "speed", "acceleration", "goal_x",
                 "goal_y", "remaining_fraction", "active", "arrived", "collided", "rating")
+
+
+def check_reset_arguments(seed: Any, options: Any) -> tuple[Optional[int], dict]:
+    """``reset``'s ``seed`` as a Python int (numpy integers accepted; ``True`` is not a seed) and
+    its ``options`` as a dict; :class:`ConfigError` naming the bad one."""
+    if seed is not None:
+        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+            raise ConfigError(f"reset: seed must be a whole number >= 0 or None, got {seed!r}")
+        if seed < 0:
+            raise ConfigError(f"reset: seed must be >= 0, got {seed}")
+        seed = int(seed)
+    if options is not None and not isinstance(options, dict):
+        raise ConfigError(f"reset: options must be a dict or None, got {type(options).__name__}")
+    return seed, dict(options or {})
 
 
 class DrivingEnv(ParallelEnv, EzPickle):
@@ -127,9 +141,10 @@ class DrivingEnv(ParallelEnv, EzPickle):
     # -- API ----------------------------------------------------------------------------------
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         cfg = self.config
+        seed, options = check_reset_arguments(seed, options)
         if seed is not None:  # action_space(a).sample() is reproducible from the same seed
             self._act_space.seed(seed)
-        self.layout = self._new_layout(seed, options or {})
+        self.layout = self._new_layout(seed, options)
         self.world.reset(self.layout)
         n = cfg.num_cars
         self.decision = 0

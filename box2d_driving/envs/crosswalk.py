@@ -70,7 +70,8 @@ class CrosswalkConfig(HighwayConfig):
         s_lo, s_hi = self.pedestrian_speed_range
         require(self, 0 < s_lo <= s_hi, ("pedestrian_speed_range",),
                 "pedestrian_speed_range must be positive and increasing (m/s)")
-        require(self, 0 < self.pedestrian_size <= 10, ("pedestrian_size",), "pedestrian_size must be in (0, 10] m")
+        require(self, 0.05 <= self.pedestrian_size <= 10, ("pedestrian_size",),
+                "pedestrian_size must be in [0.05, 10] m (Box2D cannot make a smaller body)")
         require(self, 0 < self.walkway, ("walkway",), "walkway must be positive (m)")
         require(self, 0 < self.ahead_half_angle <= math.pi, ("ahead_half_angle",), "ahead_half_angle must be in (0, pi] rad")
         c0, c1 = self.crosswalk_x

@@ -25,16 +25,18 @@ first stage (each car choosing its path) is a second, one-step decision per epis
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any, Optional
 
 import gymnasium as gym
 import numpy as np
 
+from box2d_driving.policies.shipped import SHIPPED_POLICIES_DIR
 from box2d_driving.registry import make as make_parallel
 
 EGO = "car_0"
-SHIPPED = Path(__file__).resolve().parents[2] / "assets" / "policies"
+SHIPPED = SHIPPED_POLICIES_DIR  # assets/policies in a checkout, the package's copy in a wheel
 
 # id -> (multi-agent env id, shipped background policy, scripted fall-back)
 SINGLE_AGENT_IDS = {
@@ -78,6 +80,9 @@ class SingleAgentDrivingEnv(gym.Env):
         self._others: dict[str, np.ndarray] = {}
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
+        from box2d_driving.envs.base import check_reset_arguments
+
+        seed, options = check_reset_arguments(seed, options)
         super().reset(seed=seed)
         if seed is not None:
             self.action_space.seed(seed)
@@ -120,6 +125,9 @@ def _background(env_id: str, background: Optional[str], fallback: str, shipped: 
     if shipped is not None and (SHIPPED / shipped).is_dir():
         policy = _load(SHIPPED / shipped)
         return policy, f"shipped:{shipped}", _observation_settings(policy)
+    if shipped is not None:  # an install without the shipped policies: another world, said aloud
+        warnings.warn(f"{env_id}: the shipped background policy {shipped!r} is not in {SHIPPED}; the other cars "
+                      f"are driven by the scripted {fallback!r} policy instead", stacklevel=3)
     return SCRIPTED[fallback], fallback, {}
 
 

@@ -222,6 +222,9 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
             where = (float(where[0]), float(where[1]))
         except (TypeError, ValueError, IndexError):
             raise MapError(f"junction must be an OSM node id or (lat, lon), got {where!r}") from None
+        if not (-90.0 <= where[0] <= 90.0 and -180.0 <= where[1] <= 180.0):  # NaN fails too
+            raise MapError(f"junction position {where!r} is not a latitude in [-90, 90] and a longitude "
+                           f"in [-180, 180] (degrees)")
     probe = LocalFrame(*(data.location(int(where)) or (0.0, 0.0))) if isinstance(where, (int, np.integer)) \
         else LocalFrame(*where)
     g = _Graph(data, probe)
@@ -231,7 +234,7 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
     g = _Graph(data, frame)
     cluster = _cluster(g, centre_ref, cfg)
     centre = np.mean([g.xy[n] for n in cluster], axis=0)
-    notes = [] if len(cluster) == 1 else [f"junction nodes {sorted(cluster)} merged into one junction"]
+    notes = list(data.notes) + ([] if len(cluster) == 1 else [f"junction nodes {sorted(cluster)} merged into one junction"])
 
     branches = []
     for c in sorted(cluster):
@@ -254,7 +257,11 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
               "junction_nodes": sorted(int(n) for n in cluster), "centre_latlon": [lat0, lon0],
               "streets": sorted({s.name for s in specs if s.name}), **LICENCE}
     stem = data.path.name.split(".")[0].lower()
-    return build_map(specs, cfg, name or f"{stem}_{centre_ref}", source, signalled=signalled, notes=notes)
+    roadmap = build_map(specs, cfg, name or f"{stem}_{centre_ref}", source, signalled=signalled, notes=notes)
+    if not roadmap.connectors:  # every arm one-way in, or every one out: nothing can cross it
+        raise MapError(f"the junction at node {centre_ref} has no way through: no inbound lane connects to an "
+                       f"outbound one (arms: {', '.join(f'{a.name or a.id}: {len(a.lanes_in)} in/{len(a.lanes_out)} out' for a in roadmap.arms)})")
+    return roadmap
 
 
 def _spec(g: _Graph, b: _Branch, centre: np.ndarray, cfg: ImportConfig, notes: list[str]) -> Optional[ArmSpec]:

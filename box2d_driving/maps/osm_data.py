@@ -39,6 +39,7 @@ class OsmData:
     roads: list[OsmWay] = field(default_factory=list)
     crossing_ways: list[OsmWay] = field(default_factory=list)
     nodes: dict[int, tuple[float, float, dict[str, str]]] = field(default_factory=dict)  # lat, lon, tags
+    notes: list[str] = field(default_factory=list)  # oddities of the file, passed on to the map's notes
 
     def location(self, ref: int) -> Optional[tuple[float, float]]:
         """Lat/lon of a node on a road, or None if it is not on one or missing from the file."""
@@ -82,9 +83,19 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
         raise MapError(f"OSM file {path} does not exist")
     data = OsmData(path=path)
     classes = set(road_classes)
+    # osmium's location index holds positive ids only; negative ones (new objects in editors'
+    # files, valid OSM) are kept here, as are the ids seen twice in a row (a sorted file's duplicates)
+    negative: dict[int, tuple[float, float]] = {}
+    last = {"id": None}
+    duplicated: list[int] = []
 
     class Handler(osmium.SimpleHandler):
         def node(self, n) -> None:
+            if n.id == last["id"]:
+                duplicated.append(n.id)
+            last["id"] = n.id
+            if n.id < 0 and n.location.valid():
+                negative[n.id] = (n.location.lat, n.location.lon)
             tags = {t.k: t.v for t in n.tags}
             if tags.get("highway") == "traffic_signals" or _is_crossing_node(tags):
                 if not n.location.valid():
@@ -103,7 +114,7 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
             for n in w.nodes:
                 refs.append(n.ref)
                 loc = n.location
-                coords.append((loc.lat, loc.lon) if loc.valid() else (math.nan, math.nan))
+                coords.append((loc.lat, loc.lon) if loc.valid() else negative.get(n.ref, (math.nan, math.nan)))
             way = OsmWay(w.id, refs, np.array(coords, dtype=np.float64).reshape(-1, 2), tags)
             (data.roads if is_road else data.crossing_ways).append(way)
 
@@ -115,4 +126,7 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
         raise MapError(f"{path}: not a readable OSM file ({type(exc).__name__}: {exc})") from None
     if not data.roads:
         raise MapError(f"{path}: no roads that carry cars (highway={', '.join(sorted(classes))})")
+    if duplicated:
+        data.notes.append(f"{path.name}: {len(duplicated)} node id(s) appear twice ({', '.join(map(str, duplicated[:5]))}"
+                          f"{', ...' if len(duplicated) > 5 else ''}); the last position of each was used")
     return data

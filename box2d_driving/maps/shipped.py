@@ -22,12 +22,15 @@ def shipped_maps() -> tuple[str, ...]:
 
 def resolve_map(name_or_path: str) -> Path:
     """The file of a shipped map name or a path to a map JSON (:class:`MapError` if neither)."""
-    candidate = SHIPPED_DIR / f"{name_or_path}.json"
-    if candidate.is_file():
-        return candidate
-    path = Path(name_or_path)
-    if path.is_file():
-        return path.resolve()
+    try:  # a name no file system accepts (too long, a NUL byte) is simply not found
+        candidate = SHIPPED_DIR / f"{name_or_path}.json"
+        if candidate.is_file():
+            return candidate
+        path = Path(name_or_path)
+        if path.is_file():
+            return path.resolve()
+    except (OSError, ValueError):
+        pass
     raise MapError(f"unknown map {name_or_path!r}: not a shipped map ({', '.join(shipped_maps()) or 'none found'}) "
                    f"nor an existing file")
 

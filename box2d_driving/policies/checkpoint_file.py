@@ -33,6 +33,11 @@ VERSION = 1
 FILE = "model.safetensors"
 LEGACY_FILE = "model.zip"
 MAX_HEADER = 100 * 2**20  # bytes; a safetensors header is JSON, this bounds what we parse
+# the largest checkpoint read (bytes): ours are under 2 MB with the optimiser state; a file far
+# beyond is not one of ours, and reading it whole could exhaust memory
+MAX_CHECKPOINT_BYTES = 256 * 2**20
+MAX_JSON_BYTES = 16 * 2**20  # a run's config.json, state.json, eval/metrics.json
+MAX_JSON_DEPTH = 64  # nesting of a JSON file we read (ours nest 4 deep)
 
 
 class CheckpointError(ValueError):
@@ -54,6 +59,8 @@ def find_checkpoint(path: Union[str, Path]) -> Path:
     if path.is_dir():
         if (path / FILE).is_file():
             return path / FILE
+        if (path / FILE).exists():
+            raise CheckpointError(f"{path / FILE} is not a regular file")
         if (path / LEGACY_FILE).exists():
             raise CheckpointError(legacy_message(path / LEGACY_FILE))
         raise CheckpointError(f"no checkpoint in {path}: {FILE} is missing")
@@ -94,7 +101,7 @@ def read_tensors(path: Union[str, Path], framework: str) -> tuple[Path, dict[str
     process rewrites in place (a sweep's trial folder while Ray Tune syncs it) end the reading
     process with SIGBUS, while a copy can at worst be refused here as unreadable."""
     path = find_checkpoint(path)
-    data = path.read_bytes()  # once: the header checked is the one parsed
+    data = read_bounded(path, MAX_CHECKPOINT_BYTES, CheckpointError)  # once: the header checked is the one parsed
     size = check_header(path, data)
     try:
         meta = json.loads(data[8:8 + size]).get("__metadata__") or {}
@@ -116,6 +123,9 @@ def read_arrays(path: Union[str, Path]) -> tuple[Path, dict[str, np.ndarray], di
     policy = {key[len("policy/"):]: value for key, value in tensors.items() if key.startswith("policy/")}
     if not policy:
         raise CheckpointError(f"{path} holds no policy weights")
+    for key, value in policy.items():
+        if not np.issubdtype(value.dtype, np.number) or not np.isfinite(value).all():
+            raise CheckpointError(f"{path}: policy/{key} holds non-finite or non-numeric values")
     return path, policy, meta
 
 
@@ -134,12 +144,59 @@ def find_config(model_path: Path) -> Path:
     raise CheckpointError(f"no config.json next to {model_path} or in its parent folder")
 
 
+def read_bounded(path: Path, limit: int, error: type = CheckpointError) -> bytes:
+    """The bytes of the regular file ``path``, refused (as ``error`` naming it) when it is not a
+    regular file (a FIFO would block, a device never end) or is larger than ``limit`` bytes."""
+    import os
+    import stat
+
+    try:
+        with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as fh:
+            info = os.fstat(fh.fileno())  # the file opened, not one swapped in after a check
+            if not stat.S_ISREG(info.st_mode):
+                raise error(f"{path} is not a regular file")
+            if info.st_size > limit:
+                raise error(f"{path} is {info.st_size / 2**20:.0f} MiB, more than the {limit / 2**20:.0f} MiB "
+                            f"a file of this kind can be")
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise error(f"{path}: cannot read it ({exc.strerror or exc})") from None
+    if len(data) > limit:  # grew while it was read
+        raise error(f"{path} is larger than the {limit / 2**20:.0f} MiB a file of this kind can be")
+    return data
+
+
+def json_depth(value: Any, limit: int = MAX_JSON_DEPTH) -> int:
+    """Nesting depth of a parsed JSON value (iteratively; ``limit + 1`` once past ``limit``)."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)):
+            deepest = max(deepest, depth)
+            if deepest > limit:
+                return deepest
+            stack.extend((v, depth + 1) for v in (item.values() if isinstance(item, dict) else item))
+    return deepest
+
+
+def load_json_file(path: Path, error: type = CheckpointError, limit: int = MAX_JSON_BYTES) -> Any:
+    """A JSON file we read from a run or policy folder: a regular file of at most ``limit``
+    bytes, nested at most :data:`MAX_JSON_DEPTH` deep; anything else is ``error`` naming it."""
+    text = read_bounded(path, limit, error)
+    try:
+        data = json.loads(text)
+    except RecursionError:
+        raise error(f"{path}: JSON nested too deep") from None
+    except ValueError as exc:
+        raise error(f"{path}: not valid JSON ({exc})") from None
+    if json_depth(data) > MAX_JSON_DEPTH:
+        raise error(f"{path}: JSON nested more than {MAX_JSON_DEPTH} deep")
+    return data
+
+
 def read_json(path: Path) -> dict:
     """A run's JSON config as a dict, or :class:`CheckpointError` naming the file."""
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise CheckpointError(f"{path}: not a readable JSON config ({exc})") from None
+    data = load_json_file(path)
     if not isinstance(data, dict):
         raise CheckpointError(f"{path}: expected a JSON object")
     return data

@@ -20,13 +20,17 @@ shipped policy.
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from typing import Mapping, Optional
 
 import numpy as np
 from gymnasium import spaces
 from numpy.lib.stride_tricks import sliding_window_view
 
 from box2d_driving.policies.checkpoint_file import CheckpointError
+
+# The acceleration policy's architecture (the trainer's networks, training/ppo/, import these):
+# LiDAR convolutions of CHANNELS channels and kernel KERNEL, POOLED features, HIDDEN tanh units
+CHANNELS, KERNEL, POOLED, HIDDEN = 8, 5, 25, 256
 
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 
@@ -76,18 +80,16 @@ class DrivingActor:
     """
 
     def __init__(self, weights: Mapping[str, np.ndarray], history: int, n_rays: int,
-                 pooled: int = 25) -> None:
+                 pooled: int = 25, n_actions: Optional[int] = None) -> None:
         prefix = "mlp_extractor.actor_encoder.conv"
         self.conv1 = (_weight(weights, f"{prefix}.0.weight"), _weight(weights, f"{prefix}.0.bias"))
         self.conv2 = (_weight(weights, f"{prefix}.2.weight"), _weight(weights, f"{prefix}.2.bias"))
         self.mlp = linear_layers(weights, ["mlp_extractor.actor_mlp.0", "mlp_extractor.actor_mlp.2"])
         self.head = linear_layers(weights, ["action_net"])[0]
         self.history, self.n_rays = history, n_rays
+        check_actor_shapes(self, history, n_rays, pooled, n_actions)
         self.pool = adaptive_average(n_rays, pooled)
         self.obs_dim = history * n_rays + self.mlp[0][0].shape[1] - pooled
-        if self.conv1[0].shape[1] != history:
-            raise ValueError(f"the actor's first convolution reads {self.conv1[0].shape[1]} frames, "
-                             f"the observation has {history}")
 
     def logits(self, obs: np.ndarray) -> np.ndarray:
         """Action logits ``(B, n_actions)`` for own observations ``(B, D)``."""
@@ -104,6 +106,29 @@ class DrivingActor:
             z = np.tanh(z @ w.T + b)
         w, b = self.head
         return z @ w.T + b
+
+
+def check_actor_shapes(actor: "DrivingActor", history: int, n_rays: int, pooled: int,
+                       n_actions: Optional[int]) -> None:
+    """Every tensor :class:`DrivingActor` reads has the shape of the trainer's network
+    (:data:`CHANNELS`, :data:`KERNEL`, :data:`HIDDEN`; the torch loader compares every tensor with
+    the network it builds, so both loaders accept the same files): ``ValueError`` naming it."""
+    (w1, b1), (w2, b2) = actor.conv1, actor.conv2
+    (m0, c0), (m1, c1) = actor.mlp
+    head_w, head_b = actor.head
+    conv, mlp = "mlp_extractor.actor_encoder.conv", "mlp_extractor.actor_mlp"
+    wanted = {f"{conv}.0.weight": (w1, (CHANNELS, history, KERNEL)), f"{conv}.0.bias": (b1, (CHANNELS,)),
+              f"{conv}.2.weight": (w2, (1, CHANNELS, KERNEL)), f"{conv}.2.bias": (b2, (1,)),
+              f"{mlp}.0.weight": (m0, (HIDDEN, m0.shape[-1] if m0.ndim == 2 and m0.shape[-1] >= pooled else -1)),
+              f"{mlp}.0.bias": (c0, (HIDDEN,)), f"{mlp}.2.weight": (m1, (HIDDEN, HIDDEN)), f"{mlp}.2.bias": (c1, (HIDDEN,)),
+              "action_net.weight": (head_w, (n_actions if n_actions is not None else head_w.shape[0], HIDDEN)),
+              "action_net.bias": (head_b, (head_w.shape[0],))}
+    for name, (array, shape) in wanted.items():
+        if array.shape != shape:
+            raise ValueError(f"{name} is {tuple(array.shape)}, the network needs "
+                             f"{tuple('>= %d' % pooled if d == -1 else d for d in shape)}")
+    if KERNEL > n_rays:
+        raise ValueError(f"the convolutions' kernel {KERNEL} is wider than the {n_rays} rays")
 
 
 def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarray) -> np.ndarray:
@@ -125,14 +150,32 @@ def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarr
     raise TypeError(f"unsupported action space {action_space}")
 
 
+def _head_size(space: spaces.Space) -> int:
+    """Outputs of SB3's action head for ``space``: the logits of every category, or the mean."""
+    if isinstance(space, spaces.Discrete):
+        return int(space.n)
+    if isinstance(space, spaces.MultiDiscrete):
+        return int(np.sum(space.nvec))
+    return int(np.prod(space.shape))
+
+
 class MlpActor:
     """An SB3 ``MlpPolicy`` actor (tanh hidden layers) from checkpoint weights: the spline
     policy of a bilevel run. ``hidden`` is how many hidden layers it has."""
 
-    def __init__(self, weights: Mapping[str, np.ndarray], action_space: spaces.Space, hidden: int) -> None:
+    def __init__(self, weights: Mapping[str, np.ndarray], action_space: spaces.Space, hidden: int,
+                 observation_space: Optional[spaces.Space] = None) -> None:
         names = [f"mlp_extractor.policy_net.{2 * k}" for k in range(hidden)] + ["action_net"]
         self.layers = linear_layers(weights, names)
         self.action_space = action_space
+        width = int(np.prod(observation_space.shape)) if observation_space is not None else None
+        for name, (w, b) in zip(names, self.layers):  # each layer reads what the one before gives
+            if w.ndim != 2 or (width is not None and w.shape[1] != width) or b.shape != (w.shape[0],):
+                raise ValueError(f"{name} is {w.shape} with bias {b.shape}; the layer before gives {width}")
+            width = w.shape[0]
+        if width != _head_size(action_space):
+            raise ValueError(f"action_net gives {width} outputs, the action space {action_space} needs "
+                             f"{_head_size(action_space)}")
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         return greedy_from_layers(self.layers, self.action_space, obs)

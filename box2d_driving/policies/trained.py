@@ -18,8 +18,9 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config, is_bilevel_run,
-                                                    read_arrays, read_json)
+                                                    load_json_file, read_arrays, read_json)
 from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor
+from box2d_driving.policies.shipped import is_policy_folder, shipped_policy
 
 
 class RunPolicy:
@@ -61,10 +62,11 @@ class RunPolicy:
             report = folder / "eval" / "metrics.json"
             if report.is_file():
                 try:
-                    value = json.loads(report.read_text()).get("stop_value")
-                except (OSError, ValueError):
+                    value = load_json_file(report)
+                except CheckpointError:
                     return None
-                return float(value) if value in (0.0, 1.0) else None
+                value = value.get("stop_value") if isinstance(value, dict) else None
+                return float(value) if value in (0.0, 1.0) and not isinstance(value, bool) else None
         return None
 
     def actions(self, obs: np.ndarray) -> np.ndarray:
@@ -142,8 +144,9 @@ def load_trained(path: Union[str, Path], deterministic: bool = True,
     ``.safetensors`` file itself, or a bilevel run folder with ``accel/`` and ``spline/``, whose
     envs then pick their paths with the spline policy. Raises :class:`CheckpointError` (a
     ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
-    malformed."""
-    path = Path(path)
+    malformed. A shipped policy may be given by name (``"traffic_lights_4cars_noise05"``, see
+    :func:`~box2d_driving.policies.shipped.shipped_policies`)."""
+    path = _resolve(path)
     if is_bilevel_run(path):
         policy = load_trained(path / "accel", deterministic, seed)
         policy.spline_policy = _spline_actor(path)
@@ -153,9 +156,10 @@ def load_trained(path: Union[str, Path], deterministic: bool = True,
     config = read_json(config_path)
     env = run_env(config, config_path)
     layout = env.observation_layout
+    n_actions = int(env.action_space(env.possible_agents[0]).n)
     env.close()
     try:
-        actor = DrivingActor(weights, layout.history, layout.n_rays)
+        actor = DrivingActor(weights, layout.history, layout.n_rays, n_actions=n_actions)
     except ValueError as exc:
         raise CheckpointError(f"{file} does not fit {config_path}'s env ({exc})") from None
     if actor.obs_dim != layout.size:
@@ -164,15 +168,40 @@ def load_trained(path: Union[str, Path], deterministic: bool = True,
     return TrainedPolicy(actor, config, config_path.parent, deterministic, seed)
 
 
+def _resolve(path: Union[str, Path]) -> Path:
+    """``path`` itself, or the shipped policy of that name where no such path exists; a folder
+    of several policies in sub-folders is refused naming them."""
+    path = Path(path)
+    if not path.exists() and len(path.parts) <= 2:
+        try:
+            path = shipped_policy(path.as_posix())
+        except KeyError:
+            pass
+    if path.is_dir() and not is_policy_folder(path):
+        inside = sorted(p.name for p in path.iterdir() if p.is_dir() and is_policy_folder(p))
+        if inside:
+            raise CheckpointError(f"{path} holds no policy of its own but {len(inside)} in sub-folders ({', '.join(inside)}): "
+                                  f"load one of them, e.g. {path / inside[0]}")
+    return path
+
+
 def _spline_actor(run: Path) -> MlpActor:
     """The greedy stage-0 (spline) actor of a bilevel run folder."""
-    _, weights, _ = read_arrays(run / "spline")
+    file, weights, _ = read_arrays(run / "spline")
     config = read_json(run / "config.json")
     try:
         env = run_env(config["accel"], run / "config.json")
-        space = env.spline_action_space
-        hidden = len(config.get("spline_hidden", (64, 64)))
-    except (KeyError, TypeError, AttributeError) as exc:
+        space, seen = env.spline_action_space, env.spline_observation_space
+        declared = [int(h) for h in config.get("spline_hidden", (64, 64))]
+    except (KeyError, TypeError, AttributeError, ValueError, OverflowError) as exc:
         raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
     env.close()
-    return MlpActor(weights, space, hidden)
+    saved = [weights[f"mlp_extractor.policy_net.{2 * k}.weight"].shape[0]
+             for k in range(len(weights)) if f"mlp_extractor.policy_net.{2 * k}.weight" in weights]
+    if saved != declared:
+        raise CheckpointError(f"{run / 'config.json'}: spline_hidden {declared} does not match the layers of {file} "
+                              f"({saved})")
+    try:
+        return MlpActor(weights, space, len(declared), seen)
+    except ValueError as exc:
+        raise CheckpointError(f"{file} does not fit {run / 'config.json'}'s spline policy ({exc})") from None

@@ -24,6 +24,7 @@ import torch as th
 from stable_baselines3.common.policies import ActorCriticPolicy
 from torch import nn
 
+from box2d_driving.policies.numpy_actor import HIDDEN
 from training.ppo.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
 
 CRITICS = ("mean", "own+mean", "own")
@@ -33,7 +34,7 @@ class CTDENetwork(nn.Module):
     """``forward_actor``: own observation only; ``forward_critic``: the team block."""
 
     def __init__(self, obs_dim: int, n_cars: int, history: int, n_rays: int, n_satnav: int,
-                 critic: str = "mean", hidden: int = 256) -> None:
+                 critic: str = "mean", hidden: int = HIDDEN) -> None:
         super().__init__()
         if critic not in CRITICS:
             raise ValueError(f"critic must be one of {CRITICS}, got {critic!r}")

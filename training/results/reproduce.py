@@ -229,8 +229,16 @@ def _relative(target: Path, start: Path) -> str:
 
 
 def default_summaries(folder: Path) -> list[Path]:
-    """The summaries in ``folder`` (``*.json``; the page places each under its rule)."""
-    return sorted(Path(folder).glob("*.json"))
+    """The summaries in ``folder`` (``*.json``; the page places each under its rule);
+    :class:`ResultsError` when there are none (a page written from nothing would replace the
+    committed one with empty tables)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ResultsError(f"--summaries {folder}: no such folder")
+    found = sorted(folder.glob("*.json"))
+    if not found:
+        raise ResultsError(f"--summaries {folder}: no sweep summaries (*.json) in it")
+    return found
 
 
 def main(argv: Optional[list[str]] = None) -> int:

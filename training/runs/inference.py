@@ -90,8 +90,12 @@ def build_ctde_policy(config: dict, where: Path) -> Any:
     from training.ppo.policy import CTDEPolicy, policy_kwargs_for
     from training.ppo.slots import slot_observation_space
 
-    env = run_env(config, where)
+    from training.ppo.policy import CRITICS
+
     critic = config.get("critic", "mean")
+    if critic not in CRITICS:
+        raise CheckpointError(f"{where}: critic must be one of {CRITICS}, got {critic!r}")
+    env = run_env(config, where)
     agent = env.possible_agents[0]
     space = slot_observation_space(env.observation_space(agent), len(env.possible_agents))
     policy = CTDEPolicy(space, env.action_space(agent), lambda _: 0.0, **policy_kwargs_for(env, critic))
@@ -110,9 +114,17 @@ def _load_spline_policy(run: Path, checkpoint: Path) -> Any:
     try:
         env = box2d_driving.make(config["accel"]["env_id"], **config["accel"]["env_overrides"])
         hidden = [int(h) for h in config.get("spline_hidden", (64, 64))]
+        # the sizes the config declares must be the checkpoint's before anything that size is built
+        saved = [tuple(ckpt.policy[f"mlp_extractor.policy_net.{2 * k}.weight"].shape)[0]
+                 if f"mlp_extractor.policy_net.{2 * k}.weight" in ckpt.policy else None for k in range(len(hidden))]
+        if saved != hidden:
+            raise CheckpointError(f"{run / 'config.json'}: spline_hidden {hidden} does not match the layers of "
+                                  f"{ckpt.path} ({saved})")
         policy = ActorCriticPolicy(env.spline_observation_space, env.spline_action_space,
                                    lambda _: 0.0, net_arch=hidden)
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+    except CheckpointError:
+        raise
+    except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
         raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
     env.close()
     load_policy_weights(policy, ckpt)

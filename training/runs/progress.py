@@ -139,13 +139,20 @@ class RolloutMetrics(BaseCallback):
 
 def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> Path:
     """Write ``checkpoints/model_<decisions>.safetensors``, refresh ``model.safetensors`` and
-    ``state.json`` (each replaced whole, so an interruption leaves the previous ones)."""
+    ``state.json`` (each replaced whole, so an interruption leaves the previous ones; the kept copy
+    is written first and carries the run's state, so a kill between the writes loses nothing:
+    ``training/runs/resume.py``)."""
     ckpt_dir = out / "checkpoints"
     ckpt_dir.mkdir(exist_ok=True)
-    path = save_model(model, ckpt_dir / f"model_{model.num_timesteps}.safetensors")
+    run_state = {"wall_s": wall_s, "agent_steps": agent_steps}
+    path = save_model(model, ckpt_dir / f"model_{model.num_timesteps}.safetensors", run_state=run_state)
     tmp = out / (FILE + ".partial")
-    shutil.copyfile(path, tmp)
-    tmp.replace(out / FILE)
+    try:
+        shutil.copyfile(path, tmp)
+        tmp.replace(out / FILE)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     write_json_atomic(out / "state.json",
                       {"decisions": model.num_timesteps, "agent_steps": agent_steps, "wall_s": wall_s})
     return path

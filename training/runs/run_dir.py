@@ -10,11 +10,15 @@ model is built); ``config.json`` is the first leg's, each ``--resume`` records i
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 from pathlib import Path
 from typing import Any, Iterable
 
 from training.runs.checkpoint import FILE, LEGACY_FILE, legacy_message
+
+
+LOCK_FILE = ".lock"  # held by the process training in the folder (training/runs/lock.py)
 
 
 class RunError(RuntimeError):
@@ -23,7 +27,7 @@ class RunError(RuntimeError):
 
 def check_new(out: Path) -> None:
     """A new run needs ``out`` absent or empty; nothing is overwritten silently."""
-    if out.exists() and any(out.iterdir()):
+    if out.exists() and any(p.name != LOCK_FILE for p in out.iterdir()):
         raise RunError(f"{out} exists and is not empty; choose another --out or pass --resume")
 
 
@@ -48,10 +52,28 @@ def check_same_run(saved: dict, config: Any) -> None:
 
 
 def write_json_atomic(path: Path, data: Any) -> None:
-    """``data`` as JSON, replacing ``path`` whole (written beside it, then renamed)."""
+    """``data`` as JSON, replacing ``path`` whole (written beside it, then renamed; a failed write
+    removes its partial file and leaves ``path`` as it was)."""
     tmp = path.with_name(path.name + ".partial")
-    tmp.write_text(json.dumps(data, indent=2))
-    tmp.replace(path)
+    try:
+        tmp.write_text(json.dumps(data, indent=2))
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+# what a full, read-only, over-quota or failing disk raises while a run writes
+STORAGE_ERRNOS = frozenset(getattr(errno, name) for name in
+                           ("ENOSPC", "EDQUOT", "EFBIG", "EROFS", "EIO", "EACCES", "EPERM", "ENOTDIR")
+                           if hasattr(errno, name))
+
+
+def storage_error(out: Path, exc: OSError) -> RunError:
+    """The one-line error for a write into run folder ``out`` that the disk refused."""
+    what = f"writing {exc.filename}" if exc.filename else "writing"
+    return RunError(f"{what} failed ({exc.strerror or exc}); the run in {out} stopped, and its last "
+                    f"complete checkpoint is kept: make room, then continue it with --resume")
 
 
 def write_config(path: Path, config: Any) -> None:

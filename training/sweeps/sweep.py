@@ -59,6 +59,9 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
     each checkpoint with the run folder, then evaluate on report seeds and report the metrics."""
     from ray import tune
 
+    from training.sweeps.worker_exit import exit_on_ignored_system_exit
+
+    exit_on_ignored_system_exit()  # Ray's SIGTERM at a stop: exit, not a traceback on the user's terminal
     from training.evaluation import evaluate  # noqa: F401  (imported now: a trial runs one version of the code,
     # even if the checkout changes while it trains)
     from training.common.cli_args import parse

@@ -50,8 +50,10 @@ from training.runs.checkpoint import FILE, CheckpointError, read_checkpoint, res
 from training.runs.inference import actor_actions
 from training.common.seeds import check_training_seeds
 from training.ppo.shared_policy import SharedSplinePicker
-from training.runs.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run,
-                              write_config, write_json_atomic)
+from training.runs.lock import run_lock
+from training.runs.resume import truncate_csv
+from training.runs.run_dir import (STORAGE_ERRNOS, RunError, append_logger, check_new, check_resumable,
+                                   check_same_run, storage_error, write_config, write_json_atomic)
 from training.runs.progress import RolloutMetrics
 from training.trainers.trainer import (TrainConfig, build_model, load_weights, make_vec_env,
                               resolve_device, resumed_config, set_minibatching, torch_threads)
@@ -219,11 +221,23 @@ def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> N
 def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
                   on_checkpoint: Optional[Callable[[dict], None]] = None) -> dict[str, Any]:
     """Run (or continue) the alternation in ``out``; returns the last round's row.
-    ``on_checkpoint(row)`` is called after every round is saved."""
-    from tqdm import tqdm
-
+    ``on_checkpoint(row)`` is called after every round is saved. The folder is locked while it
+    trains; a disk that refuses a write ends the run with one :class:`RunError`."""
     out = Path(out)
     config.validate()
+    with run_lock(out):  # one trainer per folder (training/runs/lock.py)
+        try:
+            return _train_bilevel_locked(config, out, resume, on_checkpoint)
+        except OSError as exc:
+            if exc.errno not in STORAGE_ERRNOS:
+                raise
+            raise storage_error(out, exc) from None
+
+
+def _train_bilevel_locked(config: BilevelConfig, out: Path, resume: bool,
+                          on_checkpoint: Optional[Callable[[dict], None]]) -> dict[str, Any]:
+    from tqdm import tqdm
+
     prepare_run_dir(out, resume, config)
     acfg = config.accel
     th.set_num_threads(torch_threads(acfg))
@@ -231,6 +245,8 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
     accel_venv = make_vec_env(acfg, spline_policy=picker)
     if resume:
         state = json.loads((out / "state.json").read_text())
+        # rounds a kill left logged but not saved are logged again by this leg: cut them here
+        truncate_csv(out / "rounds.csv", "round", state["round"])
         accel, bandit, spline = _resume_models(config, out, accel_venv)
     else:
         state = {"round": 0, "wall_s": 0.0, "agent_steps": 0}

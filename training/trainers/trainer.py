@@ -12,6 +12,9 @@ Output folder::
                              (each --resume adds progress.resumed_<decisions>.csv)
     OUT/tb/                  TensorBoard logs
     OUT/state.json           wall-clock seconds and agent-steps so far (kept across --resume)
+    OUT/.lock                held while a process trains in the folder (training/runs/lock.py)
+
+A killed run resumes from its newest complete checkpoint, root or kept (training/runs/resume.py).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import dataclasses
 import json
 import math
 import os
+import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,14 +34,18 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.logger import configure
 
 from training.ppo.buffer import MaskedRolloutBuffer
+from box2d_driving.policies.checkpoint_file import LEGACY_FILE, legacy_message, read_json
 from training.runs.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model
+from training.runs.lock import run_lock
+from training.runs.resume import ResumePoint, cut_back, resume_point, started_files
 from training.runs.inference import find_config
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
 from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.common.seeds import MAX_RUN_SEED, TRAINING
-from training.runs.run_dir import RunError, append_logger, check_new, check_resumable, check_same_run, write_config
+from training.runs.run_dir import (STORAGE_ERRNOS, RunError, append_logger, check_new, check_same_run, storage_error,
+                                   write_config)
 from training.runs.progress import RolloutMetrics, save_checkpoint  # noqa: F401  (re-exported)
 from training.ppo.original_update import ActorStopAdam, KLWatch
 from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
@@ -180,16 +188,35 @@ def torch_threads(config: "TrainConfig") -> int:
     return max(1, (os.cpu_count() or 1) - worker_processes(config.n_envs, config.num_cpus))
 
 
-def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> None:
-    """Check ``out`` for a new run (absent or empty) or for ``--resume``; writes nothing (a new
-    run's folder is created by :func:`start_run_dir` once its model is built)."""
-    if resume:
-        if not (out / "config.json").exists():
-            raise RunError(f"--resume: no checkpoint in {out} ({FILE}, config.json and state.json needed)")
-        check_resumable(out, ("config.json", FILE, "state.json"))
-        check_same_run(json.loads((out / "config.json").read_text()), config)
-        return
-    check_new(out)
+def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> Optional[ResumePoint]:
+    """Check ``out`` for a new run (absent or empty) or for ``--resume``; for a resume, the
+    checkpoint it continues from, the folder cut back to it (``training/runs/resume.py``). A
+    folder whose run was killed before its first checkpoint resumes from the start: None, with
+    what that run had logged removed. A new run writes nothing here (its folder is filled by
+    :func:`start_run_dir` once its model is built)."""
+    if not resume:
+        check_new(out)
+        return None
+    if not (out / "config.json").exists():
+        if (out / LEGACY_FILE).exists():
+            raise RunError(f"--resume: {legacy_message(out / LEGACY_FILE)}")
+        raise RunError(f"--resume: no checkpoint in {out} ({FILE}, config.json and state.json needed)")
+    check_same_run(read_json(out / "config.json"), config)
+    point = resume_point(out)
+    if point is None:
+        if (out / LEGACY_FILE).exists():
+            raise RunError(f"--resume: {legacy_message(out / LEGACY_FILE)}")
+        started = started_files(out)
+        for path in started:
+            shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
+        print(f"{out}: no complete checkpoint (the run stopped before its first one): starting it again"
+              + (f"; removed {', '.join(p.name for p in started)}" if started else ""), file=sys.stderr)
+        return None
+    cut = cut_back(out, point)
+    if cut:
+        print(f"{out}: resuming from the checkpoint at {point.decisions} decisions; removed what the "
+              f"stopped run wrote after it: {', '.join(cut)}", file=sys.stderr)
+    return point
 
 
 def start_run_dir(out: Path, config: TrainConfig) -> None:
@@ -267,24 +294,48 @@ def train(config: TrainConfig, out: Path, resume: bool = False,
           on_checkpoint: Optional[Callable[[dict], None]] = None) -> dict[str, Any]:
     """Train (or continue) a run in ``out``; returns the last rollout statistics.
     ``on_checkpoint(progress)`` is called after every checkpoint is written, the last one included
-    (the sweep reports each to Ray Tune with the run folder)."""
+    (the sweep reports each to Ray Tune with the run folder).
+
+    The folder is locked for the whole run (a second trainer or ``--resume`` of it is refused,
+    naming the holder); ``--resume`` continues from the newest complete checkpoint, wherever a
+    kill left it; a disk that refuses a write ends the run with one :class:`RunError`, the last
+    complete checkpoint kept."""
     out = Path(out)
     config.validate()
     if config.timesteps < 1:
         raise ConfigError(f"TrainConfig: timesteps must be >= 1, got {config.timesteps}")
-    prepare_run_dir(out, resume, config)
+    with run_lock(out):  # one trainer per folder, from its checks to its last write
+        try:
+            return _train_locked(config, out, resume, on_checkpoint)
+        except OSError as exc:
+            if exc.errno not in STORAGE_ERRNOS:
+                raise
+            raise storage_error(out, exc) from None
+
+
+def _train_locked(config: TrainConfig, out: Path, resume: bool,
+                  on_checkpoint: Optional[Callable[[dict], None]]) -> dict[str, Any]:
+    point = prepare_run_dir(out, resume, config)
     resolve_device(config.device)  # a missing GPU is found before anything is written
     th.set_num_threads(torch_threads(config))
     venv = make_vec_env(config)  # bad env overrides raise here, still before anything is written
+    try:
+        return _learn(config, out, point, venv, on_checkpoint)
+    finally:
+        venv.close()
+
+
+def _learn(config: TrainConfig, out: Path, point: Optional[ResumePoint], venv: SlotVecEnv,
+           on_checkpoint: Optional[Callable[[dict], None]]) -> dict[str, Any]:
     wall, agent_steps = 0.0, 0
-    if resume:
+    resume = point is not None
+    if point is not None:
         model = build_model(resumed_config(out, config), venv)
         try:
-            restore_model(model, read_checkpoint(out))
+            restore_model(model, point.checkpoint)
         except CheckpointError as exc:
             raise RunError(f"--resume: {exc}") from None
-        state = json.loads((out / "state.json").read_text())
-        wall, agent_steps = state["wall_s"], state["agent_steps"]
+        wall, agent_steps = point.wall_s, point.agent_steps
         model.set_random_seed(config.seed + model.num_timesteps)  # reproducible continuation
     else:
         model = build_model(config, venv)
@@ -295,7 +346,6 @@ def train(config: TrainConfig, out: Path, resume: bool = False,
     remaining = config.timesteps - model.num_timesteps
     max_seconds = math.inf if config.max_minutes is None else 60.0 * config.max_minutes
     if remaining <= 0 or wall >= max_seconds:  # a resumed run with nothing left: no new logs
-        venv.close()
         print(f"{out}: nothing to train: {model.num_timesteps} of {config.timesteps} decisions and "
               f"{wall / 60:.1f} of {max_seconds / 60:.1f} min done", file=sys.stderr)
         return {}
@@ -308,12 +358,14 @@ def train(config: TrainConfig, out: Path, resume: bool = False,
     stop = GracefulStop()
     callback = RolloutMetrics(out, config.timesteps, wall, agent_steps, config.checkpoint_every,
                               max_seconds, stop=stop, on_checkpoint=on_checkpoint)
-    with stop.installed():  # Ctrl-C / SIGTERM: end the decision in progress, then save below
-        model.learn(remaining, callback=callback, reset_num_timesteps=False)
-    save_checkpoint(model, out, callback.wall, callback.agent_steps)
+    try:
+        with stop.installed():  # Ctrl-C / SIGTERM: end the decision in progress, then save below
+            model.learn(remaining, callback=callback, reset_num_timesteps=False)
+        save_checkpoint(model, out, callback.wall, callback.agent_steps)
+    finally:
+        model.logger.close()  # the CSV and TensorBoard files flushed and closed, whatever happened
     if on_checkpoint is not None:
         on_checkpoint(callback.progress())
-    venv.close()
     stats = dict(getattr(callback, "last_stats", {}))
     if stop.requested:
         stats["interrupted_by_signal"] = stop.signum
