@@ -80,7 +80,12 @@ def _render(args: argparse.Namespace) -> int:
 
 
 def _play(args: argparse.Namespace) -> int:
-    from box2d_driving.play import play
+    from box2d_driving.play import PLAYABLE, no_display_reason, play
+
+    reason = no_display_reason()
+    if reason is not None and args.env_id in PLAYABLE:  # else it would run on, unseen, until killed
+        raise ValueError(f"play needs a window to show and no display is available ({reason}); to watch "
+                         f"episodes without one, record them: box2d-driving render {args.env_id} --out episodes.mp4")
 
     result = play(args.env_id, policy=args.policy, fps=args.fps, seed=args.seed, **_parse_overrides(args.set))
     counts = {k: result.outcomes.count(k) for k in ("arrived", "collided", "time up")}

@@ -14,6 +14,7 @@ policy when it can be loaded, else by a scripted one, or by ``--policy``.
 from __future__ import annotations
 
 import os
+import sys
 from dataclasses import dataclass
 from typing import Any, Optional
 
@@ -22,6 +23,17 @@ import numpy as np
 from box2d_driving.envs.single_agent import SINGLE_AGENT_IDS, SingleAgentDrivingEnv
 
 PLAYABLE = {env_id: (shipped, fallback) for env_id, shipped, fallback in SINGLE_AGENT_IDS.values()}
+
+
+def no_display_reason() -> Optional[str]:
+    """Why a window could not be seen here (None where one can): SDL told to draw off-screen, or
+    a Linux session with no X11 or Wayland display (a server, a container, an SSH shell)."""
+    driver = os.environ.get("SDL_VIDEODRIVER", "")
+    if driver in ("dummy", "offscreen"):
+        return f"SDL_VIDEODRIVER={driver} draws into no window"
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return "neither DISPLAY nor WAYLAND_DISPLAY is set"
+    return None
 
 
 @dataclass

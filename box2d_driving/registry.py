@@ -6,6 +6,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Optional
 
+from box2d_driving.compile_note import note_first_compile
 from box2d_driving.config import ConfigError
 from box2d_driving.presets import preset_overrides
 
@@ -57,4 +58,5 @@ def make(env_id: str, preset: Optional[str] = None, **overrides: Any):
     module = env_module(env_id)
     if preset is not None:
         overrides = {**preset_overrides(preset, env_id), **overrides}
+    note_first_compile()  # a silent wait of up to 40 s on a fresh install otherwise
     return module.parallel_env(**overrides)

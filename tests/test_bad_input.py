@@ -191,3 +191,29 @@ def test_env_corners_are_our_errors_naming_the_culprit():
     single.reset(seed=np.int64(3))
     with pytest.raises(ConfigError, match="reset: seed must be"):
         single.reset(seed=True)
+
+
+def test_a_first_compile_is_announced_at_a_terminal_only(monkeypatch, capsys, tmp_path):
+    import io
+
+    from box2d_driving import compile_note
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr(compile_note, "_said", False)
+    monkeypatch.setattr(compile_note, "kernels_cached", lambda: False)
+    err = Terminal()
+    monkeypatch.setattr("sys.stderr", err)
+    compile_note.note_first_compile()
+    compile_note.note_first_compile()  # once per process
+    assert err.getvalue().count("compiling the simulator's kernels") == 1
+    monkeypatch.setattr(compile_note, "_said", False)
+    plain = io.StringIO()  # a log file or a pipe: nothing
+    monkeypatch.setattr("sys.stderr", plain)
+    compile_note.note_first_compile()
+    assert plain.getvalue() == ""
+    monkeypatch.undo()
+    box2d_driving.make("intersection-v0").reset(seed=0)  # this checkout's cache is warm by now
+    assert compile_note.kernels_cached()

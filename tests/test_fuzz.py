@@ -218,3 +218,63 @@ def test_render_set_overrides_build_an_env_or_name_the_field(pairs):
         assert any(k in str(exc) for k in kw), str(exc)
         return
     env.reset(seed=0)
+
+
+# JSON of every shape a hostile metadata field could hold
+JSON_VALUES = st.recursive(
+    st.one_of(st.none(), st.booleans(), st.integers(-2**70, 2**70), st.floats(allow_nan=True), st.text(max_size=4)),
+    lambda inner: st.one_of(st.lists(inner, max_size=3), st.dictionaries(st.text(max_size=12), inner, max_size=3)),
+    max_leaves=8)
+META_FIELDS = ["counters", "optimizer_param_groups", "run_state"]
+
+
+@FUZZ
+@given(st.lists(st.tuples(st.sampled_from(META_FIELDS),
+                          st.one_of(JSON_VALUES.map(json.dumps), st.text(max_size=8))), min_size=1, max_size=3))
+def test_checkpoint_metadata_reads_or_is_one_checkpoint_error(tmp_path_factory, fields):
+    """Any metadata: the torch reader returns a checkpoint or raises CheckpointError naming the file."""
+    pytest.importorskip("torch")
+    import shutil
+
+    from safetensors import safe_open
+    from safetensors.torch import load_file, save_file
+
+    from box2d_driving.policies import CheckpointError
+    from box2d_driving.policies.shipped import SHIPPED_POLICIES_DIR
+    from training.runs.checkpoint import read_checkpoint
+
+    folder = tmp_path_factory.mktemp("meta")
+    shutil.copy(SHIPPED_POLICIES_DIR / "traffic_lights_4cars" / "model.safetensors", folder / "model.safetensors")
+    file = folder / "model.safetensors"
+    with safe_open(str(file), "pt") as fh:
+        meta = dict(fh.metadata())
+    meta.update(dict(fields))
+    save_file(load_file(str(file)), str(file), metadata=meta)
+    try:
+        ckpt = read_checkpoint(folder)
+    except CheckpointError as exc:
+        assert "model.safetensors" in str(exc)
+        return
+    assert all(isinstance(v, int) and v >= 0 for v in ckpt.counters.values())
+    assert ckpt.run_state is None or (math.isfinite(ckpt.run_state["wall_s"]) and ckpt.run_state["agent_steps"] >= 0)
+
+
+@FUZZ
+@given(st.sampled_from(["file", "missing/deep/x", "file/below"]), st.sampled_from(["--frames", "--out"]))
+def test_render_output_paths_work_or_are_one_line(tmp_path_factory, where, flag):
+    """Random output places for ``render``: written, or exit 2 with one line; never a traceback."""
+    import io
+    from contextlib import redirect_stderr
+
+    from box2d_driving.cli import main as cli
+
+    base = tmp_path_factory.mktemp("out")
+    (base / "file").write_text("mine")
+    target = base / where if flag == "--frames" else base / f"{where}.mp4"
+    err = io.StringIO()
+    with redirect_stderr(err):
+        code = cli(["render", "highway-v0", "--episodes", "1", flag, str(target), "--set", "horizon=3"])
+    assert code in (0, 2), err.getvalue()
+    if code == 2:
+        assert "Traceback" not in err.getvalue() and len(err.getvalue().strip().splitlines()) == 1
+    assert (base / "file").read_text() == "mine"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import os
 
 import pytest
@@ -58,3 +60,17 @@ def test_play_refuses_what_it_cannot_play(capsys):
     assert "play knows" in capsys.readouterr().err
     with pytest.raises(ValueError, match="fps"):
         play("intersection-v0", fps=0)
+
+
+def test_play_without_a_display_says_so_and_points_at_render(capsys, monkeypatch):
+    from box2d_driving.cli import main as cli
+
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")  # as on a server: nothing would be seen
+    assert cli(["play", "intersection-v0"]) == 2
+    err = capsys.readouterr().err
+    assert "no display is available (SDL_VIDEODRIVER=dummy" in err and "box2d-driving render intersection-v0" in err
+    monkeypatch.delenv("SDL_VIDEODRIVER")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    if sys.platform.startswith("linux"):
+        assert cli(["play", "highway-v0"]) == 2 and "DISPLAY nor WAYLAND_DISPLAY" in capsys.readouterr().err

@@ -4,8 +4,8 @@
 
 1. trains the traffic-light scenario for a short run (``traffic_lights.py --quick``);
 2. evaluates that checkpoint (``OUT/quick/eval``: metrics.json, learning curves, plots);
-3. evaluates the shipped policy ``assets/policies/traffic_lights_4cars_noise05`` and records a
-   video of it
+3. evaluates the shipped policy ``traffic_lights_4cars_noise05`` (``assets/policies/``) and
+   records a video of it
    (``OUT/shipped/``), so the rule a longer run learns is visible at once.
 """
 
@@ -20,12 +20,13 @@ from typing import Optional
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from box2d_driving.policies.shipped import shipped_policy  # noqa: E402
 from training.evaluation import evaluate  # noqa: E402
 from training.behaviours import traffic_lights
 from training.behaviours.scripts import QUICK
 from training.common.cli_args import error, parse  # noqa: E402
 
-SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "policies" / "traffic_lights_4cars_noise05"
+SHIPPED = shipped_policy("traffic_lights_4cars_noise05")  # assets/policies, or the wheel's copy
 
 
 @dataclass
@@ -34,10 +35,12 @@ class Args:
 
     out: output folder (must not exist)
     episodes: evaluation episodes for each report
+    threads: torch CPU threads of the training run (default: the cores left free; 1 on a machine other jobs keep busy)
     """
 
     out: str = "runs/demo"
     episodes: int = 50
+    threads: Optional[int] = None
 
 
 def main(argv: Optional[list[str]] = None) -> int:
@@ -46,7 +49,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     if out.exists() and any(out.iterdir()):
         return error(f"{out} exists and is not empty; choose another --out")
     print("== 1/3 short training run (traffic lights, 4 cars)")
-    if traffic_lights.main(["--quick", "--out", str(out / "quick")]) != 0:
+    threads = [] if args.threads is None else ["--threads", str(args.threads)]
+    if traffic_lights.main(["--quick", "--out", str(out / "quick"), *threads]) != 0:
         return 1
     print("== 2/3 evaluating the short run")
     n = str(args.episodes)

@@ -11,7 +11,6 @@ policies, for instance as the background cars of the single-agent Gymnasium envs
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any, Optional, Union
 

@@ -93,7 +93,9 @@ def read_checkpoint(path: Union[str, Path]) -> Checkpoint:
         counters = _counters(json.loads(meta.get("counters", "{}")))
         groups = _param_groups(json.loads(meta["optimizer_param_groups"])) if "optimizer_param_groups" in meta else None
         run_state = _run_state(json.loads(meta["run_state"])) if "run_state" in meta else None
-    except (ValueError, TypeError, AttributeError, KeyError, OverflowError, RecursionError) as exc:
+    except RecursionError:
+        raise CheckpointError(f"{path}: malformed metadata (JSON nested too deep)") from None
+    except (ValueError, TypeError, AttributeError, KeyError, OverflowError) as exc:
         raise CheckpointError(f"{path}: malformed metadata ({exc})") from None
     policy = {k[len("policy/"):]: v for k, v in tensors.items() if k.startswith("policy/")}
     if not policy:

@@ -16,7 +16,7 @@ import socket
 from pathlib import Path
 from typing import Iterator
 
-from training.runs.run_dir import LOCK_FILE, RunError
+from training.runs.run_dir import LOCK_FILE, STORAGE_ERRNOS, RunError, storage_error
 
 try:
     import fcntl
@@ -24,7 +24,7 @@ except ImportError:  # pragma: no cover - Windows
     fcntl = None  # type: ignore[assignment]
     import msvcrt
 
-__all__ = ["LOCK_FILE", "RunLockedError", "run_lock"]
+__all__ = ["LOCK_FILE", "RunLockedError", "locked_run", "run_lock"]
 
 
 class RunLockedError(RunError):
@@ -94,3 +94,16 @@ def run_lock(out: Path) -> Iterator[Path]:
         if created:
             with contextlib.suppress(OSError):
                 out.rmdir()  # only if empty: a run that wrote something keeps its folder
+
+
+@contextlib.contextmanager
+def locked_run(out: Path) -> Iterator[Path]:
+    """What a trainer runs in: ``out``'s lock held (:func:`run_lock`), and a write the disk refuses
+    (full, read-only, over quota) turned into one :class:`RunError` naming the file."""
+    with run_lock(out):
+        try:
+            yield out
+        except OSError as exc:
+            if exc.errno not in STORAGE_ERRNOS:
+                raise
+            raise storage_error(out, exc) from None

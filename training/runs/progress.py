@@ -52,9 +52,10 @@ class RolloutMetrics(BaseCallback):
         self.prev_light = np.full(n, NO_LIGHT)
         self.prev_inside = np.zeros(n, dtype=bool)
         self.t0 = self.prev_rollout_end = time.perf_counter()
+        self.interactive = sys.stderr.isatty()
         self.bar = tqdm(total=self.total, initial=self.num_timesteps, unit="dec", smoothing=0.1,
-                        dynamic_ncols=True, mininterval=0.5 if sys.stderr.isatty() else 30.0,
-                        disable=not self.show_bar)
+                        dynamic_ncols=True, mininterval=0.5 if self.interactive else 30.0,
+                        disable=not self.show_bar, desc="collecting")
         self._reset_stats()
 
     def _reset_stats(self) -> None:
@@ -113,11 +114,15 @@ class RolloutMetrics(BaseCallback):
         self.bar.set_postfix(success=f"{stats['rollout/success_rate']:.2f}",
                              crash=f"{stats['rollout/collision_rate']:.2f}",
                              viol=f"{v.rate:.2f}", refresh=False)
+        # the PPO update comes next and moves no decision counter: say so, or the bar seems stuck
+        self.bar.set_description_str("updating", refresh=self.interactive)
         self.updates += 1
         self.last_stats = stats
         self._reset_stats()
 
     def _on_rollout_start(self) -> None:
+        if self.bar is not None:
+            self.bar.set_description_str("collecting", refresh=self.interactive)
         if self.updates and self.updates % self.checkpoint_every == 0:
             save_checkpoint(self.model, self.out, self.wall, self.agent_steps)
             if self.on_checkpoint is not None:
@@ -125,6 +130,7 @@ class RolloutMetrics(BaseCallback):
         self.rollout_t0 = time.perf_counter()
 
     def _on_training_end(self) -> None:
+        self.bar.set_description_str("trained", refresh=False)
         self.bar.close()
 
     def progress(self) -> dict:

@@ -50,10 +50,10 @@ from training.runs.checkpoint import FILE, CheckpointError, read_checkpoint, res
 from training.runs.inference import actor_actions
 from training.common.seeds import check_training_seeds
 from training.ppo.shared_policy import SharedSplinePicker
-from training.runs.lock import run_lock
+from training.runs.lock import locked_run
 from training.runs.resume import truncate_csv
-from training.runs.run_dir import (STORAGE_ERRNOS, RunError, append_logger, check_new, check_resumable,
-                                   check_same_run, storage_error, write_config, write_json_atomic)
+from training.runs.run_dir import (RunError, append_logger, check_new, check_resumable, check_same_run, write_config,
+                                   write_json_atomic)
 from training.runs.progress import RolloutMetrics
 from training.trainers.trainer import (TrainConfig, build_model, load_weights, make_vec_env,
                               resolve_device, resumed_config, set_minibatching, torch_threads)
@@ -225,13 +225,8 @@ def train_bilevel(config: BilevelConfig, out: Path, resume: bool = False,
     trains; a disk that refuses a write ends the run with one :class:`RunError`."""
     out = Path(out)
     config.validate()
-    with run_lock(out):  # one trainer per folder (training/runs/lock.py)
-        try:
-            return _train_bilevel_locked(config, out, resume, on_checkpoint)
-        except OSError as exc:
-            if exc.errno not in STORAGE_ERRNOS:
-                raise
-            raise storage_error(out, exc) from None
+    with locked_run(out):  # one trainer per folder; a refused write is one line (training/runs/lock.py)
+        return _train_bilevel_locked(config, out, resume, on_checkpoint)
 
 
 def _train_bilevel_locked(config: BilevelConfig, out: Path, resume: bool,

@@ -36,7 +36,7 @@ from stable_baselines3.common.logger import configure
 from training.ppo.buffer import MaskedRolloutBuffer
 from box2d_driving.policies.checkpoint_file import LEGACY_FILE, legacy_message, read_json
 from training.runs.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model
-from training.runs.lock import run_lock
+from training.runs.lock import locked_run
 from training.runs.resume import ResumePoint, cut_back, resume_point, started_files
 from training.runs.inference import find_config
 from box2d_driving.config import ConfigError
@@ -44,8 +44,7 @@ from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
 from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.common.seeds import MAX_RUN_SEED, TRAINING
-from training.runs.run_dir import (STORAGE_ERRNOS, RunError, append_logger, check_new, check_same_run, storage_error,
-                                   write_config)
+from training.runs.run_dir import RunError, append_logger, check_new, check_same_run, write_config
 from training.runs.progress import RolloutMetrics, save_checkpoint  # noqa: F401  (re-exported)
 from training.ppo.original_update import ActorStopAdam, KLWatch
 from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
@@ -304,13 +303,8 @@ def train(config: TrainConfig, out: Path, resume: bool = False,
     config.validate()
     if config.timesteps < 1:
         raise ConfigError(f"TrainConfig: timesteps must be >= 1, got {config.timesteps}")
-    with run_lock(out):  # one trainer per folder, from its checks to its last write
-        try:
-            return _train_locked(config, out, resume, on_checkpoint)
-        except OSError as exc:
-            if exc.errno not in STORAGE_ERRNOS:
-                raise
-            raise storage_error(out, exc) from None
+    with locked_run(out):  # one trainer per folder; a refused write is one line (training/runs/lock.py)
+        return _train_locked(config, out, resume, on_checkpoint)
 
 
 def _train_locked(config: TrainConfig, out: Path, resume: bool,
