@@ -178,7 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="record episodes as a video and/or PNG frames")
     r.add_argument("env_id", help="a scenario id (see `box2d-driving list`)")
     r.add_argument("--policy", default="random",
-                   help="random (default), rule (brake on 0.5/1.0 lights) or a checkpoint (run folder or model.safetensors)")
+                   help="random (default), rule (brake on 0.5/1.0 lights) or a checkpoint "
+                        "(run folder or model.safetensors)")
     r.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
     r.add_argument("--out", type=Path, help="video file, .mp4 or .gif")
     r.add_argument("--frames", type=Path, help="also write PNG frames into this folder")
@@ -194,8 +195,10 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("env_id", help="intersection-v0, highway-v0, crosswalk-v0 or real-junction-v0")
     g.add_argument("--policy", help="who drives the other cars: a scripted policy (rule, random, "
                                     "full-throttle, pedestrian-oracle) or a checkpoint "
-                                    "(default: the scenario's shipped policy in a source checkout, else a scripted one)")
-    g.add_argument("--fps", type=float, default=2.0, help="decisions (seconds of the world) per real second (default 2)")
+                                    "(default: the scenario's shipped policy in a source checkout, "
+                                    "else a scripted one)")
+    g.add_argument("--fps", type=float, default=2.0,
+                   help="decisions (seconds of the world) per real second (default 2)")
     g.add_argument("--seed", type=int, help="seed of the first episode (default: a new one each time)")
     g.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="config override, e.g. --set num_cars=6")
@@ -219,7 +222,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("bench", help="world speed benchmark (agent-steps/s); `bench --help` for options",
                    add_help=False)
-    sub.add_parser("train", help="train: `train lights|crosswalk|lanes|fast-lanes|real-junction [options]` (`train lights --help`)",
+    sub.add_parser("train", help="train: `train lights|crosswalk|lanes|fast-lanes|real-junction [options]` "
+                                 "(`train lights --help`)",
                    add_help=False)
     sub.add_parser("evaluate", help="evaluate a checkpoint or scripted policy (`evaluate --help`)",
                    add_help=False)

@@ -2,8 +2,8 @@
 
 The world package never imports the trainers. The training package declares its commands in the
 entry-point group :data:`COMMANDS` (``setup.cfg``): ``train:lights``, ``train:crosswalk``, ...,
-``evaluate``, ``sweep``, ``reproduce``, ``curve``, ``check-shipped``, ``convert-checkpoint`` and ``bench-train``, each naming a
-``main(argv) -> int``. The CLI looks one up by name when the user asks for it.
+``evaluate``, ``sweep``, ``reproduce``, ``curve``, ``check-shipped``, ``convert-checkpoint`` and
+``bench-train``, each naming a ``main(argv) -> int``. The CLI looks one up by name when the user asks for it.
 """
 
 from __future__ import annotations

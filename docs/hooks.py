@@ -115,7 +115,8 @@ def _observation_table(env, env_id: str) -> str:
     rows = ["| part | size | what |", "|---|---:|---|",
             f"| LiDAR | {lay.history} x {lay.n_rays} | the last {lay.history} frames (oldest first) of "
             f"{lay.n_rays} rays over 360 degrees from the heading, range {cfg.lidar_range:g} m: {encoding} |",
-            f"| sat-nav | {lay.history} x {lay.n_satnav} | per frame: " + ", ".join(f"`{f}`" for f in lay.satnav_fields) + " |"]
+            f"| sat-nav | {lay.history} x {lay.n_satnav} | per frame: "
+            + ", ".join(f"`{f}`" for f in lay.satnav_fields) + " |"]
     return (f"One flat `float32` vector of {lay.size} values per car "
             f"(`env.observation_layout` gives the slices):\n\n" + "\n".join(rows))
 

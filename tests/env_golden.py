@@ -131,7 +131,8 @@ def provenance() -> dict[str, str]:
         commit += "+changes" if dirty else ""
     except (OSError, subprocess.CalledProcessError):
         commit = "unknown (no git checkout)"
-    return {"env_code": commit, "cpu": cpu_model(), "date": datetime.datetime.now(datetime.timezone.utc).date().isoformat()}
+    today = datetime.datetime.now(datetime.timezone.utc).date().isoformat()
+    return {"env_code": commit, "cpu": cpu_model(), "date": today}
 
 
 def main(argv: list[str]) -> int:

@@ -235,7 +235,8 @@ def test_lanes_script_takes_the_papers_joint_path_choice_and_refuses_a_typo(tmp_
     from training.evaluation import evaluate
 
     assert "spline_action" not in config_from("intersection-spline-v0", Args(), 0).env_overrides
-    assert config_from("intersection-spline-v0", Args(spline_action="joint"), 0).env_overrides["spline_action"] == "joint"
+    joint = config_from("intersection-spline-v0", Args(spline_action="joint"), 0)
+    assert joint.env_overrides["spline_action"] == "joint"
     tiny = ["--rounds", "1", "--spline-samples", "32", "--n-envs", "2", "--batch-decisions", "80", "--num-cars", "4",
             "--threads", "1", "--epochs", "1"]
     assert main(["--out", str(tmp_path / "typo"), "--spline-action", "jiont", *tiny]) == 2

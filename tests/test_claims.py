@@ -113,7 +113,8 @@ def test_the_plateau_reading_counts_grid_points_by_verdict():
     now = claim_row(CLAIM, {"big": _result(["- violations: as in the paper."], noisy)})[3]
     # t95(k - 1) * 0.05 / sqrt(k) <= 0.02 first at k = 27 (t95(26) = 2.060: 0.0198; k = 26: 0.0202)
     assert now == (f"**{REPRODUCED}**; violations too noisy to tell at 1 of 2 grid points, stopped moving at 1 "
-                   "(at the spread of its learning curves, about 27 seeds with curves would narrow its late change to ±0.02)")
+                   "(at the spread of its learning curves, about 27 seeds with curves would narrow its late "
+                   "change to ±0.02)")
     one_seed = _curves({"0": [0.0], "1.0": [0.0]})
     now = claim_row(CLAIM, {"big": _result(["- violations: as in the paper."], one_seed)})[3]
     assert now.endswith("violations one seed (no interval) at both grid points")

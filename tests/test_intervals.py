@@ -70,7 +70,8 @@ def test_check_shipped_sets_a_fresh_block_against_the_report(tmp_path, capsys):
     assert fresh_seeds.main(["--only", "no_such_policy"]) == 2
     assert "no shipped policy no_such_policy" in capsys.readouterr().err
     status = fresh_seeds.main(["--only", name, "--episodes", "4", "--out", str(tmp_path / "check.md")])
-    assert status in (0, 1) and "| `traffic_lights_4cars_noise05` | success_rate |" in (tmp_path / "check.md").read_text()
+    assert status in (0, 1)
+    assert "| `traffic_lights_4cars_noise05` | success_rate |" in (tmp_path / "check.md").read_text()
     assert (tmp_path / "check.json").exists()
 
 

@@ -119,7 +119,8 @@ def test_each_finished_trial_lands_once_with_its_summary(tmp_path, drawn):
     stopped["trials"][1]["status"] = "stopped"
     (out / "summary.json").write_text(json.dumps(stopped))
     assert lander.copy_summary()
-    assert json.loads((folder / "tiny.json").read_text()) == {"sweep": stopped["sweep"], "trials": stopped["trials"][:1]}
+    expected = {"sweep": stopped["sweep"], "trials": stopped["trials"][:1]}
+    assert json.loads((folder / "tiny.json").read_text()) == expected
     stopped["trials"][1]["status"] = "error"
     (out / "summary.json").write_text(json.dumps(stopped))
     assert lander.copy_summary()

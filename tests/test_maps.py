@@ -275,7 +275,8 @@ def test_left_hand_traffic_is_the_mirror_image(tmp_path):
                 assert [la.index for la in lanes] == list(range(len(lanes)))
                 if len(lanes) == 2:
                     d = lanes[0].centreline[-1] - lanes[0].centreline[0]
-                    gap = lanes[0].centreline[len(lanes[0].centreline) // 2] - lanes[1].centreline[len(lanes[1].centreline) // 2]
+                    middle = [lane.centreline[len(lane.centreline) // 2] for lane in lanes[:2]]
+                    gap = middle[0] - middle[1]
                     assert gap @ np.array([-d[1], d[0]]) > 0
         for c in m.connectors:  # a left turn turns counter-clockwise in both
             h = np.diff(c.path, axis=0)

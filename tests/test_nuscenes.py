@@ -22,7 +22,8 @@ from tests.nuscenes_fixtures import CENTRE, four_way_nuscenes
 def test_arcline_paths_follow_their_shape():
     straight = arcline_points({"start_pose": [0, 0, 0], "shape": "SSS", "radius": 5, "segment_length": [10, 0, 0]})
     np.testing.assert_allclose(straight[-1], [10, 0], atol=1e-9)
-    left = arcline_points({"start_pose": [0, 0, 0], "shape": "LSS", "radius": 5, "segment_length": [math.pi * 2.5, 3, 0]})
+    left = arcline_points({"start_pose": [0, 0, 0], "shape": "LSS", "radius": 5,
+                           "segment_length": [math.pi * 2.5, 3, 0]})
     np.testing.assert_allclose(left[-1], [5, 8], atol=1e-9)  # quarter circle to (5, 5), then 3 m north
     right = arcline_points({"start_pose": [1, 1, math.pi / 2], "shape": "RSR", "radius": 2,
                             "segment_length": [math.pi, 0, 0]})
@@ -62,7 +63,8 @@ def test_signals_stop_lines_crosswalks_and_area(nus):
     assert len(m.crosswalks) == 4 and all(c.s == pytest.approx(10.0) for c in m.crosswalks)
     assert geo.points_in_polygon(np.zeros((1, 2)), m.junction_area)[0]
     for s in m.stop_lines:  # the junction area reaches the stop lines
-        assert geo.distance_to_polylines(s.segment.mean(axis=0)[None], [np.vstack([m.junction_area, m.junction_area[:1]])])[0] < 0.3
+        ring = np.vstack([m.junction_area, m.junction_area[:1]])
+        assert geo.distance_to_polylines(s.segment.mean(axis=0)[None], [ring])[0] < 0.3
     assert m.source["road_segment"] == "junction-0001" and "nuScenes" in m.source["attribution"]
 
 

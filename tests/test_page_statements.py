@@ -1,4 +1,5 @@
-"""The results page's numbers and words: measures, intervals, tests, and each statement it prints, on hand-built trials."""
+"""The results page's numbers and words: measures, intervals, tests, and each statement it prints,
+on hand-built trials."""
 
 from __future__ import annotations
 
@@ -143,9 +144,11 @@ def test_lanes_measures_from_hand_built_trials():
     right = dict(row, seed=1, figures={"lane_position_counts": left[::-1].tolist()})
     summary = {"grid": {"num_cars": ["8"]}, "trials": [row, right]}
     (group,) = groups_of(summary, [ONE_SIDED])
-    assert group.figures["lane_position_counts"][len(bins) - 2 - 3] == 20 and group.figures["lane_position_counts"][3] == 0
+    counts = group.figures["lane_position_counts"]
+    assert counts[len(bins) - 2 - 3] == 20 and counts[3] == 0
     assert ran_budget([row, right]) == " (each ran 1,536,000 decisions: whole rollouts)"
-    assert ran_budget([row, dict(right, decisions=1_568_000)]) == " (each ran 1,536,000 to 1,568,000 decisions: whole rollouts)"
+    assert ran_budget([row, dict(right, decisions=1_568_000)]) == \
+        " (each ran 1,536,000 to 1,568,000 decisions: whole rollouts)"
 
 
 def test_a_grid_point_whose_cars_do_not_arrive_is_called_unlearnt(tmp_path):
@@ -184,7 +187,8 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
         for seed, r in enumerate(values):
             trials.append({"trial": f"real-junction_lidar_noise={noise}_seed={seed}", "behaviour": "real-junction",
                            "seed": seed, "lidar_noise": noise, "status": "done", "error": "", "report_episodes": 200,
-                           "report_first_seed": REPORT.start, "communication.speaker_consistency_bits": 0.1 + seed / 100,
+                           "report_first_seed": REPORT.start,
+                           "communication.speaker_consistency_bits": 0.1 + seed / 100,
                            "communication.pearson_heading_change_bit": r, "success_rate": success[noise][seed],
                            "messages_unheard.success_rate": unheard[noise][seed]})
     sweep = {"behaviour": "real-junction", "grid": {"lidar_noise": ["0", "0.5"]}, "seeds": 3,
@@ -199,7 +203,8 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert f"{mean_ci([0.10, 0.12, 0.11]).format()} (0.100, 0.120, 0.110)" in section  # sizes, not signed values
     assert f"{mean_ci([0.20, 0.18, 0.22]).format()}" in section
     # the same seeds at both levels: paired by seed
-    assert "- speaker consistency (bits): noise 0" in section and "no rise detected (paired by seed (3 seeds)" in section
+    assert "- speaker consistency (bits): noise 0" in section
+    assert "no rise detected (paired by seed (3 seeds)" in section
     assert "- |Pearson(heading change, bit)|: noise 0" in section and "rises, paired by seed (3 seeds)" in section
     # the ablation is differenced per trial (the seeds' own success spread cancels), then estimated over seeds
     lost_0, lost_05 = mean_ci([0.07, 0.06, 0.08]), mean_ci([-0.01, 0.01, 0.0])
@@ -210,7 +215,8 @@ def test_communication_averages_the_correlations_size_and_draws_both_measures_ag
     assert "(lidar_noise=0.5): " in section and "straddles zero: neither shown." in section
     assert "- success lost with messages unheard: noise 0" in section and "falls, paired by seed (3 seeds)" in section
     assert (tmp_path / "docs" / "images" / "results" / "communication.png").stat().st_size > 10_000
-    assert "## Right of way" in page.read_text() and "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]
+    assert "## Right of way" in page.read_text()
+    assert "Not run yet" in page.read_text().split("## Right of way")[1].split("\n## ")[0]
 
 
 def test_lanes_and_pedestrian_statements_read_the_intervals():
@@ -225,11 +231,13 @@ def test_lanes_and_pedestrian_statements_read_the_intervals():
                                                   "success_rate": mean_ci([0.9] * 3)})]
     text = "\n".join(statements(section("lanes"), lanes, {}))
     assert "more one-sided with 8 cars, intervals apart, as in the paper" in text
-    assert "- one-sided offset: num_cars=2" in text and "further off the axis on one side with 8 cars, intervals apart" in text
+    assert "- one-sided offset: num_cars=2" in text
+    assert "further off the axis on one side with 8 cars, intervals apart" in text
     lanes[1].estimates["lanes.majority_share"] = mean_ci([0.50, 0.70, 0.60])
     assert "no difference detected" in "\n".join(statements(section("lanes"), lanes, {}))
 
-    walk = [Group({}, [0, 1, 2], {"share_more_than_6m": mean_ci([0.99, 0.98, 0.995]), "success_rate": mean_ci([0.9] * 3)})]
+    walk = [Group({}, [0, 1, 2], {"share_more_than_6m": mean_ci([0.99, 0.98, 0.995]),
+                                  "success_rate": mean_ci([0.9] * 3)})]
     assert "most samples keep more than 6 m, as in the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
     walk[0].estimates["share_more_than_6m"] = mean_ci([0.2, 0.3, 0.25])
     assert "unlike the paper" in "\n".join(statements(section("pedestrians"), walk, {}))
@@ -279,8 +287,10 @@ def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
     assert main([str(grid), str(tmp_path / "dense.json"), "--out", str(page)]) == 0
     text = page.read_text()
     dense = text.split("## Denser traffic")[1].split("\n## ")[0]
-    assert "- red-light violations: these trials 0.011" in dense and "fewer violations with more cars, intervals apart" in dense
-    assert "| 0.5 | 4 | 3 |" in text.split("## Stopping at red lights")[1].split("\n## ")[0]  # the grid keeps its own table
+    assert "- red-light violations: these trials 0.011" in dense
+    assert "fewer violations with more cars, intervals apart" in dense
+    # the grid keeps its own table
+    assert "| 0.5 | 4 | 3 |" in text.split("## Stopping at red lights")[1].split("\n## ")[0]
     assert "0.011" not in text.split("## Stopping at red lights")[1].split("\n## ")[0]
 
 
@@ -393,7 +403,8 @@ def test_a_rule_counts_as_learnt_only_beyond_every_scripted_driver():
     base = {"full-throttle/fifo": (0.71, 200), "random/fifo": (0.80, 200), "random/other": (0.1, 200)}
     learnt = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.90, 0.91, 0.92])})]
     line, = say(learnt, base)
-    assert line.startswith("- FIFO share against scripted drivers on the same 200 report episodes (the sweep's one setting)")
+    assert line.startswith("- FIFO share against scripted drivers on the same 200 report episodes "
+                           "(the sweep's one setting)")
     assert "full-throttle 0.710, random 0.800" in line and line.endswith("the rule is learnt, as in the paper.")
     inside = [Group({}, [0, 1, 2], {"fifo": mean_ci([0.79, 0.80, 0.81])})]
     assert say(inside, base)[0].endswith("no learnt rule detected (the interval holds random).")

@@ -79,7 +79,8 @@ def test_reversing_backs_a_car_up_its_track():
     assert info["car_0"]["speed"] == pytest.approx(-1.5)
     heading = info["car_0"]["heading"]
     back = np.array(info["car_0"]["position"]) - x0
-    assert back @ np.array([math.cos(heading), math.sin(heading)]) == pytest.approx(-0.75, abs=1e-4)  # Box2D keeps float32 poses
+    # Box2D keeps float32 poses
+    assert back @ np.array([math.cos(heading), math.sin(heading)]) == pytest.approx(-0.75, abs=1e-4)
     space = env.observation_space("car_0")
     assert space.contains(obs["car_0"])
     speed_field = env.observation_layout.satnav.start + 4 * env.observation_layout.n_satnav + 1

@@ -1,4 +1,5 @@
-"""``box2d-driving reproduce``: the results page and README table from small hand-built sweep summaries, and ``reproduce --run``."""
+"""``box2d-driving reproduce``: the results page and README table from small hand-built sweep
+summaries, and ``reproduce --run``."""
 
 from __future__ import annotations
 
@@ -168,7 +169,8 @@ def test_each_rule_runs_with_the_resources_its_command_names_unless_overridden()
     from training.results.sections import SECTIONS
 
     by_key = {s.key: s for s in SECTIONS}
-    assert sweep_resources(by_key["communication-paper-32M"]) == (2, 1)  # its command: --cpus-per-trial 2 --max-concurrent 1
+    # its command: --cpus-per-trial 2 --max-concurrent 1
+    assert sweep_resources(by_key["communication-paper-32M"]) == (2, 1)
     assert sweep_resources(by_key["traffic-lights"]) == (1, None)  # names neither: the sweep's defaults
     assert sweep_resources(by_key["communication-paper-32M"], 4, None) == (4, 1)
     assert sweep_resources(by_key["traffic-lights"], None, 3) == (1, 3)
@@ -342,7 +344,8 @@ def test_readme_table_shows_each_rules_headline_over_seeds_and_links_its_section
     page = tmp_path / "docs" / "results.md"
     assert main([str(summary), "--out", str(page), "--readme", str(readme)]) == 0
     text = readme.read_text()
-    assert text.startswith("# Title\n\nbefore\n") and text.endswith(f"{README_END}\nafter\n") and "old table" not in text
+    assert text.startswith("# Title\n\nbefore\n") and text.endswith(f"{README_END}\nafter\n")
+    assert "old table" not in text
     row = next(line for line in text.splitlines() if line.startswith("| stop at red lights |"))
     # two seeds: the t-interval reaches below 0, so it is cut at the share's range
     assert f"red-light violations {mean_ci([0.05, 0.07], bounds=(0.0, 1.0)).format()}" in row and "| 2 |" in row

@@ -1,4 +1,5 @@
-"""The results page's sections for the paper-settings runs (lights, denser traffic, lanes), from hand-built summaries and learning curves."""
+"""The results page's sections for the paper-settings runs (lights, denser traffic, lanes), from
+hand-built summaries and learning curves."""
 
 from __future__ import annotations
 
@@ -51,7 +52,8 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
                 for k in range(1, 9):
                     d = 320_000 * k
                     v = 0.11 if noise == "0.25" else 0.3 - (0.02 + 0.001 * seed) * k
-                    w.writerow({"trial": f"lights_lidar_noise={noise}_seed={seed}", "seed": seed, "lidar_noise": noise, "decisions": d,
+                    w.writerow({"trial": f"lights_lidar_noise={noise}_seed={seed}", "seed": seed,
+                                "lidar_noise": noise, "decisions": d,
                                 "agent_steps": d * 0.7, "episodes": 100, "first_seed": SELECTION.start,
                                 "success_rate": 0.9, "collision_rate": 0.1, "red_light_violation_rate": v})
     assert main([str(grid), str(paper), "--out", str(page)]) == 0

@@ -104,4 +104,5 @@ def test_reward_terms_are_the_docstring_formulas_to_the_bit():
     one = reward_terms(arrived=arrived, collided=collided, accel_level=level, prev_accel_level=prev,
                        accel_range=4.5, remaining=remaining, initial=initial, decision=7, horizon=h,
                        goal_reward=1.0, collision_reward=-1.0)  # one decision for every car
-    assert one["progress"][collided].tolist() == pytest.approx((-(remaining / initial) * (h - 6) / h)[collided].tolist())
+    expected = (-(remaining / initial) * (h - 6) / h)[collided]
+    assert one["progress"][collided].tolist() == pytest.approx(expected.tolist())

@@ -234,7 +234,8 @@ def test_reuse_refuses_another_sweeps_summary(tmp_path):
     write_summary(tmp_path, spec, [{"trial": "t", "behaviour": "lights", "seed": 0, "status": "done"}])
     assert set(reusable_rows(tmp_path / "summary.json", spec)) == {"t"}
     # more seeds of the same settings: the finished seed is kept, the new ones are trained
-    assert set(reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0"]}, seeds=5))) == {"t"}
+    five_seeds = SweepSpec("lights", grid={"lidar_noise": ["0"]}, seeds=5)
+    assert set(reusable_rows(tmp_path / "summary.json", five_seeds)) == {"t"}
     assert reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0"]}, seeds=0)) == {}
     with pytest.raises(SweepError, match="another sweep"):
         reusable_rows(tmp_path / "summary.json", SweepSpec("lights", grid={"lidar_noise": ["0.5"]}))
@@ -263,8 +264,10 @@ def test_an_extension_needs_the_same_sweep_at_a_larger_budget(tmp_path):
     # bilevel sweeps: their fixed rounds are the budget
     lanes = SweepSpec("lanes", fixed={"rounds": "48", "lidar_noise": "0.5"})
     lanes_saved = json.loads(json.dumps(dataclasses.asdict(lanes)))
-    assert extension_differences(lanes_saved, dataclasses.replace(lanes, fixed={"rounds": "150", "lidar_noise": "0.5"})) == []
-    assert "rounds" in extension_differences(lanes_saved, dataclasses.replace(lanes, fixed={"rounds": "x", "lidar_noise": "0.5"}))[0]
+    longer = dataclasses.replace(lanes, fixed={"rounds": "150", "lidar_noise": "0.5"})
+    assert extension_differences(lanes_saved, longer) == []
+    not_a_number = dataclasses.replace(lanes, fixed={"rounds": "x", "lidar_noise": "0.5"})
+    assert "rounds" in extension_differences(lanes_saved, not_a_number)[0]
 
     # the old folder's finished trials with their run on this machine
     old_out = tmp_path / "old"

@@ -80,7 +80,8 @@ def test_shipped_policies_load_by_name_and_a_folder_of_several_says_which():
 
     assert "real_junction_comm_8cars/noise05" in shipped_policies()
     assert load_trained("real_junction_comm_8cars/noise05").env_id == "real-junction-v0"
-    with pytest.raises(CheckpointError, match=r"holds no policy of its own but 1 in sub-folders \(noise05\): load one of them"):
+    with pytest.raises(CheckpointError,
+                       match=r"holds no policy of its own but 1 in sub-folders \(noise05\): load one of them"):
         load_trained(SHIPPED_POLICIES_DIR / "real_junction_comm_8cars")
     with pytest.raises(CheckpointError, match="no checkpoint at no_such_policy"):
         load_trained("no_such_policy")

@@ -64,7 +64,8 @@ def main(argv: Optional[list[str]] = None) -> int:
     quick = json.loads((out / "quick" / "eval" / "metrics.json").read_text())
     shipped = json.loads((out / "shipped" / "metrics.json").read_text())
     print("\n| policy | success | collision | red-light violation |\n|---|---:|---:|---:|")
-    for name, m in ((f"short run ({QUICK.timesteps:,} decisions)", quick), ("shipped (10 min, LiDAR noise 0.5)", shipped)):
+    rows = ((f"short run ({QUICK.timesteps:,} decisions)", quick), ("shipped (10 min, LiDAR noise 0.5)", shipped))
+    for name, m in rows:
         print(f"| {name} | {m['success_rate']:.3f} | {m['collision_rate']:.3f} | "
               f"{m['red_light_violation_rate']:.3f} |")
     print(f"\nreports and plots: {out / 'quick' / 'eval'}, {out / 'shipped'}; "

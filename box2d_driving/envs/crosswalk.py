@@ -66,14 +66,16 @@ class CrosswalkConfig(HighwayConfig):
     def _validate(self) -> None:
         super()._validate()
         lo, hi = self.pedestrians_range
-        require(self, 0 <= lo <= hi <= 100, ("pedestrians_range",), "pedestrians_range must satisfy 0 <= low <= high <= 100")
+        require(self, 0 <= lo <= hi <= 100, ("pedestrians_range",),
+                "pedestrians_range must satisfy 0 <= low <= high <= 100")
         s_lo, s_hi = self.pedestrian_speed_range
         require(self, 0 < s_lo <= s_hi, ("pedestrian_speed_range",),
                 "pedestrian_speed_range must be positive and increasing (m/s)")
         require(self, 0.05 <= self.pedestrian_size <= 10, ("pedestrian_size",),
                 "pedestrian_size must be in [0.05, 10] m (Box2D cannot make a smaller body)")
         require(self, 0 < self.walkway, ("walkway",), "walkway must be positive (m)")
-        require(self, 0 < self.ahead_half_angle <= math.pi, ("ahead_half_angle",), "ahead_half_angle must be in (0, pi] rad")
+        require(self, 0 < self.ahead_half_angle <= math.pi, ("ahead_half_angle",),
+                "ahead_half_angle must be in (0, pi] rad")
         c0, c1 = self.crosswalk_x
         require(self, self.x_start < c0 < c1 < self.x_start + self.road_length,
                 ("crosswalk_x", "x_start", "road_length"), "crosswalk_x must be increasing and lie on the road")

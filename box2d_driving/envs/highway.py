@@ -77,7 +77,8 @@ class HighwayConfig(DrivingConfig):
         lat_lo, lat_hi = self.lateral_range
         limit = 1.0 - self.car_width / self.road_width
         require(self, -limit <= lat_lo <= lat_hi <= limit, ("lateral_range", "road_width", "car_width"),
-                f"lateral_range must be increasing within +-{limit:.3f} (1 - car_width / road_width) to keep cars on the road")
+                f"lateral_range must be increasing within +-{limit:.3f} (1 - car_width / road_width) "
+                f"to keep cars on the road")
 
     _SLOTS_SET_BY = "spawn_slots"
 

@@ -45,7 +45,8 @@ class HighwaySplineConfig(HighwayConfig):
         limit = 1.0 - self.car_width / self.road_width
         require(self, 0.0 <= self.spline_lateral_limit <= limit, ("spline_lateral_limit", "road_width", "car_width"),
                 f"spline_lateral_limit must lie in [0, {limit:.3f}] to keep cars on the road")
-        require(self, self.lane_change_distance > 0, ("lane_change_distance",), "lane_change_distance must be positive (m)")
+        require(self, self.lane_change_distance > 0, ("lane_change_distance",),
+                "lane_change_distance must be positive (m)")
         goal = self.road_length - self.goal_margin
         require(self, self.last_slot() + self.spawn_jitter + self.lane_change_distance < goal,
                 ("lane_change_distance", "spawn_slots", "spawn_start", "spawn_slot_spacing", "spawn_jitter",

@@ -1,4 +1,5 @@
-"""``highway-spline-v0``: one-way highway, each car picks its own lateral target (fast lanes) (see :mod:`box2d_driving.envs.highway_spline`)."""
+"""``highway-spline-v0``: one-way highway, each car picks its own lateral target (fast lanes)
+(see :mod:`box2d_driving.envs.highway_spline`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""``intersection-spline-v0``: signalled four-way junction, each car picks its own spline path (lanes) (see :mod:`box2d_driving.envs.intersection_spline`)."""
+"""``intersection-spline-v0``: signalled four-way junction, each car picks its own spline path
+(lanes) (see :mod:`box2d_driving.envs.intersection_spline`)."""
 
 from __future__ import annotations
 

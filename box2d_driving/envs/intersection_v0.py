@@ -1,4 +1,5 @@
-"""``intersection-v0``: signalled four-way junction, fixed straight tracks (see :mod:`box2d_driving.envs.intersection`)."""
+"""``intersection-v0``: signalled four-way junction, fixed straight tracks
+(see :mod:`box2d_driving.envs.intersection`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""``real-junction-v0``: real junctions from map files: lanes, connectors, real signals (see :mod:`box2d_driving.envs.real_junction`)."""
+"""``real-junction-v0``: real junctions from map files: lanes, connectors, real signals
+(see :mod:`box2d_driving.envs.real_junction`)."""
 
 from __future__ import annotations
 

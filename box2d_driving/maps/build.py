@@ -30,7 +30,7 @@ from box2d_driving.maps.roadmap import (Arm, Crosswalk, Lane, MapError, RoadMap,
 
 def _mouths(specs: list[ArmSpec], cfg: ImportConfig) -> list[float]:
     """Arc length where each arm stops overlapping the other arms' carriageways, plus the curb."""
-    polys = [np.vstack([l, r[::-1]]) for l, r in (strip(s) for s in specs)]
+    polys = [np.vstack([left, right[::-1]]) for left, right in (strip(s) for s in specs)]
     out = []
     for i, spec in enumerate(specs):
         last = 0.0

@@ -185,7 +185,8 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     def half(seq):
         h: list = []
         for p in seq:
-            while len(h) >= 2 and ((h[-1][0] - h[-2][0]) * (p[1] - h[-2][1]) - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])) <= 0:
+            while len(h) >= 2 and ((h[-1][0] - h[-2][0]) * (p[1] - h[-2][1])
+                                   - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])) <= 0:
                 h.pop()
             h.append(p)
         return h

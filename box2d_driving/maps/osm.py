@@ -188,7 +188,8 @@ def _find_centre(g: _Graph, data: OsmData, where: Union[int, tuple[float, float]
         return ref
     lat, lon = where
     frame = frame_for(lat, lon)
-    candidates = [(float(np.linalg.norm(frame.project(np.array([ll]))[0] - frame.project(np.array([[lat, lon]]))[0])), r)
+    here = frame.project(np.array([[lat, lon]]))[0]
+    candidates = [(float(np.linalg.norm(frame.project(np.array([ll]))[0] - here)), r)
                   for r in g.adj if g.degree(r) >= 3 for ll in [data.location(r)] if ll is not None]
     if not candidates or min(candidates)[0] > 50.0:
         raise MapError(f"no road junction within 50 m of ({lat}, {lon}) in {data.path.name}")
@@ -234,7 +235,9 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
     g = _Graph(data, frame)
     cluster = _cluster(g, centre_ref, cfg)
     centre = np.mean([g.xy[n] for n in cluster], axis=0)
-    notes = list(data.notes) + ([] if len(cluster) == 1 else [f"junction nodes {sorted(cluster)} merged into one junction"])
+    notes = list(data.notes)
+    if len(cluster) > 1:
+        notes.append(f"junction nodes {sorted(cluster)} merged into one junction")
 
     branches = []
     for c in sorted(cluster):
@@ -259,8 +262,9 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
     stem = data.path.name.split(".")[0].lower()
     roadmap = build_map(specs, cfg, name or f"{stem}_{centre_ref}", source, signalled=signalled, notes=notes)
     if not roadmap.connectors:  # every arm one-way in, or every one out: nothing can cross it
+        arms = ", ".join(f"{a.name or a.id}: {len(a.lanes_in)} in/{len(a.lanes_out)} out" for a in roadmap.arms)
         raise MapError(f"the junction at node {centre_ref} has no way through: no inbound lane connects to an "
-                       f"outbound one (arms: {', '.join(f'{a.name or a.id}: {len(a.lanes_in)} in/{len(a.lanes_out)} out' for a in roadmap.arms)})")
+                       f"outbound one (arms: {arms})")
     return roadmap
 
 
@@ -326,7 +330,8 @@ def _merge_dual(arms: list[tuple[ArmSpec, list[_Branch]]], cfg: ImportConfig,
         n = int(min(inb.length, outb.length) / 1.0)
         s = np.linspace(0.0, min(inb.length, outb.length), n + 1)
         axis = 0.5 * (geo.point_at(inb.centreline, s) + geo.point_at(outb.centreline, s))
-        sep = float(np.median(np.linalg.norm(geo.point_at(inb.centreline, s) - geo.point_at(outb.centreline, s), axis=1)))
+        apart = geo.point_at(inb.centreline, s) - geo.point_at(outb.centreline, s)
+        sep = float(np.median(np.linalg.norm(apart, axis=1)))
         median = max(sep - (inb.lanes_in + outb.lanes_out) * inb.lane_width / 2, 0.0)
         notes.append(f"dual carriageway {inb.name or outb.name!r}: one arm, median {median:.1f} m")
         merged = ArmSpec(centreline=axis, lanes_in=inb.lanes_in, lanes_out=outb.lanes_out,

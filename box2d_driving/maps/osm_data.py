@@ -127,6 +127,7 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
     if not data.roads:
         raise MapError(f"{path}: no roads that carry cars (highway={', '.join(sorted(classes))})")
     if duplicated:
-        data.notes.append(f"{path.name}: {len(duplicated)} node id(s) appear twice ({', '.join(map(str, duplicated[:5]))}"
-                          f"{', ...' if len(duplicated) > 5 else ''}); the last position of each was used")
+        shown = ", ".join(map(str, duplicated[:5])) + (", ..." if len(duplicated) > 5 else "")
+        data.notes.append(f"{path.name}: {len(duplicated)} node id(s) appear twice ({shown}); the last position of "
+                          f"each was used")
     return data

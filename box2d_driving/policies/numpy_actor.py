@@ -120,7 +120,8 @@ def check_actor_shapes(actor: "DrivingActor", history: int, n_rays: int, pooled:
     wanted = {f"{conv}.0.weight": (w1, (CHANNELS, history, KERNEL)), f"{conv}.0.bias": (b1, (CHANNELS,)),
               f"{conv}.2.weight": (w2, (1, CHANNELS, KERNEL)), f"{conv}.2.bias": (b2, (1,)),
               f"{mlp}.0.weight": (m0, (HIDDEN, m0.shape[-1] if m0.ndim == 2 and m0.shape[-1] >= pooled else -1)),
-              f"{mlp}.0.bias": (c0, (HIDDEN,)), f"{mlp}.2.weight": (m1, (HIDDEN, HIDDEN)), f"{mlp}.2.bias": (c1, (HIDDEN,)),
+              f"{mlp}.0.bias": (c0, (HIDDEN,)), f"{mlp}.2.weight": (m1, (HIDDEN, HIDDEN)),
+              f"{mlp}.2.bias": (c1, (HIDDEN,)),
               "action_net.weight": (head_w, (n_actions if n_actions is not None else head_w.shape[0], HIDDEN)),
               "action_net.bias": (head_b, (head_w.shape[0],))}
     for name, (array, shape) in wanted.items():
@@ -141,7 +142,8 @@ def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarr
     out = x @ w.T + b
     if isinstance(action_space, spaces.Box):
         shape = (len(obs),) + action_space.shape
-        return np.clip(out, action_space.low.ravel(), action_space.high.ravel()).reshape(shape).astype(action_space.dtype)
+        clipped = np.clip(out, action_space.low.ravel(), action_space.high.ravel())
+        return clipped.reshape(shape).astype(action_space.dtype)
     if isinstance(action_space, spaces.Discrete):
         return out.argmax(axis=1).astype(np.int64)
     if isinstance(action_space, spaces.MultiDiscrete):

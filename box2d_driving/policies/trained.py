@@ -179,7 +179,8 @@ def _resolve(path: Union[str, Path]) -> Path:
     if path.is_dir() and not is_policy_folder(path):
         inside = sorted(p.name for p in path.iterdir() if p.is_dir() and is_policy_folder(p))
         if inside:
-            raise CheckpointError(f"{path} holds no policy of its own but {len(inside)} in sub-folders ({', '.join(inside)}): "
+            raise CheckpointError(f"{path} holds no policy of its own but {len(inside)} in sub-folders "
+                                  f"({', '.join(inside)}): "
                                   f"load one of them, e.g. {path / inside[0]}")
     return path
 

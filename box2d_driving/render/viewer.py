@@ -248,7 +248,8 @@ class Viewer:
             elif narrow:
                 lines.append(f"red light = value {stop:g}: this policy's stop")
             else:
-                lines.append(f"red light = value {stop:g} (the value this policy stops on; the scenario calls it green)")
+                lines.append(f"red light = value {stop:g} (the value this policy stops on; "
+                             f"the scenario calls it green)")
         y = 4
         for line in lines:
             label = self.font.render(line, True, HUD_TEXT)

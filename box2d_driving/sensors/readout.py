@@ -72,7 +72,10 @@ def encode(distances: np.ndarray, max_range: float, encoding: str,
     distances = np.asarray(distances, dtype=np.float64)
     shape = distances.shape
     flat = np.ascontiguousarray(distances).reshape(-1)
-    mask = np.zeros(len(flat), dtype=np.bool_) if dropped is None else np.ascontiguousarray(dropped, dtype=np.bool_).reshape(-1)
+    if dropped is None:
+        mask = np.zeros(len(flat), dtype=np.bool_)
+    else:
+        mask = np.ascontiguousarray(dropped, dtype=np.bool_).reshape(-1)
     out = np.empty(len(flat), dtype=np.float32)
     _encode(flat, mask, float(max_range), encoding == "inverse", out)
     return out.reshape(shape)

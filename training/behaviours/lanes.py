@@ -31,7 +31,8 @@ ENV_ID = "intersection-spline-v0"
 class Args(BilevelArgs):
     """Train cars to choose their paths and drive them on intersection-spline-v0.
 
-    spline_action: how the path policy picks its 216 paths: per_waypoint (one 6-way choice per waypoint, the default) or joint (one 216-way choice, as the paper's code)
+    spline_action: how the path policy picks its 216 paths: per_waypoint (one 6-way choice per waypoint, the
+        default) or joint (one 216-way choice, as the paper's code)
     """
 
     num_cars: int = 8

@@ -30,7 +30,8 @@ class Args(ScriptArgs):
     """Train cars through real junctions on real-junction-v0.
 
     communication: each car also sends one bit per decision (the turn-signal option)
-    comm_fallback: with communication, what a car hearing no other car receives: zero (the default) or own (its own last bit)
+    comm_fallback: with communication, what a car hearing no other car receives: zero (the default) or own
+        (its own last bit)
     map: one shipped map name or a map JSON file (default: all shipped maps, one per episode)
     """
 

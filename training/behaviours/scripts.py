@@ -58,17 +58,23 @@ class CommonArgs:
     n_envs: env instances simulated side by side
     batch_decisions: slot-decisions per PPO update
     epochs: PPO epochs per update
-    minibatch_by_step: minibatches of whole env steps: the critic encodes each step's team once, about 1.7x faster training at equal sample efficiency (--no-minibatch-by-step: minibatches of single transitions, the default before)
+    minibatch_by_step: minibatches of whole env steps: the critic encodes each step's team once, about 1.7x
+        faster training at equal sample efficiency (--no-minibatch-by-step: minibatches of single transitions,
+        the default before)
     threads: torch CPU threads (default: the cores the env worker processes leave free)
-    num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way; the instances go in runs of ceil(n_envs / num_cpus), so 16 instances over 15 workers start 8 processes)
+    num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way; the
+        instances go in runs of ceil(n_envs / num_cpus), so 16 instances over 15 workers start 8 processes)
     device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
     horizon: episode horizon in decisions (default: the scenario's)
     collision_reward: reward on a car's first collision (default: the scenario's, -1 as in the paper)
     remove_collided: take a collided car out of the world instead of leaving it as a wreck
-    preset: a named preset of world and training settings: paper (the paper's own code: its world, 20 instances, updates of 32,000 joint steps in one pass of 20 minibatches, entropy 1e-4; docs/paper_world.md); flags given with other than their default values still win
-    original_epochs: the budget in the original's unit, epochs of 32,000 joint steps (each num_cars slot-decisions); overrides --timesteps
+    preset: a named preset of world and training settings: paper (the paper's own code: its world, 20
+        instances, updates of 32,000 joint steps in one pass of 20 minibatches, entropy 1e-4;
+        docs/paper_world.md); flags given with other than their default values still win
+    original_epochs: the budget in the original's unit, epochs of 32,000 joint steps (each num_cars
+        slot-decisions); overrides --timesteps
     """
 
     num_cars: int = 4

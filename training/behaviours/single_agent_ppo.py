@@ -1,6 +1,7 @@
 """Train one car among others with plain Stable-Baselines3 on a single-agent Gymnasium env.
 
-    python training/behaviours/single_agent_ppo.py --env-id box2d_driving/Intersection-v0 --timesteps 200000 --out runs/single
+    python training/behaviours/single_agent_ppo.py --env-id box2d_driving/Intersection-v0 \\
+        --timesteps 200000 --out runs/single
     python training/behaviours/single_agent_ppo.py --quick --out runs/single_quick
 
 No custom policy, no wrappers: ``PPO("MlpPolicy", gymnasium.make(ENV_ID))``. The other cars are

@@ -61,10 +61,19 @@ def _caster(kind: Any):
 
 
 def _field_docs(doc: str) -> dict[str, str]:
-    out = {}
-    for line in doc.splitlines():
-        line = line.strip()
+    """``name: text`` lines of a docstring; a line indented deeper than the ``name:`` line before
+    it, and not itself a ``name:`` line, continues that text (so long help wraps in the source)."""
+    out: dict[str, str] = {}
+    current, indent = None, 0
+    for raw in doc.splitlines():
+        line = raw.strip()
+        depth = len(raw) - len(raw.lstrip())
         if ":" in line and line.split(":", 1)[0].isidentifier():
             name, text = line.split(":", 1)
             out[name] = text.strip()
+            current, indent = name, depth
+        elif current is not None and line and depth > indent:
+            out[current] += " " + line
+        else:
+            current = None
     return out

@@ -184,7 +184,8 @@ def readings_table(trials: dict[str, list[dict[str, Any]]], columns: list[str],
     if metrics:
         missing = [m for m in metrics if m not in columns]
         if missing:
-            raise CurveError(f"--metric {missing[0]}: not a column of this curve file (its metrics: {', '.join(columns)})")
+            raise CurveError(f"--metric {missing[0]}: not a column of this curve file "
+                             f"(its metrics: {', '.join(columns)})")
         columns = list(metrics)
     shares = {k: f"{getattr(windows, k) * 100:g} %" for k in ("early", "settled", "window")}
     heads = ["trial", "metric"] + [h.format(**shares) for h in READING_COLUMNS.values()]

@@ -44,12 +44,14 @@ class Args:
     env_id: env for scripted policies (trained ones use the env they were trained on)
     episodes: evaluation episodes
     out: output folder (must not exist unless --overwrite)
-    seed: seed of the first episode; every episode seed must be a report seed, never seen in training or checkpoint selection (default: the first report seed, 1,500,000,000)
+    seed: seed of the first episode; every episode seed must be a report seed, never seen in training or
+        checkpoint selection (default: the first report seed, 1,500,000,000)
     num_cars: cars (default: as trained; scripted: 4)
     lidar_noise: LiDAR noise (default: as trained; scripted: 0)
     stochastic: sample actions instead of taking the most likely one
     video: episodes to record to OUT/episodes.mp4 (0 = none)
-    remove_collided: take collided cars out of the world (--no-remove-collided: leave them as wrecks; neither: as trained, scripted policies leave them)
+    remove_collided: take collided cars out of the world (--no-remove-collided: leave them as wrecks; neither:
+        as trained, scripted policies leave them)
     overwrite: allow writing into an existing output folder
     """
 

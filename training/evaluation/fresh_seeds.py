@@ -12,8 +12,9 @@ numbers, and it gives their interval):
 
 Each rate gets a 95 % interval with episodes as clusters
 (:func:`box2d_driving.metrics.intervals.clustered_share`); ``z`` is the difference of the two
-blocks' rates in units of its standard error (the two blocks' errors added in quadrature). A rate *holds* when ``|z| <= 1.96``. With
-some thirty rates checked, one or two beyond 1.96 are expected by chance alone.
+blocks' rates in units of its standard error (the two blocks' errors added in quadrature). A rate
+*holds* when ``|z| <= 1.96``. With some thirty rates checked, one or two beyond 1.96 are expected
+by chance alone.
 """
 
 from __future__ import annotations

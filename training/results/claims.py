@@ -114,7 +114,8 @@ CLAIMS: tuple[Claim, ...] = (
           (Reading(r"- num_cars=\d+, one-sided offset: noise 0 "),), "lanes.one_sided_offset", "one-sided offset"),
     Claim("Turn signals: speaker consistency and |Pearson(heading change, bit)| rise with LiDAR noise",
           ("communication-paper-32M", "communication-paper-16M", "communication-paper"),
-          (Reading(r"- speaker consistency \(bits\): noise "), Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
+          (Reading(r"- speaker consistency \(bits\): noise "),
+           Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
           "communication.speaker_consistency_bits", "speaker consistency"),
     # every leader counts (wrecks too: collided cars stay on the road in the paper's code as in
     # ours), the reading the verdict uses; leaders that move are the other reading, shown beside it
@@ -205,7 +206,10 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     lines = _deciding_lines(claim, result)
     verdict = combined_verdict({reading_verdict(line, r) for line, r in lines if r.decides})
     seeds = sorted({len(g.seeds) for g in result.groups})
-    seeds_text = "1 seed" if seeds == [1] else f"{seeds[0]} seeds" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]} seeds"
+    if seeds == [1]:
+        seeds_text = "1 seed"
+    else:
+        seeds_text = f"{seeds[0]} seeds" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]} seeds"
     ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text}"
     now = f"**{verdict}**; {_plateau(result, claim.curve, claim.curve_label)}"
     said = "<br>".join(line[2:] for line, _ in lines) or "no statement yet (too few seeds for an interval)"

@@ -272,7 +272,8 @@ RIGHT_OF_WAY_BASELINE_METRICS = ("right_of_way.fifo_share", "right_of_way.fifo_s
 
 
 @functools.lru_cache(maxsize=None)
-def scripted_junction_metrics(driver: str, num_cars: int, first_seed: int, episodes: int) -> tuple[tuple[str, float], ...]:
+def scripted_junction_metrics(driver: str, num_cars: int, first_seed: int,
+                              episodes: int) -> tuple[tuple[str, float], ...]:
     """The right-of-way measures (:data:`RIGHT_OF_WAY_BASELINE_METRICS`) of a scripted driver
     (``full-throttle``: light-blind, every car at full throttle; ``random``: uniform actions) on the
     given report episodes of ``real-junction-v0`` with ``num_cars`` cars and its other defaults."""
@@ -282,7 +283,8 @@ def scripted_junction_metrics(driver: str, num_cars: int, first_seed: int, episo
     fifo = fifo_metrics(table)
     safe = safety_distance_from_samples(leader_samples(table, cfg.car_length, wrecks_stay=cfg.wrecks_stay),
                                         cfg.a_max)
-    values = {"right_of_way.fifo_share": fifo["fifo_share"], "right_of_way.fifo_share_leaving": fifo["fifo_share_leaving"],
+    values = {"right_of_way.fifo_share": fifo["fifo_share"],
+              "right_of_way.fifo_share_leaving": fifo["fifo_share_leaving"],
               "safety_distance.safe_share": safe["safe_share"],
               "safety_distance.safe_share_moving_leader": safe["safe_share_moving_leader"]}
     return tuple((k, float(values[k])) for k in RIGHT_OF_WAY_BASELINE_METRICS)

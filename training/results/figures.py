@@ -131,7 +131,8 @@ def distribution_figure(name: str, bins: np.ndarray, xlabel: str, fallback: Figu
         for g in groups:
             if name in g.figures and g.figures[name].sum() > 0:
                 share = g.figures[name] / g.figures[name].sum()
-                ax.step(centres, share, where="mid", label=f"{_label(g, keys)} ({len(g.seeds)} seed{'' if len(g.seeds) == 1 else 's'})")
+                seeds = f"{len(g.seeds)} seed{'' if len(g.seeds) == 1 else 's'}"
+                ax.step(centres, share, where="mid", label=f"{_label(g, keys)} ({seeds})")
         if mark is not None:
             ax.axvline(mark[0], color="grey", ls=":", lw=1, label=mark[1])
         if clipped:

@@ -51,7 +51,8 @@ def readme_text(path: Path) -> str:
         text = Path(path).read_text()
     except OSError as exc:
         raise ResultsError(f"--readme {path}: {exc.strerror}") from None
-    if text.count(README_START) != 1 or text.count(README_END) != 1 or text.index(README_START) > text.index(README_END):
+    if (text.count(README_START) != 1 or text.count(README_END) != 1
+            or text.index(README_START) > text.index(README_END)):
         raise ResultsError(f"--readme {path}: needs one line {README_START!r} and, after it, one line {README_END!r}")
     return text
 

@@ -215,8 +215,10 @@ def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
             "value and our interval excludes it. A claim of several parts takes the first of opposite, differs, not "
             "detected that any part has, else reproduced. Seed counts that would tell are planning estimates: they "
             "take the observed mean and spread as true. An interval reaching past its metric's range (a share below 0 "
-            "or above 1, a correlation past +-1) is cut at the range and printed as [low, high]. Every p-value of the table stands with its Holm-adjusted value "
-            "over the table's family of tests (the verdicts read the 95 % intervals, which are not adjusted). And whether the claim's measure had stopped moving by the end of training "
+            "or above 1, a correlation past +-1) is cut at the range and printed as [low, high]. Every p-value of "
+            "the table stands with its Holm-adjusted value over the table's family of tests (the verdicts read the "
+            "95 % intervals, which are not adjusted). And whether the claim's measure had stopped moving by the "
+            "end of training "
             "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
             "noisy to tell, how many seeds with curves the observed spread would need to settle it.", "",
             *claims_table(found_sections), ""]

@@ -137,7 +137,8 @@ def turn_signals_12_cars(key: str, title: str, match: tuple[tuple[str, str], ...
 
 # the right-of-way rules (FIFO order and safe distance at a real junction): columns, the paper's
 # claim, numbers and runs, and where the page explains the safe-distance shortfall
-RIGHT_OF_WAY_METRICS = (("right_of_way.fifo_share", "FIFO share"), ("safety_distance.safe_share", "safe-distance share"),
+RIGHT_OF_WAY_METRICS = (("right_of_way.fifo_share", "FIFO share"),
+                        ("safety_distance.safe_share", "safe-distance share"),
                         ("safety_distance.safe_share_moving_leader", "safe-distance share, moving leaders"),
                         ("success_rate", "success"), ("collision_rate", "collisions"))
 RIGHT_OF_WAY_CLAIM = ("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time; 98.45 % of "

@@ -44,11 +44,13 @@ SECTIONS: tuple[Section, ...] = (
             paper_budget=LIGHTS_NOISE_BUDGET,
             shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
-                                (("lidar_noise", "0.5"), ("num_cars", "4")), ("red_light_violation_rate", "success_rate", "collision_rate")),
+                                (("lidar_noise", "0.5"), ("num_cars", "4")),
+                                ("red_light_violation_rate", "success_rate", "collision_rate")),
                        Headline("lone car ignores the light", "1 car, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "1")), ("red_light_violation_rate",)),
                        Headline("8 cars from scratch", "8 cars, LiDAR noise 0.5",
-                                (("lidar_noise", "0.5"), ("num_cars", "8")), ("red_light_violation_rate", "success_rate", "collision_rate")))),
+                                (("lidar_noise", "0.5"), ("num_cars", "8")),
+                                ("red_light_violation_rate", "success_rate", "collision_rate")))),
     Section("traffic-lights-paper", "Stopping at red lights, at the paper's settings", "lights",
             (("init_from", "false"), ("num_cars", "4")),
             LIGHTS_METRICS,
@@ -56,7 +58,8 @@ SECTIONS: tuple[Section, ...] = (
             f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 6 --timesteps 2400000 --set num_cars=4 "
             "--out runs/sweep-lights-paper",
             setting="Each trial trains 4 cars from scratch at the paper's settings: LiDAR noise 0.25, 0.5, 0.75 "
-                    "and 1.0 (the share of LiDAR rays dropped at every decision: at 1.0 the cars see no other car and have only "
+                    "and 1.0 (the share of LiDAR rays dropped at every decision: at 1.0 the cars see no other car "
+                    "and have only "
                     "the light, their own speed and their route), entropy 0.01, 75 updates of 32,000 car-decisions "
                     "(2.4 M): a quarter of the paper's joint steps (its epochs are 32,000 steps of every car) at a "
                     "hundred times its entropy, in our default world (what differs: "
@@ -71,7 +74,9 @@ SECTIONS: tuple[Section, ...] = (
                                               paper=-1),
                         scripted_baseline_statement((("red_light_violation_rate", "red-light violations"),), paper=-1)),
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4, seeds_before_look=5,
-            headlines=(Headline("stop at red lights, the noise grid at 2.4 M decisions", "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), entropy 0.01",
+            headlines=(Headline("stop at red lights, the noise grid at 2.4 M decisions",
+                                "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), "
+                                "entropy 0.01",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
@@ -110,7 +115,8 @@ SECTIONS: tuple[Section, ...] = (
             "--out runs/sweep-lights-8cars-16M",
             setting="The denser-traffic fine-tune above for 500 updates of 32,000 car-decisions (16 M), the "
                     "paper's 8-car epoch count but an eighth of its 128 M car-decisions (its epochs are 32,000 "
-                    "joint steps of every car, arrived cars staying), with learning curves; compare it with the 4-car noise-0.5 row at the paper's "
+                    "joint steps of every car, arrived cars staying), with learning curves; compare it with the "
+                    "4-car noise-0.5 row at the paper's "
                     "settings (2.4 M decisions from scratch, the paper's 4-car budget). The trials run one after "
                     "the other, so a summary holds the seeds finished so far. Seeds 5-7 were added after the "
                     "first five: their violations against the 4-car row's left the intervals overlapping at a "
@@ -119,7 +125,8 @@ SECTIONS: tuple[Section, ...] = (
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
             paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8, seeds_before_look=5,
             headlines=(Headline("denser traffic, 16 M decisions",
-                                "8 cars, LiDAR noise 0.5, 16 M decisions (an eighth of the paper's 128 M) from the 4-car policy", (),
+                                "8 cars, LiDAR noise 0.5, 16 M decisions (an eighth of the paper's 128 M) from the "
+                                "4-car policy", (),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")),)),
     Section("lanes", "Lanes", "lanes", (),
             LANES_METRICS,
@@ -168,7 +175,8 @@ SECTIONS: tuple[Section, ...] = (
                  # stopped moving at both car counts
                  headlines=(Headline("lanes, 16 M decisions", "8 cars, LiDAR noise 0.5, 500 rounds (16 M decisions)",
                                      (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
-                            Headline("4 cars (the paper: no lanes)", "4 cars, LiDAR noise 0.5, 500 rounds (16 M decisions)",
+                            Headline("4 cars (the paper: no lanes)",
+                                     "4 cars, LiDAR noise 0.5, 500 rounds (16 M decisions)",
                                      (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
     Section("lanes-noise", "Lanes at the paper's LiDAR noise levels", "lanes",
             (("rounds", "150"), ("lidar_noise", IN_GRID)),
@@ -200,7 +208,8 @@ SECTIONS: tuple[Section, ...] = (
     lanes_4_vs_8("lanes-joint", "Lanes with the paper's single 216-way path choice",
                  (("rounds", "150"), ("spline_action", "joint")),
                  f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
-                 "spline_updates_per_round=2 spline_action=joint init_from=assets/policies/traffic_lights_4cars_noise05 "
+                 "spline_updates_per_round=2 spline_action=joint "
+                 "init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
                  setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, 150 bilevel rounds, "
                          "4.8 M decisions) with one change: the path policy picks among the 216 paths with one "
@@ -217,7 +226,8 @@ SECTIONS: tuple[Section, ...] = (
             shipped="real_junction_8cars_collision3",
             headlines=(Headline("right of way, safe distance",
                                 "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
-                                ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate", "collision_rate")),)),
+                                ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate",
+                                 "collision_rate")),)),
     right_of_way("right-of-way-paper-32M", "Right of way and safe distance, the paper's budget (32 M decisions)",
             (("timesteps", "32000000"),),
             f"{SWEEP} real-junction --seeds 3 --timesteps 32000000 --set num_cars=8 collision_reward=-3 "

@@ -258,7 +258,8 @@ def seeds_needed_apart(a: Sequence[float], b: Sequence[float], most: int = 200) 
         # Welch-Satterthwaite degrees of freedom with k seeds in each row
         dof = (va + vb) ** 2 * (k - 1) / (va * va + vb * vb) if va * vb else k - 1
         if t95(max(1, int(dof))) * math.sqrt((va + vb) / k) < abs(ma - mb):
-            return f"; a planning estimate, taking this difference and spread as true: about {k} seeds per row would tell"
+            return (f"; a planning estimate, taking this difference and spread as true: about {k} seeds per row "
+                    f"would tell")
     return (f"; a planning estimate, taking this difference and spread as true: more than {most} seeds per row "
             f"would be needed")
 
@@ -387,7 +388,8 @@ def scripted_baseline_statement(metrics: tuple[tuple[Metric, str], ...], paper: 
                 if len(beyond) == len(drivers):
                     verdict = "beyond every scripted driver: the rule is learnt, as in the paper"
                 elif behind:
-                    verdict = f"{'below' if paper > 0 else 'above'} {' and '.join(behind)}: no rule learnt, unlike the paper"
+                    side = "below" if paper > 0 else "above"
+                    verdict = f"{side} {' and '.join(behind)}: no rule learnt, unlike the paper"
                 else:
                     inside = [d for d in drivers if d not in beyond]
                     verdict = f"no learnt rule detected (the interval holds {' and '.join(inside)})"

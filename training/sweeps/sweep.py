@@ -325,7 +325,8 @@ def build_parser():
 
     from box2d_driving.plugins import behaviours
 
-    p = OneLineParser(prog=sys.argv[0].rsplit("/", 1)[-1] if sys.argv[0].startswith("box2d-driving") else "box2d-driving sweep",
+    prog = sys.argv[0].rsplit("/", 1)[-1] if sys.argv[0].startswith("box2d-driving") else "box2d-driving sweep"
+    p = OneLineParser(prog=prog,
                description="Train a grid of settings x training seeds on Ray Tune; every trial is "
                            "evaluated on held-out report seeds and summarised in OUT/summary.csv.")
     p.add_argument("behaviour", choices=behaviours(), help="what to train")

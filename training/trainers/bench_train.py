@@ -17,12 +17,12 @@ After the timed updates each row runs PPO's epochs once more on the last batch, 
 once under ``torch.utils.flop_counter.FlopCounterMode`` to count the floating-point operations of
 the update's matrix products and convolutions (forward and backward; element-wise operations are
 not counted; the LiDAR convolutions counted as convolutions, not as the zero-padded products
-``training/ppo/encoder.py`` computes them with). Their ratio is the update's achieved GFLOP/s, printed beside a plain matrix product
-of the update's widest layer (minibatch x 256 times 256 x 256) timed in the same run on the same
-device and threads: how close the learner comes to what the machine can do. Beside it, the same
-update timed once more with both LiDAR encoders replaced by stand-ins that cost next to nothing
-(:func:`training.ppo.encoder.encoders_cost_nothing`), over the same counted GFLOP: the most any
-faster encoder could give.
+``training/ppo/encoder.py`` computes them with). Their ratio is the update's achieved GFLOP/s,
+printed beside a plain matrix product of the update's widest layer (minibatch x 256 times
+256 x 256) timed in the same run on the same device and threads: how close the learner comes to
+what the machine can do. Beside it, the same update timed once more with both LiDAR encoders
+replaced by stand-ins that cost next to nothing (:func:`training.ppo.encoder.encoders_cost_nothing`),
+over the same counted GFLOP: the most any faster encoder could give.
 
 Prints a table and writes it as JSON (``--json FILE``, never replacing an existing file).
 """
@@ -300,8 +300,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                   minibatch_by_step=args.minibatch_by_step, threads=threads)
                 row = bench_row(cfg, args.warmup, args.updates)
                 rows.append(row)
-                print(f"  workers {row.worker_processes:>2}, {device}, {row.threads} threads: {row.agent_steps_per_s:,.0f} "
-                      f"agent-steps/s", flush=True)
+                print(f"  workers {row.worker_processes:>2}, {device}, {row.threads} threads: "
+                      f"{row.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
     print()
     print(format_table(rows))
     gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"

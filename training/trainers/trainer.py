@@ -140,7 +140,8 @@ class TrainConfig:
         if not isinstance(self.env_overrides, dict):
             raise ConfigError(f"TrainConfig: env_overrides must be a dict, got {self.env_overrides!r}")
         check_bounds(self, {  # timesteps 0: a bilevel run's acceleration stage (rounds decide)
-            "timesteps": (0, 100_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096), "batch_decisions": (1, None), "minibatch": (1, None),
+            "timesteps": (0, 100_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096),
+            "batch_decisions": (1, None), "minibatch": (1, None),
             "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
             "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
             "target_kl": (0, None), "ent_coef": (0, None), "max_minutes": (0, None), "clip_range_vf": (0, None),
