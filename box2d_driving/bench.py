@@ -170,9 +170,10 @@ def main(argv: list[str] | None = None) -> int:
                              "`bench --train --help` for its options)")
     parser.add_argument("--memory", action="store_true",
                         help="memory growth over env resets instead (`bench --memory --help` for its options)")
-    parser.add_argument("--seconds", type=float, default=5.0, help="timed seconds per car count")
-    parser.add_argument("--cars", type=int, nargs="+", default=[4, 8, 16, 32])
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seconds", type=float, default=5.0, help="timed seconds per car count (default 5)")
+    parser.add_argument("--cars", type=int, nargs="+", default=[4, 8, 16, 32],
+                        help="car counts to time, one row each (default 4 8 16 32)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the episodes stepped (default 0)")
     parser.add_argument("--json", help="also write the results to this JSON file")
     args = parser.parse_args(argv)
     if args.seconds <= 0 or any(c < 1 for c in args.cars):

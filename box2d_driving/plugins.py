@@ -9,6 +9,7 @@ entry-point group :data:`COMMANDS` (``setup.cfg``): ``train:lights``, ``train:cr
 from __future__ import annotations
 
 from importlib.metadata import entry_points
+from pathlib import Path
 from typing import Callable, Optional
 
 COMMANDS = "box2d_driving.commands"
@@ -26,7 +27,16 @@ class CommandMissing(LookupError):
     """A command the user asked for is not installed, or its dependencies are not."""
 
 
-INSTALL = 'pip install -c constraints-cpu.txt -e ".[train]"'
+def install_hint(extra: str) -> str:
+    """The command that adds ``extra`` to this install: the editable one with the CPU constraints
+    in a source checkout (``setup.py`` beside the package), the package index's otherwise (a
+    wheel user has neither the checkout nor its constraints file)."""
+    if (Path(__file__).resolve().parents[1] / "setup.py").is_file():
+        return f'pip install -c constraints-cpu.txt -e ".[{extra}]"'
+    return f'pip install "box2d-driving[{extra}]"'
+
+
+INSTALL = install_hint("train")
 
 
 def require(name: str) -> Callable[[list[str]], int]:

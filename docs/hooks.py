@@ -4,7 +4,8 @@ repository's ``assets/`` images the pages show.
 * A page line ``<!-- generated: config ENV_ID -->`` becomes the table of the scenario's config
   fields (name, default, meaning), read from its frozen dataclass and the ``Attributes:`` section
   of its docstring; ``observation ENV_ID`` the observation layout, ``actions ENV_ID`` the action
-  space, ``reward`` the reward terms (from ``box2d_driving/envs/reward.py``) and ``modules
+  space, ``infos ENV_ID`` the info keys (``box2d_driving.envs.core.INFO_FIELDS``), ``reward`` the
+  reward terms (from ``box2d_driving/envs/reward.py``) and ``modules
   PACKAGE`` one line per module of ``box2d_driving``, ``training`` or ``tests`` (the first
   sentence of its docstring). So the pages cannot drift from the code.
 * Pages link the shipped policies' plots as ``../assets/...`` (which also works when the
@@ -59,6 +60,8 @@ def _generated(kind: str, target: str | None) -> str:
 
     if kind == "reward":
         return _reward_table()
+    if kind == "infos":
+        return _infos_table(target)
     if kind == "modules":
         return _module_table(target)
     env = box2d_driving.make(target)
@@ -134,6 +137,24 @@ def _actions_text(env, env_id: str) -> str:
                  f"`env.spline_action_space` = `{space}` for its stage-0 observation "
                  f"(`env.spline_observation_space`).")
     return text
+
+
+def _infos_table(env_id: str) -> str:
+    import box2d_driving
+    from box2d_driving.envs.core import INFO_FIELDS
+
+    env = box2d_driving.make(env_id)
+    try:
+        _, infos = env.reset(seed=0)
+        keys = list(next(iter(infos.values())))
+        meaning = {**INFO_FIELDS, **env.scenario_info_fields}
+    finally:
+        env.close()
+    rows = ["| key | meaning |", "|---|---|"]
+    rows += [f"| `{k}` | {_cell(meaning[k])} |" for k in keys + ["reward_terms"]]
+    return ("`infos[agent]` after `reset` and each `step`, for the cars still in the episode (a car's "
+            "last `step` reports it once more, with `arrived` or `collided` set; collect outcomes then):\n\n"
+            + "\n".join(rows))
 
 
 def _reward_table() -> str:

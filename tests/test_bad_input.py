@@ -217,3 +217,20 @@ def test_a_first_compile_is_announced_at_a_terminal_only(monkeypatch, capsys, tm
     monkeypatch.undo()
     box2d_driving.make("intersection-v0").reset(seed=0)  # this checkout's cache is warm by now
     assert compile_note.kernels_cached()
+
+
+def test_install_hints_fit_how_the_package_was_installed(monkeypatch, tmp_path):
+    from box2d_driving import plugins
+
+    assert plugins.install_hint("train") == 'pip install -c constraints-cpu.txt -e ".[train]"'  # this checkout
+    fake = tmp_path / "site-packages" / "box2d_driving" / "plugins.py"  # a wheel: no setup.py above it
+    fake.parent.mkdir(parents=True)
+    monkeypatch.setattr(plugins, "__file__", str(fake))
+    assert plugins.install_hint("osm") == 'pip install "box2d-driving[osm]"'
+
+
+def test_bench_help_explains_every_option(capsys):
+    with pytest.raises(SystemExit):
+        cli(["bench", "--help"])
+    out = capsys.readouterr().out
+    assert "(default 5)" in out and "car counts to time" in out and "seed of the episodes" in out

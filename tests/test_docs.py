@@ -102,16 +102,17 @@ def test_the_train_a_rule_tutorial_runs_as_written_at_a_smaller_size(tmp_path, m
     from box2d_driving.cli import main as cli
 
     commands, _ = _tutorial("train-a-rule.md")
-    assert [c[0] for c in commands] == ["train", "evaluate", "render", "play"]
+    assert [c[0] for c in commands] == ["train", "evaluate", "evaluate", "render", "play"]  # the 2nd: light-blind
     monkeypatch.chdir(tmp_path)  # the tutorial's relative paths (runs/lights, lights.mp4) land here
     for argv in commands[:-1]:  # play needs a person at the keyboard
         assert cli(argv + _SMALLER[argv[0]]) == 0, argv
     assert (tmp_path / "runs" / "lights" / "model.safetensors").exists()
     # what the tutorial says evaluation writes
     for name in ("metrics.json", "learning_curves.png", "acceleration_by_light.png", "junction_light.png",
-                 "collisions.png"):
+                 "collisions.png", "rollouts.npz"):
         assert (tmp_path / "runs" / "lights" / "eval" / name).exists(), name
     assert (tmp_path / "lights.mp4").stat().st_size > 0
+    assert (tmp_path / "runs" / "full-throttle" / "metrics.json").exists()  # the light-blind reference
     from box2d_driving.policies import load_trained  # "the policy runs without torch as well"
 
     assert load_trained("runs/lights") is not None
@@ -270,3 +271,20 @@ def test_the_layout_page_lists_every_module_by_its_docstring():
         table = hooks.on_page_markdown(f"<!-- generated: modules {package} -->", _Page(), None, None)
         assert all(f"| `{m}` |" in table for m in files)
 
+
+
+def test_every_info_key_of_every_scenario_is_documented():
+    """The scenario pages print ``INFO_FIELDS`` (and a scenario's own ``scenario_info_fields``):
+    a key added to ``car_infos`` or ``scenario_info`` without its meaning fails here."""
+    import box2d_driving
+    from box2d_driving.envs.core import INFO_FIELDS
+
+    for env_id in box2d_driving.registry():
+        env = box2d_driving.make(env_id, communication=True) if env_id == "real-junction-v0" else \
+            box2d_driving.make(env_id)
+        _, infos = env.reset(seed=0)
+        _, _, _, _, stepped = env.step({a: 0 for a in env.agents})
+        keys = set().union(*(set(i) for i in list(infos.values()) + list(stepped.values())))
+        undocumented = keys - set(INFO_FIELDS) - set(env.scenario_info_fields)
+        env.close()
+        assert not undocumented, (env_id, undocumented)

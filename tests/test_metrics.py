@@ -163,3 +163,25 @@ def test_acceleration_by_light_keeps_each_values_colour_whatever_the_stop_value(
     assert labels[stop_label][:3] == to_rgba(plots.LIGHT_VALUE_COLOURS[stop_value])[:3]
     go = 1.0 - stop_value
     assert labels[f"light {go} (go)"][:3] == to_rgba(plots.LIGHT_VALUE_COLOURS[go])[:3]
+
+
+def test_acceleration_by_light_drops_empty_distance_bins_and_shows_flat_boxes_in_colour(tmp_path, monkeypatch):
+    import matplotlib
+    from matplotlib.colors import to_rgba
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from training.evaluation import plots
+
+    figures = []
+    monkeypatch.setattr(plt, "close", lambda fig=None: figures.append(fig))
+    n = 30  # every car within 25 m of its line, every acceleration the same: no spread at all
+    table = {"episode": np.zeros(n, int), "car": np.repeat([0, 1, 2], n // 3),
+             "decision": np.tile(np.arange(n // 3), 3), "light": np.tile([0.0, 1.0, 1.0], n // 3),
+             "stop_line_distance": np.linspace(1, 25, n), "acceleration": np.full(n, 1.5)}
+    plots.acceleration_by_light(table, tmp_path / "a.png", stop_value=1.0)
+    ax = figures[0].axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["0-10 m", "10-20 m", "20-30 m"]  # no 30-50 m
+    dots = [tuple(c) for col in ax.collections for c in col.get_facecolors()]
+    assert to_rgba(plots.LIGHT_VALUE_COLOURS[1.0]) in dots and to_rgba(plots.LIGHT_VALUE_COLOURS[0.0]) in dots

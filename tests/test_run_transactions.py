@@ -120,6 +120,7 @@ def test_a_run_killed_anywhere_resumes_from_its_newest_complete_checkpoint(tmp_p
     assert done.returncode == 0 and "trained" in done.stdout, done.stderr[-3000:]
     if resumes_at is None:
         assert "stopped before its first one): starting it again" in done.stderr
+        assert len(list(out.glob("events.out.tfevents.*"))) == 1  # the dead run's TensorBoard log went
         assert not list(out.glob("config.resumed_*.json"))
     else:
         assert f"resuming from the checkpoint at {resumes_at} decisions" in done.stderr and cut in done.stderr

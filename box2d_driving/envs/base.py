@@ -127,7 +127,9 @@ class DrivingEnv(ParallelEnv, EzPickle):
         """Scenario-specific per-car facts added to ``infos`` (one dict per car in ``cars``)."""
         return [{} for _ in cars]
 
-    scenario_info.adds_nothing = True  # the env core skips merging the empty dicts of this default
+    scenario_info.adds_nothing = True
+    # the keys ``scenario_info`` adds, with their meaning (the scenario pages print them)
+    scenario_info_fields: dict[str, str] = {}  # the env core skips merging the empty dicts of this default
 
     def _seed(self, seed: Optional[int]) -> None:
         if seed is not None or self.np_random is None:

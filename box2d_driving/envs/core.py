@@ -246,6 +246,34 @@ def lidar_distances(envs: Envs, cars: Sequence[np.ndarray]) -> np.ndarray:
         cfg.lidar_min_range)
 
 
+# every car's ``infos[agent]`` (units and meaning; the scenario pages print this table)
+INFO_FIELDS = {
+    "position": "(x, y) of the car's centre (m)",
+    "heading": "heading (rad, counter-clockwise from +x)",
+    "speed": "speed along the heading (m/s; negative only where the world lets cars reverse)",
+    "acceleration": "acceleration applied this decision (m/s²)",
+    "light": "the light value the car sees on its approach: 0.0 and 1.0 the two phases (green and red as "
+             "drawn; which one a policy learns to stop on is its `stop_value`), 0.5 yellow, 0.75 no light "
+             "in view",
+    "in_junction": "whether the car's centre is inside the junction area",
+    "lane_offset": "signed offset from its lane's axis, normalised by W/2, + = right of the direction of "
+                   "travel (None without a road axis)",
+    "stop_line_distance": "distance before its stop line (m; None without a light on its approach)",
+    "distance_to_goal": "distance left along its path (m)",
+    "arrived": "whether the car has reached its goal (this decision or before)",
+    "collided": "whether the car has collided",
+    "collided_with": "what it hit: `car`, `edge`, `pedestrian` (None before any collision)",
+    "collision_partner": "the index of the car it hit (None otherwise)",
+    "partner_halted": "whether that car had halted when it was hit",
+    "rating": "the car's acceleration rating (1.0 where the scenario has none)",
+    "decision": "the decision number in the episode (0 at reset)",
+    "approach": "the arm (or lane) the car came from",
+    "reward_terms": "the decision's reward term by term (absent at reset)",
+    "bit_sent": "with `communication=True`: the bit the car sent",
+    "bit_received": "with `communication=True`: the bit it heard",
+}
+
+
 def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
     """One info dict per car in ``cars[k]`` of each instance ``envs[k]`` (the keys the envs
     document), rows in that order, with each scenario's own facts

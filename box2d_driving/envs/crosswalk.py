@@ -137,6 +137,13 @@ class CrosswalkEnv(HighwayEnv):
         """x (m) of the front (``side=+1``) or rear (``-1``) bumper centre of cars at ``pos``, ``head``."""
         return pos[:, 0] + side * 0.5 * self.config.car_length * np.cos(head)
 
+    scenario_info_fields = {
+        "pedestrian_distance": "centre distance to the nearest pedestrian within `ahead_half_angle` of the "
+                               "heading (m; None if none)",
+        "crosswalk_distance": "from the car's front to the near edge of the crosswalk (m, negative once the "
+                              "front is past it)",
+    }
+
     def scenario_info(self, cars: np.ndarray) -> list[dict]:
         """``pedestrian_distance``: centre distance (m) to the nearest pedestrian within
         ``ahead_half_angle`` of the heading (None if none); ``crosswalk_distance``: from the car's

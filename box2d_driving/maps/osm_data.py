@@ -76,7 +76,9 @@ def read_osm(path: str | Path, road_classes: tuple[str, ...]) -> OsmData:
     try:
         import osmium
     except ImportError as exc:  # the [osm] extra: only the importer needs it
-        raise MapError(f"reading OSM files needs the 'osmium' package: pip install -e \".[osm]\" "
+        from box2d_driving.plugins import install_hint
+
+        raise MapError(f"reading OSM files needs the 'osmium' package: {install_hint('osm')} "
                        f"(or pip install osmium) ({exc})") from None
     path = Path(path)
     if not path.is_file():

@@ -82,24 +82,33 @@ def acceleration_by_light(table: dict[str, np.ndarray], path: Path, stop_value: 
     accel = table["acceleration"][order][1:][same]
     fig, ax = plt.subplots(figsize=(9, 4))
     values = [v for v in (0.0, 0.5, 1.0) if np.any(np.isclose(light, v))]
+    # only the distance bins some car was in (a world whose cars start near the line has no far bin)
+    lit = np.any([np.isclose(light, v) for v in values], axis=0) if values else np.zeros(len(light), bool)
+    spans = [(lo, hi) for lo, hi in zip(bins[:-1], bins[1:]) if np.any(lit & (dist > lo) & (dist <= hi))]
     width = 0.8 / max(len(values), 1)
     go_value = 1.0 - stop_value
     colours = LIGHT_VALUE_COLOURS
     names = {stop_value: f"{stop_value} (stop)", go_value: f"{go_value} (go)", 0.5: "0.5"}
     for j, v in enumerate(values):
         data, pos = [], []
-        for b in range(len(bins) - 1):
-            m = np.isclose(light, v) & (dist > bins[b]) & (dist <= bins[b + 1])
+        for b, (lo, hi) in enumerate(spans):
+            m = np.isclose(light, v) & (dist > lo) & (dist <= hi)
             data.append(accel[m] if m.any() else np.array([np.nan]))
             pos.append(b + (j - (len(values) - 1) / 2) * width)
+        # outlines and whiskers in the series' colour: a box with no spread is a line, and stays
+        # readable as this light's only where it is not black
+        line = {"color": colours[v], "linewidth": 1.5}
         bp = ax.boxplot(data, positions=pos, widths=width * 0.9, patch_artist=True, showfliers=False,
-                        medianprops={"color": "black"})
+                        medianprops={"color": "black"}, whiskerprops=line, capprops=line,
+                        boxprops={"edgecolor": colours[v], "linewidth": 1.5})
         for patch in bp["boxes"]:
             patch.set_facecolor(colours[v])
             patch.set_alpha(0.6)
+        medians = [float(np.median(d)) if np.isfinite(d).any() else np.nan for d in data]
+        ax.scatter(pos, medians, color=colours[v], edgecolor="black", s=18, zorder=3)
         ax.plot([], [], color=colours[v], lw=6, alpha=0.6, label=f"light {names[v]}")
-    ax.set_xticks(range(len(bins) - 1))
-    ax.set_xticklabels([f"{bins[b]}-{bins[b + 1]} m" for b in range(len(bins) - 1)])
+    ax.set_xticks(range(len(spans)))
+    ax.set_xticklabels([f"{lo}-{hi} m" for lo, hi in spans])
     ax.set_xlabel("distance to the stop line")
     ax.set_ylabel("acceleration (m/s²)")
     ax.legend(fontsize=8)

@@ -95,8 +95,9 @@ def resume_point(out: Path) -> Optional[ResumePoint]:
 def started_files(out: Path) -> list[Path]:
     """What a run killed before its first checkpoint left besides ``config.json``: its logs, and
     the partial files of an interrupted first write."""
-    names = ["progress.csv", "state.json", FILE + ".partial", "tb"]
+    names = ["progress.csv", "state.json", FILE + ".partial"]
     found = [out / n for n in names if (out / n).exists()]
+    found += sorted(out.glob("events.out.tfevents.*"))  # TensorBoard's logs
     found += sorted(p for p in out.iterdir() if _RESUMED.fullmatch(p.name))
     found += sorted((out / "checkpoints").glob("*")) if (out / "checkpoints").is_dir() else []
     return found

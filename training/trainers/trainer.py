@@ -10,7 +10,7 @@ Output folder::
     OUT/checkpoints/         model_<decisions>.safetensors every ``checkpoint_every`` updates
     OUT/progress.csv         one row per update: rollout metrics and PPO diagnostics
                              (each --resume adds progress.resumed_<decisions>.csv)
-    OUT/tb/                  TensorBoard logs
+    OUT/events.out.tfevents.*  TensorBoard logs (``tensorboard --logdir OUT``)
     OUT/state.json           wall-clock seconds and agent-steps so far (kept across --resume)
     OUT/.lock                held while a process trains in the folder (training/runs/lock.py)
 
