@@ -34,7 +34,7 @@ def terminate_as_interrupt() -> Iterator[None]:
         yield
         return
 
-    def handler(signum, frame):  # noqa: ARG001
+    def handler(signum, frame):
         raise KeyboardInterrupt(f"stopped by signal {signum}")
 
     previous = signal.signal(signal.SIGTERM, handler)
@@ -91,7 +91,7 @@ class GracefulStop:
             return
         previous = {s: signal.getsignal(s) for s in _SIGNALS}
 
-        def handler(signum, frame):  # noqa: ARG001
+        def handler(signum, frame):
             if self.signum is not None:  # the second one: stop now
                 raise KeyboardInterrupt(f"stopped by signal {signum}")
             self.signum = signum

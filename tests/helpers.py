@@ -120,7 +120,7 @@ def raised_in_a_thread(call: Callable[[], object]) -> list[Exception]:
     def run() -> None:
         try:
             call()
-        except Exception as exc:  # noqa: BLE001 - handed back to the test
+        except Exception as exc:
             caught.append(exc)
 
     worker = threading.Thread(target=run)

@@ -256,7 +256,7 @@ def outcome(attack: Attack) -> str:
         tmp = Path(scratch).resolve()
         try:
             got = attack.run(tmp)
-        except Exception as exc:  # noqa: BLE001 - the outcome is what we record
+        except Exception as exc:
             message = str(exc).replace(str(tmp) + "/", "").replace(str(tmp), ".")
             message = re.sub(r"\s+", " ", message)[:140]
             verdict = "refused" if type(exc).__name__ in OUR_ERRORS else "RAW"

@@ -19,11 +19,11 @@ from box2d_driving.policies.checkpoint_file import json_depth, load_json_file, r
 from box2d_driving.policies.shipped import SHIPPED_POLICIES_DIR
 
 pytest.importorskip("torch")
-import torch as th  # noqa: E402
-from safetensors.torch import load_file, save_file  # noqa: E402
+import torch as th
+from safetensors.torch import load_file, save_file
 
-from training.runs.checkpoint import read_checkpoint  # noqa: E402
-from training.runs.inference import load_policy  # noqa: E402
+from training.runs.checkpoint import read_checkpoint
+from training.runs.inference import load_policy
 
 LIGHTS = SHIPPED_POLICIES_DIR / "traffic_lights_4cars"
 LANES = SHIPPED_POLICIES_DIR / "lanes_8cars_noise05"
@@ -139,7 +139,7 @@ def test_a_fifo_is_refused_at_once_instead_of_hanging(tmp_path, name):
 def _raises(fn, *args):
     try:
         fn(*args)
-    except Exception as exc:  # noqa: BLE001 - returned for the assertion
+    except Exception as exc:
         return exc
     return None
 

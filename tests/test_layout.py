@@ -101,3 +101,15 @@ def test_the_module_paths_of_earlier_releases_still_import():
     assert load_policy is now and load_ppo is load_ppo_now
     for old, new in training.MOVED.items():
         assert importlib.import_module(f"training.{old}") is importlib.import_module(f"training.{new}")
+
+
+def test_an_old_module_path_runs_with_python_m_and_light_modules_do_not_load_torch():
+    import subprocess
+    import sys
+
+    ran = subprocess.run([sys.executable, "-m", "training.lanes", "--help"], cwd=ROOT, capture_output=True,
+                         text=True, timeout=300)
+    assert ran.returncode == 0 and "usage: lanes.py" in ran.stdout, ran.stderr[-2000:]
+    light = subprocess.run([sys.executable, "-c", "import sys, training.common.seeds; print('torch' in sys.modules)"],
+                           cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert light.stdout.strip() == "False", light.stderr[-2000:]

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("torch")
 
-from tests import redteam  # noqa: E402
+from tests import redteam
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "reliability.md"
 

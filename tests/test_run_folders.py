@@ -17,11 +17,11 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
-import box2d_driving  # noqa: E402
-from box2d_driving.policies import make_policy  # noqa: E402
-from box2d_driving.render.video import record  # noqa: E402
-from tests.helpers import tiny_train_config  # noqa: E402
-from training.trainers.trainer import RunError, TrainConfig, train  # noqa: E402
+import box2d_driving
+from box2d_driving.policies import make_policy
+from box2d_driving.render.video import record
+from tests.helpers import tiny_train_config
+from training.trainers.trainer import RunError, TrainConfig, train
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -16,8 +16,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
-import box2d_driving  # noqa: E402
-from training.ppo.vec_env import make_vec_env_from  # noqa: E402
+import box2d_driving
+from training.ppo.vec_env import make_vec_env_from
 
 ROOT = Path(__file__).resolve().parent.parent
 KW = {"num_cars": 3, "horizon": 6}

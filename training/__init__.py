@@ -53,8 +53,9 @@ class MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def find_spec(self, name, path=None, target=None):
         head, _, old = name.partition(".")
-        if head == __name__ and old in MOVED:
-            return importlib.util.spec_from_loader(name, self)
+        if head == __name__ and old in MOVED:  # its file as origin: runpy makes it sys.argv[0]
+            origin = importlib.util.find_spec(f"{__name__}.{MOVED[old]}").origin
+            return importlib.util.spec_from_loader(name, self, origin=origin)
         return None
 
     def create_module(self, spec):
@@ -63,10 +64,26 @@ class MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     def exec_module(self, module) -> None:  # the new module ran when it was imported
         pass
 
+    # ``python -m training.OLD`` (runpy) runs the new module's code as ``__main__``
+    def get_code(self, fullname):
+        new = f"{__name__}.{MOVED[fullname.partition('.')[2]]}"
+        return importlib.util.find_spec(new).loader.get_code(new)
+
+    def is_package(self, fullname) -> bool:
+        return False
+
 
 if not any(isinstance(f, MovedModules) for f in sys.meta_path):
     sys.meta_path.append(MovedModules())
 
-from training.runs.inference import TrainedPolicy, load_policy  # noqa: E402
-
 __all__ = ["MOVED", "TrainedPolicy", "load_policy"]
+
+
+def __getattr__(name: str):
+    """``training.load_policy`` and ``training.TrainedPolicy``, imported on first use: importing
+    a light sub-module (``training.common.seeds``) does not load torch."""
+    if name in ("TrainedPolicy", "load_policy"):
+        from training.runs import inference
+
+        return getattr(inference, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

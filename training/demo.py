@@ -12,19 +12,15 @@
 from __future__ import annotations
 
 import json
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from box2d_driving.policies.shipped import shipped_policy  # noqa: E402
-from training.evaluation import evaluate  # noqa: E402
+from box2d_driving.policies.shipped import shipped_policy
+from training.evaluation import evaluate
 from training.behaviours import traffic_lights
 from training.behaviours.scripts import QUICK
-from training.common.cli_args import error, parse  # noqa: E402
+from training.common.cli_args import error, parse
 
 SHIPPED = shipped_policy("traffic_lights_4cars_noise05")  # assets/policies, or the wheel's copy
 

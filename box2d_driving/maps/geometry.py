@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from box2d_driving.road.geometry import points_in_polygon  # noqa: F401  (re-exported)
+from box2d_driving.road.geometry import points_in_polygon
 
 
 def cumulative_length(points: np.ndarray) -> np.ndarray:

@@ -24,7 +24,7 @@ class ContactRecorder(b2ContactListener):
         super().__init__()
         self.events: list[tuple[tuple[str, int], tuple[str, int]]] = []
 
-    def BeginContact(self, contact) -> None:  # noqa: N802 (Box2D's name)
+    def BeginContact(self, contact) -> None:
         self.events.append((contact.fixtureA.userData, contact.fixtureB.userData))
 
     def drain(self) -> list[tuple[tuple[str, int], tuple[str, int]]]:

@@ -16,12 +16,12 @@ import numpy as np
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
-import pygame  # noqa: E402
+import pygame
 
-from box2d_driving.physics.world import ARRIVED, COLLIDED  # noqa: E402
-from box2d_driving.road.geometry import rectangle_corners  # noqa: E402
-from box2d_driving.road.lights import GREEN, RED, YELLOW  # noqa: E402
-from box2d_driving.render.scene import Scene  # noqa: E402
+from box2d_driving.physics.world import ARRIVED, COLLIDED
+from box2d_driving.road.geometry import rectangle_corners
+from box2d_driving.road.lights import GREEN, RED, YELLOW
+from box2d_driving.render.scene import Scene
 
 BACKGROUND = (34, 110, 52)
 ROAD = (72, 72, 78)

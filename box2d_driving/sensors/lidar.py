@@ -326,7 +326,7 @@ class _ClosestHit(b2RayCastCallback):
         self.fraction = 1.0
         self.hit = False
 
-    def ReportFixture(self, fixture, point, normal, fraction):  # noqa: N802 (Box2D's name)
+    def ReportFixture(self, fixture, point, normal, fraction):
         if fixture.body is self.ignore:
             return -1.0
         if not self.see_pedestrians and fixture.userData[0] == PEDESTRIAN:

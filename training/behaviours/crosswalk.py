@@ -9,15 +9,10 @@ Then ``box2d-driving evaluate --checkpoint runs/crosswalk --episodes 200 --out r
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Optional
 
-if __package__ in (None, ""):  # run as a script: make the repository importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from training.behaviours.scripts import ScriptArgs, run_script  # noqa: E402
+from training.behaviours.scripts import ScriptArgs, run_script
 
 ENV_ID = "crosswalk-v0"
 

@@ -13,16 +13,11 @@ Then ``box2d-driving evaluate --checkpoint runs/lanes8 --episodes 200 --out runs
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Optional
 
-if __package__ in (None, ""):  # run as a script: make the repository importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from box2d_driving.envs.intersection_spline import IntersectionSplineConfig  # noqa: E402
-from training.behaviours.scripts import BilevelArgs, run_bilevel_script  # noqa: E402
+from box2d_driving.envs.intersection_spline import IntersectionSplineConfig
+from training.behaviours.scripts import BilevelArgs, run_bilevel_script
 
 ENV_ID = "intersection-spline-v0"
 

@@ -14,15 +14,11 @@ report episodes.
 from __future__ import annotations
 
 import json
-import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Optional
 
-if __package__ in (None, ""):  # run as a script: make the repository importable
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from training.common.cli_args import error, parse  # noqa: E402
+from training.common.cli_args import error, parse
 
 
 @dataclass

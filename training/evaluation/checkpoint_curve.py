@@ -20,24 +20,20 @@ from __future__ import annotations
 import csv
 import json
 import re
-import sys
 from pathlib import Path
 from typing import Any, Callable, Collection, Optional
 
 import numpy as np
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from box2d_driving.metrics.lanes import fast_lane_metrics, lane_metrics  # noqa: E402
-from box2d_driving.metrics.lights import outcome_rates, traffic_light_metrics  # noqa: E402
-from box2d_driving.metrics.pedestrians import crosswalk_metrics  # noqa: E402
-from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
-from box2d_driving.policies.checkpoint_file import is_bilevel_run  # noqa: E402
-from training.common.cli_args import OneLineParser, error, prog_name  # noqa: E402
-from training.common.seeds import SELECTION  # noqa: E402
-from training.evaluation import plots  # noqa: E402
-from training.evaluation.reports import junction_summary  # noqa: E402
+from box2d_driving.metrics.lanes import fast_lane_metrics, lane_metrics
+from box2d_driving.metrics.lights import outcome_rates, traffic_light_metrics
+from box2d_driving.metrics.pedestrians import crosswalk_metrics
+from box2d_driving.metrics.rollouts import run_episodes
+from box2d_driving.policies.checkpoint_file import is_bilevel_run
+from training.common.cli_args import OneLineParser, error, prog_name
+from training.common.seeds import SELECTION
+from training.evaluation import plots
+from training.evaluation.reports import junction_summary
 
 OUTCOMES = ("success_rate", "collision_rate")
 VIOLATIONS = ("red_light_violation_rate",)

@@ -11,17 +11,13 @@ several times (one evaluation per training seed); then a table of means +- std p
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from box2d_driving.metrics.communication import rank_trend  # noqa: E402
-from training.common.cli_args import OneLineParser, error, prog_name  # noqa: E402
-from training.evaluation import plots  # noqa: E402
+from box2d_driving.metrics.communication import rank_trend
+from training.common.cli_args import OneLineParser, error, prog_name
+from training.evaluation import plots
 
 KEYS = (("speaker_consistency_bits", "speaker consistency (bits)"),
         ("pearson_heading_change_bit", "Pearson(heading change, bit)"),

@@ -16,24 +16,20 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-import box2d_driving  # noqa: E402
-from box2d_driving.metrics.intervals import RATES, rate_intervals  # noqa: E402
-from box2d_driving.metrics.lights import outcome_rates  # noqa: E402
-from box2d_driving.metrics.rollouts import run_episodes, save_table  # noqa: E402
-from box2d_driving.policies import SCRIPTED, make_policy  # noqa: E402
-from training.evaluation import plots  # noqa: E402
-from training.evaluation.reports import REPORTS, add_collisions  # noqa: E402
-from training.common.cli_args import error, parse  # noqa: E402
-from training.common.seeds import REPORT  # noqa: E402
+import box2d_driving
+from box2d_driving.metrics.intervals import RATES, rate_intervals
+from box2d_driving.metrics.lights import outcome_rates
+from box2d_driving.metrics.rollouts import run_episodes, save_table
+from box2d_driving.policies import SCRIPTED, make_policy
+from training.evaluation import plots
+from training.evaluation.reports import REPORTS, add_collisions
+from training.common.cli_args import error, parse
+from training.common.seeds import REPORT
 
 
 @dataclass

@@ -25,14 +25,11 @@ import sys
 from pathlib import Path
 from typing import Any, Optional
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from box2d_driving.envs.single_agent import SHIPPED  # noqa: E402
-from box2d_driving.metrics.intervals import RATES, Z95, rate_intervals  # noqa: E402
-from box2d_driving.metrics.rollouts import run_episodes  # noqa: E402
-from training.common.cli_args import OneLineParser, error, prog_name  # noqa: E402
-from training.common.seeds import REPORT  # noqa: E402
+from box2d_driving.envs.single_agent import SHIPPED
+from box2d_driving.metrics.intervals import RATES, Z95, rate_intervals
+from box2d_driving.metrics.rollouts import run_episodes
+from training.common.cli_args import OneLineParser, error, prog_name
+from training.common.seeds import REPORT
 
 __all__ = ["FRESH_SEED", "check_policy", "main", "markdown", "shipped_reports"]
 

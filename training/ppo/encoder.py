@@ -32,7 +32,7 @@ import torch as th
 import torch.nn.functional as F
 from torch import nn
 
-from box2d_driving.policies.numpy_actor import CHANNELS, KERNEL, POOLED  # noqa: E402  (one architecture, two runners)
+from box2d_driving.policies.numpy_actor import CHANNELS, KERNEL, POOLED
 
 
 class CircularConv1d(nn.Conv1d):

@@ -19,11 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
-if __package__ in (None, ""):
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root
-
-from training.runs.checkpoint import FILE, CheckpointError, save_model  # noqa: E402
-from training.common.cli_args import error, parse  # noqa: E402
+from training.runs.checkpoint import FILE, CheckpointError, save_model
+from training.common.cli_args import error, parse
 
 
 @dataclass

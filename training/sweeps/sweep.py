@@ -166,7 +166,7 @@ class SummaryCallback(_TuneCallback):
     def on_trial_error(self, iteration, trials, trial, **info) -> None:
         try:  # the error's text, as Ray Tune stored it; its last line names the exception
             text = trial.get_error() or ""
-        except Exception:  # noqa: BLE001 - a summary row must not fail over its message
+        except Exception:
             text = ""
         self._write(trial, "error", first_line(str(text)) or "failed (see the trial's error.txt)")
 

@@ -25,7 +25,7 @@ def _hook(unraisable: Any) -> None:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
-            except Exception:  # noqa: BLE001 - a closed stream must not keep the process alive
+            except Exception:
                 pass
         os._exit(code if isinstance(code, int) else 1)
     sys.__unraisablehook__(unraisable)

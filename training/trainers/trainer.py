@@ -45,7 +45,7 @@ from box2d_driving.outputs import GracefulStop
 from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
 from training.common.seeds import MAX_RUN_SEED, TRAINING
 from training.runs.run_dir import RunError, append_logger, check_new, check_same_run, write_config
-from training.runs.progress import RolloutMetrics, save_checkpoint  # noqa: F401  (re-exported)
+from training.runs.progress import RolloutMetrics, save_checkpoint
 from training.ppo.original_update import ActorStopAdam, KLWatch
 from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
 from training.ppo.workers import worker_processes
