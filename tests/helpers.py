@@ -127,3 +127,7 @@ def raised_in_a_thread(call: Callable[[], object]) -> list[Exception]:
     worker.start()
     worker.join()
     return caught
+
+# seconds: how long a test waits on a process before it calls it hung. A guard against a hang,
+# never a speed limit: a correct program on a host other jobs keep busy must stay far inside it.
+HANG = 1800

@@ -20,6 +20,7 @@ from tests.helpers import tiny_train_config  # noqa: E402
 from training.runs.checkpoint import CheckpointError, read_checkpoint  # noqa: E402
 from training.runs.inference import load_policy  # noqa: E402
 from training.trainers.trainer import RunError, TrainConfig, build_model, load_ppo, make_vec_env, train  # noqa: E402
+from tests.helpers import HANG  # noqa: E402
 
 
 class _Payload:
@@ -204,5 +205,5 @@ def test_weights_read_are_a_copy_not_a_view_of_the_file(run, tmp_path):
         "assert all((arrays[k] == v).all() for k, v in arrays_before.items())\n"
         "print('intact')\n")
     done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "run")], capture_output=True, text=True,
-                          cwd=Path(__file__).resolve().parents[1], timeout=300)
+                          cwd=Path(__file__).resolve().parents[1], timeout=HANG)
     assert done.returncode == 0 and "intact" in done.stdout, (done.returncode, done.stderr[-2000:])

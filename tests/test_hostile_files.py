@@ -24,6 +24,7 @@ from safetensors.torch import load_file, save_file
 
 from training.runs.checkpoint import read_checkpoint
 from training.runs.inference import load_policy
+from tests.helpers import HANG
 
 LIGHTS = SHIPPED_POLICIES_DIR / "traffic_lights_4cars"
 LANES = SHIPPED_POLICIES_DIR / "lanes_8cars_noise05"
@@ -131,7 +132,7 @@ def test_a_fifo_is_refused_at_once_instead_of_hanging(tmp_path, name):
     caught: list = []
     worker = threading.Thread(target=lambda: caught.append(_raises(load_trained, folder)), daemon=True)
     worker.start()
-    worker.join(timeout=60)  # bounded by the loader's own work; a FIFO read would block for ever
+    worker.join(timeout=HANG)  # bounded by the loader's own work; a FIFO read would block for ever
     assert not worker.is_alive(), "the loader blocked on a FIFO"
     assert isinstance(caught[0], CheckpointError) and "not a regular file" in str(caught[0])
 

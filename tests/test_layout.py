@@ -9,6 +9,7 @@ import importlib
 from pathlib import Path
 
 import pytest
+from tests.helpers import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
 # the trainer's sub-packages, lowest first: each may import only itself and those before it
@@ -108,8 +109,8 @@ def test_an_old_module_path_runs_with_python_m_and_light_modules_do_not_load_tor
     import sys
 
     ran = subprocess.run([sys.executable, "-m", "training.lanes", "--help"], cwd=ROOT, capture_output=True,
-                         text=True, timeout=300)
+                         text=True, timeout=HANG)
     assert ran.returncode == 0 and "usage: lanes.py" in ran.stdout, ran.stderr[-2000:]
     light = subprocess.run([sys.executable, "-c", "import sys, training.common.seeds; print('torch' in sys.modules)"],
-                           cwd=ROOT, capture_output=True, text=True, timeout=300)
+                           cwd=ROOT, capture_output=True, text=True, timeout=HANG)
     assert light.stdout.strip() == "False", light.stderr[-2000:]

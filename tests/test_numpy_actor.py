@@ -14,6 +14,7 @@ import pytest
 
 from box2d_driving.policies import CheckpointError, load_trained
 from box2d_driving.policies.numpy_actor import adaptive_average, circular_conv
+from tests.helpers import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
 # every shipped policy: a run folder with its checkpoint (nested ones too, such as the
@@ -125,6 +126,6 @@ def test_single_agent_envs_use_the_shipped_policy_without_torch_or_the_trainer()
                 env.step(env.action_space.sample())
         print("ok", sorted(m for m in sys.modules if m.split(".")[0] in ("torch", "training")))
     """)
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT, timeout=HANG)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip().endswith("ok []")

@@ -22,6 +22,7 @@ from box2d_driving.policies import make_policy
 from box2d_driving.render.video import record
 from tests.helpers import tiny_train_config
 from training.trainers.trainer import RunError, TrainConfig, train
+from tests.helpers import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -57,13 +58,13 @@ def test_a_signal_before_the_first_checkpoint_saves_one_that_resumes(tmp_path, s
         time.sleep(0.2)
     assert not (out / "model.safetensors").exists()  # no checkpoint yet (every 10 updates)
     proc.send_signal(signum)
-    _, err = proc.communicate(timeout=120)
+    _, err = proc.communicate(timeout=HANG)
     assert proc.returncode == 128 + signum, err
     assert "interrupted" in err and "--resume" in err and "Traceback" not in err
     decisions = json.loads((out / "state.json").read_text())["decisions"]
     assert decisions > 0 and (out / "model.safetensors").exists()
     resumed = subprocess.run(argv[:6] + [str(decisions + 160)] + argv[7:] + ["--resume"], cwd=ROOT, env=env,
-                             capture_output=True, text=True, timeout=300)
+                             capture_output=True, text=True, timeout=HANG)
     assert resumed.returncode == 0, resumed.stderr
     assert json.loads((out / "state.json").read_text())["decisions"] >= decisions + 160
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.helpers import tiny_train_config
+from tests.helpers import HANG, tiny_train_config
 from training.runs.lock import RunLockedError, run_lock
 from training.runs.run_dir import RunError
 from training.trainers.trainer import train
@@ -31,7 +31,7 @@ BUDGET = 480  # decisions: 6 updates of 80, checkpoints after updates 2, 4 and a
 _DRIVER = r"""
 import os, shutil, signal, sys, time
 from pathlib import Path
-from tests.helpers import tiny_train_config
+from tests.helpers import HANG, tiny_train_config
 import training.runs.checkpoint as checkpoint
 import training.runs.progress as progress
 from training.trainers.trainer import train
@@ -83,7 +83,7 @@ print("trained")
 
 def _drive(kill: str, out: Path, resume: bool = False, budget: int = BUDGET) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", _DRIVER, kill, str(out), "resume" if resume else "new",
-                           str(budget)], cwd=ROOT, capture_output=True, text=True, timeout=600,
+                           str(budget)], cwd=ROOT, capture_output=True, text=True, timeout=HANG,
                           env={**os.environ, "SDL_VIDEODRIVER": "dummy"})
 
 
@@ -162,7 +162,7 @@ def test_a_second_trainer_on_a_busy_folder_is_refused_naming_the_holder(tmp_path
             assert second.returncode == 1 and f"in use by pid {holder.pid}" in second.stderr, second.stderr[-2000:]
     finally:
         release.write_text("")
-        holder.wait(timeout=600)
+        holder.wait(timeout=HANG)
     assert holder.returncode == -signal.SIGKILL and (out / ".lock").exists()  # left by the dead holder
     (out / "holding").unlink()
     done = _drive("none", out, resume=True)

@@ -17,6 +17,7 @@ import pytest
 from training.common.seeds import REPORT
 from training.sweeps.sweep import prepare_out
 from training.sweeps.spec import SweepError, SweepSpec, check_spec, parse_pairs
+from tests.helpers import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = ROOT / "assets" / "policies" / "traffic_lights_4cars"
@@ -100,14 +101,14 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     good = "lights_init_from=" + str(SHIPPED).replace("/", "-") + "_seed=0"
     proc = subprocess.Popen(_sweep(out, BUDGET) + ["--max-concurrent", "1"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True, start_new_session=True)
-    deadline = time.time() + 240
+    deadline = time.time() + HANG
     result = out / "tune" / good / "result.json"  # written once the driver has taken a report in
     while time.time() < deadline and not (result.exists() and result.read_text().strip()):
         time.sleep(0.2)  # wait for the good trial's first checkpoint (after 10 updates)
-    assert list((out / "tune" / good).glob("checkpoint_*")), "no checkpoint within 4 minutes"
+    assert list((out / "tune" / good).glob("checkpoint_*")), "no checkpoint before the hang guard"
     time.sleep(2)  # the experiment's state records it (Ray snapshots it right after a checkpoint)
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C, as a user stops it
-    log = proc.communicate(timeout=180)[0]
+    log = proc.communicate(timeout=HANG)[0]
     first = min((json.loads(p.read_text()) for p in (out / "tune" / good).glob("checkpoint_*/state.json")),
                 key=lambda state: state["decisions"])
     assert first["decisions"] < BUDGET, log[-3000:]
@@ -127,7 +128,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert not (tmp_path / "carried" / good / "checkpoints").exists()
     moved = tmp_path / "carried-to"
     cont = subprocess.run(_sweep(moved, BUDGET) + ["--carried", str(tmp_path / "carried")], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=400)
+                          capture_output=True, text=True, timeout=HANG)
     assert "1 of 2 trials done" in cont.stdout, cont.stdout[-3000:] + cont.stderr[-3000:]
     row = next(r for r in csv.DictReader((moved / "summary.csv").open()) if r["trial"] == good)
     assert row["status"] == "done" and int(row["decisions"]) == BUDGET
@@ -135,11 +136,11 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     # a carried folder that is not this sweep's is refused before anything runs
     (tmp_path / "carried" / "lights_seed=7").mkdir()
     bad_carry = subprocess.run(_sweep(tmp_path / "never", BUDGET) + ["--carried", str(tmp_path / "carried")],
-                               cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+                               cwd=ROOT, env=env, capture_output=True, text=True, timeout=HANG)
     assert bad_carry.returncode == 2 and "lights_seed=7 is not a trial of this sweep" in bad_carry.stderr
     assert not (tmp_path / "never").exists()
 
-    run = subprocess.run(_sweep(out, BUDGET), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
+    run = subprocess.run(_sweep(out, BUDGET), cwd=ROOT, env=env, capture_output=True, text=True, timeout=HANG)
     assert run.returncode == 1, run.stdout[-3000:] + run.stderr[-3000:]  # one trial failed
     assert "1 of 2 trials done" in run.stdout
     # Ray Tune continues with the concurrency the sweep began with: said, not silently dropped
@@ -160,7 +161,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
 
     # a finished sweep, run again: nothing is retrained or re-evaluated
     stamp = (final / "eval" / "metrics.json").stat().st_mtime_ns
-    again = subprocess.run(_sweep(out, BUDGET), cwd=ROOT, env=env, capture_output=True, text=True, timeout=400)
+    again = subprocess.run(_sweep(out, BUDGET), cwd=ROOT, env=env, capture_output=True, text=True, timeout=HANG)
     assert "1 of 2 trials done" in again.stdout, again.stderr[-3000:]
     rows2 = {r["trial"]: r for r in csv.DictReader((out / "summary.csv").open())}
     assert Path(rows2[good]["run"]) == final and (final / "eval" / "metrics.json").stat().st_mtime_ns == stamp
@@ -168,7 +169,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     # on another machine: a new folder that reuses the committed summary trains only what is missing
     moved = tmp_path / "elsewhere"
     reuse = subprocess.run(_sweep(moved, BUDGET) + ["--reuse", str(out / "summary.json")], cwd=ROOT, env=env,
-                           capture_output=True, text=True, timeout=400)
+                           capture_output=True, text=True, timeout=HANG)
     assert "1 of 2 trials done" in reuse.stdout, reuse.stderr[-3000:]
     rows3 = {r["trial"]: r for r in csv.DictReader((moved / "summary.csv").open())}
     assert rows3[good] == rows2[good]  # taken as it was: same metrics, same run folder named
@@ -177,7 +178,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     # a larger budget: the finished trial continues from its last checkpoint instead of starting over
     longer = tmp_path / "longer"
     more = subprocess.run(_sweep(longer, BUDGET + 2000) + ["--extend", str(out)], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=400)
+                          capture_output=True, text=True, timeout=HANG)
     assert "1 of 2 trials done" in more.stdout, more.stdout[-3000:] + more.stderr[-3000:]
     assert f"--extend: 1 finished trial of {out} continue" in more.stderr
     rows4 = {r["trial"]: r for r in csv.DictReader((longer / "summary.csv").open())}
@@ -199,18 +200,16 @@ def test_a_time_limit_stops_the_sweep_as_ctrl_c_would(tmp_path):
     on; bad limits are refused before anything is written."""
     out = tmp_path / "sweep"
     env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "RAY_DEDUP_LOGS": "0"}
-    started = time.monotonic()
     run = subprocess.run(_sweep(out, 100 * BUDGET) + ["--max-concurrent", "1", "--time-limit", "0.25"], cwd=ROOT,
-                         env=env, capture_output=True, text=True, timeout=300)
+                         env=env, capture_output=True, text=True, timeout=HANG)
     log = run.stdout[-3000:] + run.stderr[-3000:]
     assert run.returncode == 1 and "--time-limit reached" in run.stderr and "Traceback" not in log, log
-    assert time.monotonic() - started < 240, log
     statuses = {r["trial"]: r["status"] for r in csv.DictReader((out / "summary.csv").open())}
     assert len(statuses) == 2 and "done" not in statuses.values(), statuses
     assert "run the same command again to continue" in run.stdout
     for bad in ("0", "-3", "nan"):
         refused = subprocess.run(_sweep(tmp_path / "never", BUDGET) + ["--time-limit", bad], cwd=ROOT, env=env,
-                                 capture_output=True, text=True, timeout=120)
+                                 capture_output=True, text=True, timeout=HANG)
         assert refused.returncode == 2 and "--time-limit: " in refused.stderr and "minutes" in refused.stderr
     assert not (tmp_path / "never").exists()
 
@@ -356,7 +355,7 @@ print("still running")
 @pytest.mark.parametrize("hook", ["hook", "none"])
 def test_a_stopped_trial_worker_exits_instead_of_printing_an_ignored_system_exit(hook):
     done = subprocess.run([sys.executable, "-c", _IGNORED_EXIT, hook], cwd=ROOT, capture_output=True, text=True,
-                          timeout=60)
+                          timeout=HANG)
     assert "an ordinary ignored error" in done.stderr  # other ignored exceptions reported as before
     if hook == "hook":
         assert done.returncode == 3 and "still running" not in done.stdout and "SystemExit" not in done.stderr

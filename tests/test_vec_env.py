@@ -18,6 +18,7 @@ pytest.importorskip("supersuit")
 
 import box2d_driving
 from training.ppo.vec_env import make_vec_env_from
+from tests.helpers import HANG
 
 ROOT = Path(__file__).resolve().parent.parent
 KW = {"num_cars": 3, "horizon": 6}
@@ -160,7 +161,7 @@ def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpre
         venv.seed(0); venv.reset()
         print("done")
     """)
-    run = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    run = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=HANG)
     assert run.returncode == 0 and "done" in run.stdout, run.stderr
 
 

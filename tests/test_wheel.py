@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from box2d_driving.policies.shipped import INFERENCE_FILES, SHIPPED_POLICIES_DIR, shipped_policies
+from tests.helpers import HANG
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,7 +38,7 @@ def _run_check(env: dict, cwd: Path) -> dict:
     import json
 
     done = subprocess.run([sys.executable, "-c", _CHECK], cwd=cwd, env=env, capture_output=True, text=True,
-                          timeout=600)
+                          timeout=HANG)
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -54,7 +55,7 @@ def test_setup_copies_the_files_the_package_looks_for():
 @pytest.mark.skipif(not (ROOT / "assets" / "policies").is_dir(), reason="needs a source checkout")
 def test_a_wheel_gives_the_same_world_as_the_checkout(tmp_path):
     built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                            "-w", str(tmp_path / "dist"), str(ROOT)], capture_output=True, text=True, timeout=600)
+                            "-w", str(tmp_path / "dist"), str(ROOT)], capture_output=True, text=True, timeout=HANG)
     assert built.returncode == 0, built.stderr[-3000:]
     wheel = next((tmp_path / "dist").glob("box2d_driving-*.whl"))
     size = wheel.stat().st_size
