@@ -99,7 +99,10 @@ def coerce(name: str, value: Any, kind: Any, max_magnitude: float = MAX_MAGNITUD
     if origin is tuple:
         if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
             raise bad()
-        items = list(value)
+        try:
+            items = list(value)
+        except TypeError:  # iterable in name only: a 0-d numpy array
+            raise bad() from None
         if len(args) == 2 and args[1] is Ellipsis:
             kinds = [args[0]] * len(items)
         else:

@@ -234,3 +234,15 @@ def test_bench_help_explains_every_option(capsys):
         cli(["bench", "--help"])
     out = capsys.readouterr().out
     assert "(default 5)" in out and "car counts to time" in out and "seed of the episodes" in out
+
+
+def test_a_zero_dimensional_array_for_a_tuple_field_names_the_field():
+    import numpy as np
+
+    from box2d_driving.config import ConfigError
+
+    with pytest.raises(ConfigError,
+                       match=r"IntersectionConfig: accelerations must be a sequence of finite numbers, got array"):
+        box2d_driving.make("intersection-v0", accelerations=np.array(1.0))
+    with pytest.raises(ConfigError, match="crosswalk_x must be"):
+        box2d_driving.make("crosswalk-v0", crosswalk_x=np.array(3.0))
