@@ -2,6 +2,7 @@
 
 import csv
 import json
+import os
 
 import numpy as np
 import pytest
@@ -249,3 +250,40 @@ def test_lanes_script_takes_the_papers_joint_path_choice_and_refuses_a_typo(tmp_
     ev = tmp_path / "ev"
     assert evaluate.main(["--checkpoint", str(out), "--episodes", "2", "--out", str(ev)]) == 0
     assert json.loads((ev / "metrics.json").read_text())["trained_on"]["spline_action"] == "joint"
+
+
+def test_a_round_is_one_transaction_rolled_back_or_forward_after_a_stop(tmp_path, monkeypatch, capsys):
+    """A stop while a round is saved leaves the previous round or the new one, never one policy of
+    each: before ``state.json.next`` is written the round is rolled back, after it forward."""
+    from training.trainers import bilevel
+
+    back = tmp_path / "back"
+    train_bilevel(_config(rounds=1), back)
+    before = (back / "accel" / "model.safetensors").read_bytes()
+    (back / "accel" / "model.safetensors.next").write_bytes(b"half of a round")  # stopped there
+    train_bilevel(_config(rounds=2), back, resume=True)
+    assert "was rolled back" in capsys.readouterr().err
+    assert [int(r["round"]) for r in csv.DictReader((back / "rounds.csv").open())] == [1, 2]
+    assert not list(back.rglob("*.next")) and (back / "accel" / "model.safetensors").read_bytes() != before
+
+    forward = tmp_path / "forward"
+    train_bilevel(_config(rounds=1), forward)
+    real_replace, calls = os.replace, []
+
+    def stop_after_the_first_rename(src, dst):
+        if str(src).endswith(".next"):
+            calls.append(src)
+            if len(calls) == 2:  # the accel policy renamed, the spline policy not yet: stopped
+                raise KeyboardInterrupt
+        real_replace(src, dst)
+
+    monkeypatch.setattr(bilevel.os, "replace", stop_after_the_first_rename)
+    with pytest.raises(KeyboardInterrupt):
+        train_bilevel(_config(rounds=2), forward, resume=True)
+    monkeypatch.undo()
+    assert json.loads((forward / "state.json").read_text())["round"] == 1  # not yet committed in place
+    train_bilevel(_config(rounds=3), forward, resume=True)
+    assert "was rolled forward" in capsys.readouterr().err
+    state = json.loads((forward / "state.json").read_text())
+    assert state["round"] == 3 and state["accel_decisions"] == 3 * 800 and state["spline_samples"] == 3 * 64
+    assert [int(r["round"]) for r in csv.DictReader((forward / "rounds.csv").open())] == [1, 2, 3]

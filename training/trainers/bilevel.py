@@ -29,7 +29,9 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import shutil
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -149,10 +151,29 @@ class BanditStats(BaseCallback):
             self.logger.record(k, v)
 
 
+def settle_round(out: Path) -> str:
+    """Finish or undo a round a kill interrupted: with ``state.json.next`` written (the commit
+    point) the ``.next`` files are renamed into place (``"rolled forward"``), state last; without
+    it they are removed (``"rolled back"``). ``""`` where there was nothing to settle."""
+    pending = [out / f"{name}.next" for name in ROUND_FILES]
+    if (out / "state.json.next").exists():
+        for path in pending:
+            if path.exists():
+                os.replace(path, path.with_name(path.name[: -len(".next")]))
+        return "rolled forward"
+    found = [path for path in pending if path.exists()]
+    for path in found:
+        path.unlink()
+    return "rolled back" if found else ""
+
+
 def prepare_run_dir(out: Path, resume: bool, config: BilevelConfig) -> None:
-    """Check ``out``: with ``resume``, a bilevel run of the same acceleration settings; else new
-    or empty."""
+    """Check ``out``: with ``resume``, a bilevel run of the same acceleration settings (a round a
+    kill interrupted is settled first: :func:`settle_round`); else new or empty."""
     if resume:
+        settled = settle_round(out) if out.is_dir() else ""
+        if settled:
+            print(f"{out}: the round a stop interrupted was {settled}", file=sys.stderr)
         check_resumable(out, ("config.json", "state.json", f"accel/{FILE}", f"spline/{FILE}"))
         check_same_run(json.loads((out / "config.json").read_text())["accel"], config.accel)
         return
@@ -205,12 +226,20 @@ def make_picker(config: BilevelConfig) -> SharedSplinePicker:
         env.close()
 
 
+# a round's three files, written as ``NAME.next`` first (see save_round)
+ROUND_FILES = (f"accel/{FILE}", f"spline/{FILE}", "state.json")
+
+
 def save_round(out: Path, accel: PPO, spline: PPO, state: dict, keep: bool) -> None:
-    """Both policies and the run's state after a round; with ``keep``, a copy of both weights under
-    ``checkpoints/`` for the learning curve."""
-    save_model(accel, out / "accel" / FILE)
-    save_model(spline, out / "spline" / FILE)
-    write_json_atomic(out / "state.json", state)
+    """Both policies and the run's state after a round, as one transaction: each is written as
+    ``NAME.next``, ``state.json.next`` last (the commit point), then all three are renamed into
+    place (:func:`settle_round`), so that a kill anywhere leaves either the previous round or this
+    one, never one policy of each. With ``keep``, a copy of both weights under ``checkpoints/``
+    for the learning curve."""
+    save_model(accel, out / f"accel/{FILE}.next")
+    save_model(spline, out / f"spline/{FILE}.next")
+    write_json_atomic(out / "state.json.next", state)
+    settle_round(out)
     if keep:
         ck = out / "checkpoints"
         ck.mkdir(exist_ok=True)
