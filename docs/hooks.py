@@ -60,13 +60,12 @@ def _generated(kind: str, target: str | None) -> str:
 
     if kind == "reward":
         return _reward_table()
-    if kind == "infos":
-        return _infos_table(target)
     if kind == "modules":
         return _module_table(target)
     env = box2d_driving.make(target)
     try:
-        return {"config": _config_table, "observation": _observation_table, "actions": _actions_text}[kind](env, target)
+        return {"config": _config_table, "observation": _observation_table, "actions": _actions_text,
+                "infos": _infos_table}[kind](env, target)
     finally:
         env.close()
 
@@ -139,17 +138,12 @@ def _actions_text(env, env_id: str) -> str:
     return text
 
 
-def _infos_table(env_id: str) -> str:
-    import box2d_driving
+def _infos_table(env, env_id: str) -> str:
     from box2d_driving.envs.core import INFO_FIELDS
 
-    env = box2d_driving.make(env_id)
-    try:
-        _, infos = env.reset(seed=0)
-        keys = list(next(iter(infos.values())))
-        meaning = {**INFO_FIELDS, **env.scenario_info_fields}
-    finally:
-        env.close()
+    _, infos = env.reset(seed=0)
+    keys = list(next(iter(infos.values())))
+    meaning = {**INFO_FIELDS, **env.scenario_info_fields}
     rows = ["| key | meaning |", "|---|---|"]
     rows += [f"| `{k}` | {_cell(meaning[k])} |" for k in keys + ["reward_terms"]]
     return ("`infos[agent]` after `reset` and each `step`, for the cars still in the episode (a car's "

@@ -3,7 +3,8 @@ test utilities."""
 
 from __future__ import annotations
 
-from typing import Callable
+import pathlib
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -131,3 +132,19 @@ def raised_in_a_thread(call: Callable[[], object]) -> list[Exception]:
 # seconds: how long a test waits on a process before it calls it hung. A guard against a hang,
 # never a speed limit: a correct program on a host other jobs keep busy must stay far inside it.
 HANG = 1800
+
+
+def rewrite_checkpoint(folder: "pathlib.Path", *, tensors: Optional[dict] = None, meta: Optional[dict] = None,
+                       drop: str = "") -> "pathlib.Path":
+    """Rewrite ``folder``'s ``model.safetensors`` in place: ``tensors`` replaced or added, the
+    tensor ``drop`` removed, ``meta`` merged into its metadata (for hand-made hostile files)."""
+    from safetensors import safe_open
+    from safetensors.torch import load_file, save_file
+
+    file = pathlib.Path(folder) / "model.safetensors"
+    with safe_open(str(file), "pt") as fh:
+        old_meta = fh.metadata()
+    weights = {k: v for k, v in load_file(str(file)).items() if k != drop}
+    weights.update(tensors or {})
+    save_file(weights, str(file), metadata={**old_meta, **(meta or {})})
+    return pathlib.Path(folder)

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from tests.helpers import rewrite_checkpoint
+
 ROOT = Path(__file__).resolve().parents[1]
 START, END = "<!-- red-team table: start -->", "<!-- red-team table: end -->"
 
@@ -44,19 +46,11 @@ def _policy(tmp: Path, name: str = "traffic_lights_4cars") -> Path:
 
 
 def _with_meta(tmp: Path, **meta: str) -> Path:
-    from safetensors import safe_open
-    from safetensors.torch import load_file, save_file
-
-    folder = _policy(tmp)
-    file = folder / "model.safetensors"
-    with safe_open(str(file), "pt") as fh:
-        old = fh.metadata()
-    save_file(load_file(str(file)), str(file), metadata={**old, **meta})
-    return folder
+    return rewrite_checkpoint(_policy(tmp), meta=meta)
 
 
 def _with_tensor(tmp: Path, key: str, value) -> Path:
-    return _retensor(_policy(tmp), key, value)
+    return rewrite_checkpoint(_policy(tmp), tensors={key: value})
 
 
 def _torch_read(folder: Path):
@@ -167,8 +161,8 @@ ATTACKS = [
     Attack("checkpoint metadata", '`optimizer_param_groups = "5"`', "`TypeError`",
            lambda t: _torch_read(_with_meta(t, optimizer_param_groups='"5"'))),
     Attack("checkpoint metadata", "a tensor `optimizer/abc/exp_avg`", "`ValueError: invalid literal for int()`",
-           lambda t: _torch_read(_retensor(_with_meta(t, optimizer_param_groups="[]"), "optimizer/abc/exp_avg",
-                                           _zeros(2)))),
+           lambda t: _torch_read(rewrite_checkpoint(_policy(t), meta={"optimizer_param_groups": "[]"},
+                                                 tensors={"optimizer/abc/exp_avg": _zeros(2)}))),
     Attack("run config", '`critic: "evil"` (torch loader)', "a `ValueError` naming no file",
            lambda t: _torch_load(_edited_config(t, critic="evil"))),
     Attack("run config", "bilevel `spline_hidden: [10**9]` (torch loader)",
@@ -187,7 +181,7 @@ ATTACKS = [
     Attack("files beside the weights", "a corrupt `state.json` on `--resume`", "`KeyError` / `TypeError`",
            lambda t: _resume_with_state(t, '{"decisions": "many"')),
     Attack("weights", "an action head of 100 outputs (numpy loader)", "loaded; action 99 blamed on the agent",
-           lambda t: _numpy_load(_with_tensors(t, {"policy/action_net.weight": _zeros(100, 256),
+           lambda t: _numpy_load(rewrite_checkpoint(_policy(t), tensors={"policy/action_net.weight": _zeros(100, 256),
                                                    "policy/action_net.bias": _zeros(100)}))),
     Attack("weights", "conv kernel 7 (numpy loader)", "loaded silently",
            lambda t: _numpy_load(_with_tensor(t, "policy/mlp_extractor.actor_encoder.conv.0.weight", _zeros(8, 5, 7)))),
@@ -217,26 +211,6 @@ ATTACKS = [
     Attack("OSM", "every arm one-way inbound", "imported with 0 connectors",
            lambda t: _osm(t, *_INBOUND, 1)),
 ]
-
-
-def _with_tensors(tmp: Path, tensors: dict) -> Path:
-    folder = _policy(tmp)
-    for key, value in tensors.items():
-        _retensor(folder, key, value)
-    return folder
-
-
-def _retensor(folder: Path, key: str, value) -> Path:
-    from safetensors import safe_open
-    from safetensors.torch import load_file, save_file
-
-    file = folder / "model.safetensors"
-    with safe_open(str(file), "pt") as fh:
-        old = fh.metadata()
-    tensors = load_file(str(file))
-    tensors[key] = value
-    save_file(tensors, str(file), metadata=old)
-    return folder
 
 
 def _resume_with_state(tmp: Path, text: str):

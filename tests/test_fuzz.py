@@ -236,20 +236,14 @@ def test_checkpoint_metadata_reads_or_is_one_checkpoint_error(tmp_path_factory, 
     pytest.importorskip("torch")
     import shutil
 
-    from safetensors import safe_open
-    from safetensors.torch import load_file, save_file
-
     from box2d_driving.policies import CheckpointError
     from box2d_driving.policies.shipped import SHIPPED_POLICIES_DIR
+    from tests.helpers import rewrite_checkpoint
     from training.runs.checkpoint import read_checkpoint
 
     folder = tmp_path_factory.mktemp("meta")
     shutil.copy(SHIPPED_POLICIES_DIR / "traffic_lights_4cars" / "model.safetensors", folder / "model.safetensors")
-    file = folder / "model.safetensors"
-    with safe_open(str(file), "pt") as fh:
-        meta = dict(fh.metadata())
-    meta.update(dict(fields))
-    save_file(load_file(str(file)), str(file), metadata=meta)
+    rewrite_checkpoint(folder, meta=dict(fields))
     try:
         ckpt = read_checkpoint(folder)
     except CheckpointError as exc:

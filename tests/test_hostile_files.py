@@ -20,11 +20,10 @@ from box2d_driving.policies.shipped import SHIPPED_POLICIES_DIR
 
 pytest.importorskip("torch")
 import torch as th
-from safetensors.torch import load_file, save_file
 
 from training.runs.checkpoint import read_checkpoint
 from training.runs.inference import load_policy
-from tests.helpers import HANG
+from tests.helpers import HANG, rewrite_checkpoint
 
 LIGHTS = SHIPPED_POLICIES_DIR / "traffic_lights_4cars"
 LANES = SHIPPED_POLICIES_DIR / "lanes_8cars_noise05"
@@ -35,18 +34,6 @@ def _copy(tmp_path: Path, src: Path = LIGHTS) -> Path:
     dst = tmp_path / "policy"
     shutil.copytree(src, dst, ignore=shutil.ignore_patterns("*.mp4", "*.png", "*.npz", "progress*.csv"))
     return dst
-
-
-def _rewrite(folder: Path, *, tensors: dict | None = None, meta: dict | None = None, drop: str = "") -> None:
-    """Rewrite ``folder``'s weights with some tensors replaced or dropped and metadata changed."""
-    from safetensors import safe_open
-
-    file = folder / "model.safetensors"
-    with safe_open(str(file), "pt") as fh:
-        old_meta = fh.metadata()
-    weights = {k: v for k, v in load_file(str(file)).items() if k != drop}
-    weights.update(tensors or {})
-    save_file(weights, str(file), metadata={**old_meta, **(meta or {})})
 
 
 @pytest.mark.parametrize("loader", LOADERS)
@@ -64,7 +51,7 @@ def _rewrite(folder: Path, *, tensors: dict | None = None, meta: dict | None = N
 ])
 def test_weights_that_do_not_fit_the_network_are_refused_by_both_loaders(tmp_path, loader, case, match):
     folder = _copy(tmp_path)
-    _rewrite(folder, **case)
+    rewrite_checkpoint(folder, **case)
     with pytest.raises(CheckpointError, match=match):
         LOADERS[loader](folder)
 
@@ -72,7 +59,7 @@ def test_weights_that_do_not_fit_the_network_are_refused_by_both_loaders(tmp_pat
 def test_a_wrong_critic_shape_is_refused_where_the_critic_is_built(tmp_path):
     """The numpy loader runs the actor only; the torch loader builds the critic and checks it."""
     folder = _copy(tmp_path)
-    _rewrite(folder, tensors={"policy/value_net.weight": th.zeros(1, 7)})
+    rewrite_checkpoint(folder, tensors={"policy/value_net.weight": th.zeros(1, 7)})
     with pytest.raises(CheckpointError, match="value_net.weight"):
         load_policy(folder)
 
@@ -88,7 +75,7 @@ def test_a_wrong_critic_shape_is_refused_where_the_critic_is_built(tmp_path):
 ])
 def test_hostile_metadata_is_one_error_naming_the_file(tmp_path, meta, match):
     folder = _copy(tmp_path)
-    _rewrite(folder, meta=meta)
+    rewrite_checkpoint(folder, meta=meta)
     with pytest.raises(CheckpointError, match=match) as caught:
         read_checkpoint(folder)
     assert "model.safetensors" in str(caught.value)
@@ -96,7 +83,7 @@ def test_hostile_metadata_is_one_error_naming_the_file(tmp_path, meta, match):
 
 def test_an_optimiser_tensor_with_a_bad_name_is_refused(tmp_path):
     folder = _copy(tmp_path)
-    _rewrite(folder, tensors={"optimizer/abc/exp_avg": th.zeros(2)}, meta={"optimizer_param_groups": "[]"})
+    rewrite_checkpoint(folder, tensors={"optimizer/abc/exp_avg": th.zeros(2)}, meta={"optimizer_param_groups": "[]"})
     with pytest.raises(CheckpointError, match="malformed optimiser tensor name 'optimizer/abc/exp_avg'"):
         read_checkpoint(folder)
 

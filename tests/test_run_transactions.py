@@ -34,6 +34,7 @@ from pathlib import Path
 from tests.helpers import HANG, tiny_train_config
 import training.runs.checkpoint as checkpoint
 import training.runs.progress as progress
+import training.runs.run_dir as run_dir
 from training.trainers.trainer import train
 
 kill, out, resume = sys.argv[1], Path(sys.argv[2]), sys.argv[3] == "resume"
@@ -75,7 +76,7 @@ elif kill == "mid_copy":  # the first checkpoint kept, its copy to the root half
     def copyfile(src, dst):
         Path(dst).write_bytes(Path(src).read_bytes()[:1000])
         die()
-    progress.shutil = type("patched", (), {"copyfile": staticmethod(copyfile)})
+    run_dir.shutil = type("patched", (), {"copyfile": staticmethod(copyfile)})
 train(tiny_train_config(timesteps=int(sys.argv[4]), checkpoint_every=2), out, resume=resume)
 print("trained")
 """

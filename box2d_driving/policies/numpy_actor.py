@@ -20,7 +20,7 @@ shipped policy.
 from __future__ import annotations
 
 import math
-from typing import Mapping, Optional
+from typing import Any, Mapping, Optional
 
 import numpy as np
 from gymnasium import spaces
@@ -150,6 +150,19 @@ def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarr
         splits = np.cumsum([int(n) for n in action_space.nvec])[:-1]
         return np.stack([part.argmax(axis=1) for part in np.split(out, splits, axis=1)], axis=1).astype(np.int64)
     raise TypeError(f"unsupported action space {action_space}")
+
+
+def check_spline_hidden(weights: Mapping[str, Any], declared: list[int], config: Any, file: Any) -> None:
+    """The hidden layer sizes a bilevel run's ``config`` declares (``spline_hidden``) are those of
+    the spline weights in ``file`` (numpy arrays or torch tensors): checked before a network of the
+    declared size is built, so a config cannot make a loader allocate what it likes.
+    :class:`CheckpointError` naming both otherwise."""
+    saved: list[int] = []
+    while f"mlp_extractor.policy_net.{2 * len(saved)}.weight" in weights:
+        saved.append(int(weights[f"mlp_extractor.policy_net.{2 * len(saved)}.weight"].shape[0]))
+    if saved != list(declared):
+        raise CheckpointError(f"{config}: spline_hidden {list(declared)} does not match the layers of {file} "
+                              f"({saved})")
 
 
 def _head_size(space: spaces.Space) -> int:

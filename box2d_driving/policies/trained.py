@@ -18,7 +18,7 @@ import numpy as np
 
 from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config, is_bilevel_run,
                                                     load_json_file, read_arrays, read_json)
-from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor
+from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor, check_spline_hidden
 from box2d_driving.policies.shipped import is_policy_folder, shipped_policy
 
 
@@ -196,11 +196,7 @@ def _spline_actor(run: Path) -> MlpActor:
     except (KeyError, TypeError, AttributeError, ValueError, OverflowError) as exc:
         raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
     env.close()
-    saved = [weights[f"mlp_extractor.policy_net.{2 * k}.weight"].shape[0]
-             for k in range(len(weights)) if f"mlp_extractor.policy_net.{2 * k}.weight" in weights]
-    if saved != declared:
-        raise CheckpointError(f"{run / 'config.json'}: spline_hidden {declared} does not match the layers of {file} "
-                              f"({saved})")
+    check_spline_hidden(weights, declared, run / "config.json", file)
     try:
         return MlpActor(weights, space, len(declared), seen)
     except ValueError as exc:

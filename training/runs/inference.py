@@ -13,6 +13,7 @@ import torch as th
 
 from box2d_driving.policies.checkpoint_file import find_config, is_bilevel_run, read_json
 from box2d_driving.policies.trained import RunPolicy, run_env
+from box2d_driving.policies.numpy_actor import check_spline_hidden
 from training.runs.checkpoint import CheckpointError, load_policy_weights, read_checkpoint
 
 
@@ -114,12 +115,7 @@ def _load_spline_policy(run: Path, checkpoint: Path) -> Any:
     try:
         env = box2d_driving.make(config["accel"]["env_id"], **config["accel"]["env_overrides"])
         hidden = [int(h) for h in config.get("spline_hidden", (64, 64))]
-        # the sizes the config declares must be the checkpoint's before anything that size is built
-        saved = [tuple(ckpt.policy[f"mlp_extractor.policy_net.{2 * k}.weight"].shape)[0]
-                 if f"mlp_extractor.policy_net.{2 * k}.weight" in ckpt.policy else None for k in range(len(hidden))]
-        if saved != hidden:
-            raise CheckpointError(f"{run / 'config.json'}: spline_hidden {hidden} does not match the layers of "
-                                  f"{ckpt.path} ({saved})")
+        check_spline_hidden(ckpt.policy, hidden, run / "config.json", ckpt.path)
         policy = ActorCriticPolicy(env.spline_observation_space, env.spline_action_space,
                                    lambda _: 0.0, net_arch=hidden)
     except CheckpointError:

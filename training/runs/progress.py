@@ -5,7 +5,6 @@ callback (success, collisions, red-light violations, agent-steps/s; progress bar
 from __future__ import annotations
 
 import math
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -20,8 +19,8 @@ from box2d_driving.metrics.lights import violation_rate
 from box2d_driving.outputs import GracefulStop
 from box2d_driving.road.lights import NO_LIGHT
 from training.ppo.buffer import MaskedRolloutBuffer
-from training.runs.checkpoint import FILE, save_model
-from training.runs.run_dir import write_json_atomic
+from training.runs.checkpoint import save_model
+from training.runs.run_dir import set_root_checkpoint
 
 
 class RolloutMetrics(BaseCallback):
@@ -152,13 +151,5 @@ def save_checkpoint(model: PPO, out: Path, wall_s: float, agent_steps: int) -> P
     ckpt_dir.mkdir(exist_ok=True)
     run_state = {"wall_s": wall_s, "agent_steps": agent_steps}
     path = save_model(model, ckpt_dir / f"model_{model.num_timesteps}.safetensors", run_state=run_state)
-    tmp = out / (FILE + ".partial")
-    try:
-        shutil.copyfile(path, tmp)
-        tmp.replace(out / FILE)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    write_json_atomic(out / "state.json",
-                      {"decisions": model.num_timesteps, "agent_steps": agent_steps, "wall_s": wall_s})
+    set_root_checkpoint(out, path, model.num_timesteps, agent_steps, wall_s)
     return path

@@ -16,13 +16,12 @@ from __future__ import annotations
 import csv
 import json
 import re
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
 from training.runs.checkpoint import FILE, Checkpoint, CheckpointError, read_checkpoint
-from training.runs.run_dir import RunError, write_json_atomic
+from training.runs.run_dir import RunError, set_root_checkpoint, write_json_atomic
 
 DECISIONS_COLUMN = "time/total_timesteps"  # SB3's count of decisions at each logged update
 _KEPT = re.compile(r"model_(\d+)\.safetensors")
@@ -121,12 +120,11 @@ def cut_back(out: Path, point: ResumePoint) -> list[str]:
         if dropped:
             cut.append(f"{dropped} rows of {log.name}")
     if point.checkpoint.path != out / FILE:
-        tmp = out / (FILE + ".partial")
-        shutil.copyfile(point.checkpoint.path, tmp)
-        tmp.replace(out / FILE)
+        set_root_checkpoint(out, point.checkpoint.path, point.decisions, point.agent_steps, point.wall_s)
         cut.append(f"{FILE} replaced by {point.checkpoint.path.relative_to(out)}")
-    write_json_atomic(out / "state.json", {"decisions": point.decisions, "agent_steps": point.agent_steps,
-                                           "wall_s": point.wall_s})
+    else:
+        write_json_atomic(out / "state.json", {"decisions": point.decisions, "agent_steps": point.agent_steps,
+                                               "wall_s": point.wall_s})
     return cut
 
 

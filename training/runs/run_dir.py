@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import json
+import shutil
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -61,6 +62,20 @@ def write_json_atomic(path: Path, data: Any) -> None:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def set_root_checkpoint(out: Path, kept: Path, decisions: int, agent_steps: int, wall_s: float) -> None:
+    """Make the kept checkpoint file ``kept`` the run's latest: copied to ``OUT/model.safetensors``
+    (beside it, then renamed; a failed copy leaves the old one and no partial file), then
+    ``state.json`` written with the run's counters at it."""
+    tmp = out / (FILE + ".partial")
+    try:
+        shutil.copyfile(kept, tmp)
+        tmp.replace(out / FILE)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    write_json_atomic(out / "state.json", {"decisions": decisions, "agent_steps": agent_steps, "wall_s": wall_s})
 
 
 # what a full, read-only, over-quota or failing disk raises while a run writes
