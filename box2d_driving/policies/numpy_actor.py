@@ -31,6 +31,14 @@ from box2d_driving.policies.checkpoint_file import CheckpointError
 # The acceleration policy's architecture (the trainer's networks, training/ppo/, import these):
 # LiDAR convolutions of CHANNELS channels and kernel KERNEL, POOLED features, HIDDEN tanh units
 CHANNELS, KERNEL, POOLED, HIDDEN = 8, 5, 25, 256
+# the state_dict prefixes of what acting reads: the CTDE actor's encoder and MLP, SB3's action
+# head, and a bilevel spline stage's MLP actor (an actor-only checkpoint holds these alone)
+ACTOR_PREFIXES = ("mlp_extractor.actor_", "mlp_extractor.policy_net.", "action_net.")
+
+
+def is_actor_key(name: str) -> bool:
+    """Whether the policy tensor ``name`` (a state_dict key) is read when acting."""
+    return name.startswith(ACTOR_PREFIXES)
 
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 

@@ -4,6 +4,7 @@ sweep summaries alone (no checkpoints needed).
     box2d-driving reproduce                       # every summary in assets/sweeps -> docs/results.md
     box2d-driving reproduce SUMMARY.json [...] --out PAGE.md
     box2d-driving reproduce --run                 # first run or continue every rule's sweep
+    box2d-driving reproduce --reevaluate --only traffic-lights-paper   # measure again from kept weights
 
 One section per rule: the paper's result, ours as a mean over training seeds with a 95 % interval
 and the per-seed values, a plain statement where ours falls outside the paper's interval, the
@@ -27,6 +28,7 @@ from training.results.readme import README_START, readme_table, readme_text, upd
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.figures import COMPARED
 from training.results.data import Group, ResultsError, grid_product, groups_of, load_summary
+from training.results.reevaluate import kept_count
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
 from training.results.sections import SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
@@ -116,7 +118,9 @@ def _page_intro() -> list[str]:
             "brackets. How sweeps run: [sweeps.md](sweeps.md). `box2d-driving reproduce --run` runs every "
             "rule's sweep below in turn, continuing from the committed summaries, and rewrites this page. "
             "Each trial it lands keeps its final actor (`assets/sweeps/weights/NAME/TRIAL/`, about 0.3 MB a "
-            "trial, so a new measure can be read without retraining); trials landed before 2026-12-04 kept none. "
+            "trial), and `box2d-driving reproduce --reevaluate [--only RULE]` measures those trials again on their own "
+            "report episodes with today's metric code (a new measure, baseline or definition without retraining; "
+            "each section says for how many of its trials); trials landed before 2026-12-04 kept none. "
             "All of `assets/` stays within 25 MiB, no file over 2 MiB (`tests/test_shipped_policies.py`).", ""]
 
 
@@ -156,9 +160,11 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     # finished trials only: a trial carried part-way has curve rows before it has a summary row
     curves = load_curves(curves_path(summary["path"]), keys,
                          trials={r["trial"] for r in trials if r.get("status") == "done"})
+    kept, _ = kept_count(Path(summary["path"]), trials)
     parts = [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
              f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
-             f"{summary['sweep']['episodes']} report episodes each). {section.setting}"
+             f"{summary['sweep']['episodes']} report episodes each; final weights kept for {kept} of the {done}, "
+             f"which `reproduce --reevaluate` can measure again). {section.setting}"
              + budget_note(section, curves is not None) + joined_note(section, joined_paths, joined), ""]
     header = [*keys, "seeds", *(label for _, label in section.metrics)]
     parts += [row(header), separator(len(header))]
@@ -269,7 +275,7 @@ def main(argv: Optional[list[str]] = None) -> int:
                      help="run every rule's sweep in turn (the commands on the page), continuing each from "
                           "its summary in --summaries; stop it any time and run it again to go on")
     run.add_argument("--only", nargs="+", metavar="RULE", choices=[s.key for s in SECTIONS],
-                     help="these rules only: " + ", ".join(s.key for s in SECTIONS))
+                     help="with --run or --reevaluate, these rules only: " + ", ".join(s.key for s in SECTIONS))
     run.add_argument("--runs", type=Path, default=Path("runs"), help="where the sweep folders go (default runs)")
     run.add_argument("--cpus-per-trial", type=float,
                      help="CPU cores per trial, for every rule (default: each rule's command's; its trials' "
@@ -282,10 +288,19 @@ def main(argv: Optional[list[str]] = None) -> int:
                      help="stop after this many minutes of wall-clock time, as Ctrl-C would (trials part-way are "
                           "carried beside the summaries; leave time for their curves to be drawn): for a "
                           "machine lent for a fixed time")
+    p.add_argument("--reevaluate", action="store_true",
+                   help="first measure every finished trial again from the final weights it kept "
+                        "(SUMMARIES/weights/NAME/TRIAL), on the report episodes its row was measured on, with "
+                        "today's metric code; rewrite its summary's report columns, then the page (trials that "
+                        "kept no weights keep their rows and are listed)")
     args = p.parse_args(argv)
     prog = "box2d-driving reproduce"
-    if args.only and not args.run:
-        p.error("--only goes with --run")
+    if args.only and not (args.run or args.reevaluate):
+        p.error("--only goes with --run or --reevaluate")
+    if args.run and args.reevaluate:
+        p.error("--run evaluates the trials it trains; --reevaluate is for trials already landed: choose one")
+    if args.reevaluate and args.summaries:
+        p.error("--reevaluate rewrites the summaries in --summaries; give no summary files")
     if args.run and args.summaries:
         p.error("--run reads and writes the summaries in --summaries; give no summary files")
     if args.time_limit is not None and not args.run:
@@ -314,6 +329,23 @@ def main(argv: Optional[list[str]] = None) -> int:
                                   args.runs, args.cpus_per_trial, args.gpus_per_trial, args.max_concurrent,
                                   args.address, deadline)
         except ReproduceError as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 2
+    if args.reevaluate:
+        from training.results.reevaluate import reevaluate_summary
+
+        chosen = [s for s in SECTIONS if not args.only or s.key in args.only]
+        names = list(dict.fromkeys(s.summary_name for s in chosen))
+        try:
+            for name in names:
+                path = Path(args.folder) / f"{name}.json"
+                if not path.exists():
+                    if args.only:
+                        raise ResultsError(f"--only: no summary {path} to re-evaluate")
+                    continue
+                for line in reevaluate_summary(path).lines():
+                    print(line)
+        except ResultsError as exc:
             print(f"{prog}: error: {exc}", file=sys.stderr)
             return 2
     try:

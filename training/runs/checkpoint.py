@@ -150,18 +150,25 @@ def _run_state(saved: Any) -> dict[str, float]:
     return {"wall_s": wall, "agent_steps": steps}
 
 
-def load_policy_weights(policy: th.nn.Module, ckpt: Checkpoint) -> None:
-    """Copy the checkpoint's weights into ``policy``; every key and shape must match."""
+def load_policy_weights(policy: th.nn.Module, ckpt: Checkpoint, *, actor_only_ok: bool = False) -> None:
+    """Copy the checkpoint's weights into ``policy``; every key and shape must match. With
+    ``actor_only_ok`` (loading to act, never to train), a checkpoint holding exactly the actor's
+    tensors (a sweep trial's kept weights: :mod:`training.sweeps.kept`) also loads; the critic,
+    which acting never runs, keeps its initial values."""
+    from box2d_driving.policies.numpy_actor import is_actor_key
+
     mine = policy.state_dict()
-    if mine.keys() != ckpt.policy.keys():
-        missing, extra = sorted(mine.keys() - ckpt.policy.keys()), sorted(ckpt.policy.keys() - mine.keys())
+    actor_only = actor_only_ok and bool(ckpt.policy) and all(is_actor_key(k) for k in ckpt.policy)
+    wanted = {k for k in mine if is_actor_key(k)} if actor_only else set(mine.keys())
+    if wanted != ckpt.policy.keys():
+        missing, extra = sorted(wanted - ckpt.policy.keys()), sorted(ckpt.policy.keys() - wanted)
         raise CheckpointError(f"{ckpt.path} does not fit this network (missing {missing[:3]}, "
                               f"unexpected {extra[:3]}): another critic or scenario?")
-    bad = [k for k in mine if mine[k].shape != ckpt.policy[k].shape]
+    bad = [k for k in wanted if mine[k].shape != ckpt.policy[k].shape]
     if bad:
         raise CheckpointError(f"{ckpt.path} does not fit this network: {bad[0]} is "
                               f"{tuple(ckpt.policy[bad[0]].shape)}, the model's {tuple(mine[bad[0]].shape)}")
-    policy.load_state_dict(ckpt.policy)
+    policy.load_state_dict(ckpt.policy, strict=not actor_only)
 
 
 def restore_model(model: Any, ckpt: Checkpoint, *, optimizer: bool = True) -> None:

@@ -80,7 +80,7 @@ def _trained(ckpt: Any, config_path: Path, deterministic: bool) -> TrainedPolicy
     """The CTDE policy of checkpoint ``ckpt``, shaped by the run config at ``config_path``."""
     config = read_json(config_path)
     net = build_ctde_policy(config, config_path)
-    load_policy_weights(net, ckpt)
+    load_policy_weights(net, ckpt, actor_only_ok=True)
     policy = TrainedPolicy(net, config, deterministic)
     policy.run_dir = config_path.parent
     return policy
@@ -123,5 +123,5 @@ def _load_spline_policy(run: Path, checkpoint: Path) -> Any:
     except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
         raise CheckpointError(f"{run / 'config.json'}: cannot rebuild the spline policy ({exc!r})") from None
     env.close()
-    load_policy_weights(policy, ckpt)
+    load_policy_weights(policy, ckpt, actor_only_ok=True)
     return policy.eval()

@@ -21,12 +21,13 @@ import shutil
 from pathlib import Path
 
 from box2d_driving.policies.checkpoint_file import CheckpointError, read_tensors
+from box2d_driving.policies.numpy_actor import ACTOR_PREFIXES
 
 __all__ = ["ACTOR_KEYS", "keep_final_weights", "kept_folder"]
 
-# state_dict prefixes of what acting reads (training.ppo.policy.CTDENetwork's actor, SB3's head);
-# the bilevel spline stage's MLP actor (mlp_extractor.policy_net) likewise
-ACTOR_KEYS = ("policy/mlp_extractor.actor_", "policy/mlp_extractor.policy_net.", "policy/action_net.")
+# a checkpoint file's names of what acting reads: the policy tensors (stored under "policy/")
+# that box2d_driving.policies.numpy_actor.is_actor_key accepts
+ACTOR_KEYS = tuple(f"policy/{prefix}" for prefix in ACTOR_PREFIXES)
 STAGES = ("accel", "spline")
 
 

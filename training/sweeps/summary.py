@@ -33,19 +33,26 @@ def final_metrics(run: Path, metrics: dict[str, Any]) -> dict[str, Any]:
     """The report-seed evaluation, flattened to ``report/<name>`` scalars, with the run's counters
     and the distributions a results page draws (``figures``, from the evaluation's rollouts)."""
     state = json.loads((run / "state.json").read_text())
+    out = report_metrics(metrics, run / "eval" / "rollouts.npz", run)
+    out.update({"train/decisions": state.get("decisions", state.get("accel_decisions")),
+                "train/agent_steps": state["agent_steps"], "train/wall_s": state["wall_s"], "done": 1})
+    return out
+
+
+def report_metrics(metrics: dict[str, Any], rollouts: Path, policy: Path) -> dict[str, Any]:
+    """An evaluation's ``metrics.json`` as the report columns a summary row holds: ``report/<name>``
+    scalars, the episodes it ran, and ``figures`` drawn from its ``rollouts`` table (with the env of
+    the policy folder ``policy``: a run folder, or a trial's kept weights)."""
     out = {f"report/{k}": v for k, v in flatten(metrics).items()
            if k not in ("seed", "episodes", "checkpoint") and not k.startswith(("training.", "trained_on."))}
     out.update({"report_episodes": metrics["episodes"], "report_first_seed": metrics["seed"],
-                "train/decisions": state.get("decisions", state.get("accel_decisions")),
-                "train/agent_steps": state["agent_steps"], "train/wall_s": state["wall_s"],
-                "success_rate": metrics.get("success_rate", math.nan), "done": 1})
-    rollouts = run / "eval" / "rollouts.npz"
-    if rollouts.exists():
+                "success_rate": metrics.get("success_rate", math.nan)})
+    if Path(rollouts).exists():
         from box2d_driving.metrics.rollouts import load_table
         from training.evaluation.figure_data import figure_data
         from training.runs.inference import load_policy
 
-        env = load_policy(run).make_env()
+        env = load_policy(policy).make_env()
         out["figures"] = figure_data(metrics["env_id"], load_table(rollouts), env.config)
         env.close()
     return out
