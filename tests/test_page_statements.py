@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 from tests.results_helpers import VIOLATIONS, lights_summary, ragged_tables
@@ -414,6 +415,56 @@ def test_a_rule_counts_as_learnt_only_beyond_every_scripted_driver():
     lower = scripted_baseline_statement((("fifo", "FIFO share"),), paper=-1)
     assert lower(below, base)[0].endswith("the rule is learnt, as in the paper.")
     assert say(learnt, {}) == []  # no baseline: nothing said
+
+
+def test_a_reference_driver_is_shown_beside_but_not_in_the_verdict():
+    from training.results.data import Size
+    from training.results.statements import scripted_baseline_statement
+
+    r = Size("fast_lanes.pearson_r")
+    say = scripted_baseline_statement(((r, "|r|"),), references=("oracle",))
+    base = {"full-throttle/|fast_lanes.pearson_r|": (0.01, 200), "random/|fast_lanes.pearson_r|": (0.02, 200),
+            "axis/|fast_lanes.pearson_r|": (float("nan"), 200),  # nothing varies: no correlation, left out
+            "oracle/|fast_lanes.pearson_r|": (0.99, 200)}
+    learnt = [Group({}, [0, 1, 2], {r: mean_ci([0.50, 0.52, 0.54])})]
+    line, = say(learnt, base)
+    assert "full-throttle 0.010, random 0.020 (for comparison, oracle 0.990)" in line and "axis" not in line
+    assert line.endswith("beyond every scripted driver: the rule is learnt, as in the paper.")
+    without = scripted_baseline_statement(((r, "|r|"),))  # the oracle as a baseline: not beyond it
+    assert without(learnt, base)[0].endswith("below oracle: no rule learnt, unlike the paper.")
+
+
+@pytest.mark.parametrize("space", ["box", "discrete", "multidiscrete"])
+def test_random_paths_cover_the_path_space_and_repeat_by_seed(space):
+    from gymnasium import spaces
+
+    from training.results.data import random_paths
+
+    made = {"box": spaces.Box(-1.0, 1.0, (1,), np.float32), "discrete": spaces.Discrete(5),
+            "multidiscrete": spaces.MultiDiscrete([6, 6, 6])}[space]
+    obs0 = np.zeros((400, 3))
+    a, b = random_paths(made, 7)(obs0), random_paths(made, 7)(obs0)
+    assert np.array_equal(a, b) and not np.array_equal(a, random_paths(made, 8)(obs0))
+    assert all(made.contains(np.asarray(x).reshape(made.shape)) for x in a)
+    assert len(np.unique(a)) > 1  # not one path for all
+
+
+def test_a_scripted_baseline_scores_every_metric_on_the_trials_episodes():
+    from training.results.data import Size, scripted_baselines
+
+    summary = {"path": "x.json", "trials": [
+        {"status": "done", "report_first_seed": 1_500_000_000, "report_episodes": 3, "env_config.num_cars": 10}]}
+    r = Size("fast_lanes.pearson_r")
+    base = scripted_baselines("highway-spline-v0", (r, "success_rate"),
+                              (("blind, random paths", "full-throttle", "random"), ("blind", "full-throttle", "axis")))
+    got = base(summary, [])
+    assert set(got) == {"blind, random paths/|fast_lanes.pearson_r|", "blind, random paths/success_rate",
+                        "blind/|fast_lanes.pearson_r|", "blind/success_rate"}
+    assert all(n == 3 for _, n in got.values())
+    assert 0.0 <= got["blind, random paths/|fast_lanes.pearson_r|"][0] <= 1.0
+    assert np.isnan(got["blind/|fast_lanes.pearson_r|"][0])  # every car on the axis: no correlation
+    summary["trials"].append({**summary["trials"][0], "env_config.num_cars": 4})
+    assert base(summary, []) == {}  # trials of two car counts: no single baseline
 
 
 def test_an_interval_stays_inside_its_metrics_range():

@@ -8,7 +8,7 @@ import json
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional, Union
+from typing import Any, Callable, Optional, Union
 
 import numpy as np
 
@@ -216,11 +216,13 @@ def report_episodes(summary: dict[str, Any]) -> tuple[int, int]:
     return next(iter(sets))
 
 
-def scripted_table(env_id: str, driver: str, first_seed: int, episodes: int,
+def scripted_table(env_id: str, driver: str, first_seed: int, episodes: int, paths: str = "axis",
                    **overrides: Any) -> tuple[dict[str, Any], Any]:
     """The rollout table of a scripted driver (``box2d_driving.policies.make_policy`` by name) on
     the given report episodes of ``env_id`` with config ``overrides``, and the env's config;
-    :class:`ResultsError` for episodes outside the report range."""
+    :class:`ResultsError` for episodes outside the report range. In a spline scenario ``paths``
+    says how each car's path is chosen: ``axis`` (the scenario's default, the road axis) or
+    ``random`` (uniform over the path choices, seeded by ``first_seed``)."""
     import box2d_driving
     from box2d_driving.metrics.rollouts import run_episodes
     from box2d_driving.policies import make_policy
@@ -229,9 +231,77 @@ def scripted_table(env_id: str, driver: str, first_seed: int, episodes: int,
         raise ResultsError(f"episodes {first_seed}.. ({episodes}) are not report seeds ({REPORT.describe()})")
     env = box2d_driving.make(env_id, **overrides)
     try:
+        if paths == "random":
+            env.spline_policy = random_paths(env.spline_action_space, first_seed)
+        elif paths != "axis":
+            raise ResultsError(f"paths must be 'axis' or 'random', got {paths!r}")
         return run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed), env.config
     finally:
         env.close()
+
+
+def random_paths(space: Any, seed: int) -> Any:
+    """A stage-0 chooser for a spline scenario: each car's path uniform over ``space`` (a Box of
+    continuous path parameters, Discrete or MultiDiscrete), from a generator seeded once with
+    ``seed``."""
+    from gymnasium import spaces
+
+    rng = np.random.default_rng(seed)
+
+    def choose(obs0: np.ndarray) -> np.ndarray:
+        n = len(obs0)
+        if isinstance(space, spaces.Box):
+            return rng.uniform(space.low, space.high, size=(n,) + space.shape).astype(space.dtype)
+        if isinstance(space, spaces.MultiDiscrete):
+            return rng.integers(0, space.nvec, size=(n,) + space.shape)
+        return rng.integers(0, space.n, size=n)
+    return choose
+
+
+# per scenario, the report measures a scripted driver is scored on (what its report computes
+# from the rollouts alone: no control runs), as the nested dict an evaluation writes
+def _crosswalk_measures(table: dict[str, Any], cfg: Any) -> dict[str, Any]:
+    from box2d_driving.metrics.pedestrians import crosswalk_metrics
+
+    return crosswalk_metrics(table, cfg.a_max)
+
+
+def _fast_lane_measures(table: dict[str, Any], cfg: Any) -> dict[str, Any]:
+    from box2d_driving.metrics.lanes import fast_lane_metrics
+    from box2d_driving.metrics.lights import outcome_rates
+
+    return {**outcome_rates(table), "fast_lanes": fast_lane_metrics(table, cfg.road_width)}
+
+
+SCRIPTED_MEASURES = {"crosswalk-v0": _crosswalk_measures, "highway-spline-v0": _fast_lane_measures}
+
+
+@functools.lru_cache(maxsize=None)
+def scripted_row(env_id: str, driver: str, paths: str, first_seed: int, episodes: int,
+                 num_cars: int) -> dict[str, Any]:
+    """A scripted driver's report measures on the given report episodes of ``env_id`` with
+    ``num_cars`` cars (its other defaults), flattened like a summary row's columns (``a.b``), so
+    that any of a section's metrics (a column, its size, a difference) reads from it."""
+    from training.sweeps.summary import flatten
+
+    table, cfg = scripted_table(env_id, driver, first_seed, episodes, paths=paths, num_cars=num_cars)
+    return flatten(SCRIPTED_MEASURES[env_id](table, cfg))
+
+
+def scripted_baselines(env_id: str, metrics: tuple[Metric, ...],
+                       drivers: tuple[tuple[str, str, str], ...]) -> Callable[[dict[str, Any], list[Group]], Baseline]:
+    """A section's baseline: each of ``drivers`` (label, scripted driver, path choice) scored on
+    ``metrics`` over the trials' report episodes, keyed ``LABEL/METRIC`` (a section whose trials
+    share one car count; none otherwise)."""
+    def baseline(summary: dict[str, Any], groups: list[Group]) -> Baseline:
+        first, episodes = report_episodes(summary)
+        n = _one_car_count(summary)
+        if n is None:
+            return {}
+        return {f"{label}/{metric}": (metric_value(scripted_row(env_id, driver, paths, first, episodes, n), metric),
+                                      episodes)
+                for label, driver, paths in drivers for metric in metrics}
+    return baseline
 
 
 def _one_car_count(summary: dict[str, Any]) -> Optional[int]:

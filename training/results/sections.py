@@ -12,7 +12,8 @@ from __future__ import annotations
 from typing import Optional
 
 from training.evaluation import figure_data as fd
-from training.results.data import Baseline, Group, PaperValue, light_blind_rates, lights_baselines
+from training.results.data import (Baseline, Group, PaperValue, light_blind_rates, lights_baselines,
+                                   scripted_baselines)
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
 from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLAIM, COMMUNICATION_FIGURE,
@@ -29,6 +30,9 @@ from training.results.statements import (above_statement, level_change_statement
                                          unlearnt_statement)
 
 __all__ = ["IN_GRID", "Headline", "PaperValue", "SECTIONS", "Section", "section", "statements"]
+
+# the privileged crosswalk driver (reads every pedestrian from the world): a reference, not a rule-free baseline
+ORACLE = "pedestrian-oracle"
 
 
 SECTIONS: tuple[Section, ...] = (
@@ -313,6 +317,10 @@ SECTIONS: tuple[Section, ...] = (
             "--out runs/sweep-fast-lanes",
             setting="Each trial is the shipped fast-lanes run from scratch, for as many bilevel rounds as "
                     "the shipped run reached.",
+            statements=(scripted_baseline_statement(((FAST_LANES_R, "Pearson(rating, lateral), size"),)),),
+            baseline=scripted_baselines("highway-spline-v0", (FAST_LANES_R,), (
+                ("full-throttle on random paths", "full-throttle", "random"),
+                ("random on random paths", "random", "random"))),
             figure=bars_figure(FAST_LANES_R, "Pearson(rating, lateral position), size",
                                dots=("fast_lanes.pearson_r", "each seed, signed (below 0: fast cars on the right)")),
             shipped="fast_lanes_10cars", gif_size=(640, 200),
@@ -334,7 +342,16 @@ SECTIONS: tuple[Section, ...] = (
                                        bars_figure("safe_stopping_share", "safe-stopping share"),
                                        mark=(6.0, "6 m"), clipped="m"),
             statements=(above_statement("share_more_than_6m", "samples > 6 m from the pedestrian ahead",
-                                        "most samples keep more than 6 m", "most samples keep less than 6 m"),),
+                                        "most samples keep more than 6 m", "most samples keep less than 6 m"),
+                        scripted_baseline_statement(
+                            (("share_more_than_6m", "samples > 6 m from the pedestrian ahead"),
+                             ("safe_stopping_share", "safe-stopping share")), paper=1, references=(ORACLE,)),
+                        scripted_baseline_statement((("pedestrian_collision_rate", "pedestrian collisions"),),
+                                                    paper=-1, references=(ORACLE,))),
+            baseline=scripted_baselines("crosswalk-v0", ("share_more_than_6m", "safe_stopping_share",
+                                                         "pedestrian_collision_rate"),
+                                        (("full-throttle", "full-throttle", "axis"), ("random", "random", "axis"),
+                                         (ORACLE, ORACLE, "axis"))),
             shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200),
             headlines=(Headline("slow down for pedestrians",
                                 "`crosswalk-v0`, 4 cars, crosswalk in the sat-nav, collision reward -6", (),

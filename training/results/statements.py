@@ -10,6 +10,8 @@ import math
 from collections import defaultdict
 from typing import Callable, Sequence
 
+import numpy as np
+
 from training.common.markdown import all_of
 from training.results.data import LEARNT_SUCCESS, SINGLE_POINT, Baseline, Group, Metric, PaperValue, as_number
 from training.results.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
@@ -365,16 +367,21 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
     return lines
 
 
-def scripted_baseline_statement(metrics: tuple[tuple[Metric, str], ...], paper: int = 1) -> Statement:
+def scripted_baseline_statement(metrics: tuple[tuple[Metric, str], ...], paper: int = 1,
+                                references: tuple[str, ...] = ()) -> Statement:
     """Our estimate of each metric against the scripted drivers' values on the same report episodes
     (the section's baseline, keyed ``DRIVER/METRIC``): a rule counts as learnt only where our
-    interval lies beyond every scripted driver's value in the paper's direction (``paper``: 1,
-    higher is the rule; -1, lower)."""
+    interval lies beyond every rule-free scripted driver's value in the paper's direction
+    (``paper``: 1, higher is the rule; -1, lower). ``references``: drivers that follow a scripted
+    rule (or see what the policy cannot), given for comparison but not part of the verdict."""
     def say(groups: list[Group], baseline: Baseline) -> list[str]:
         lines = []
         for metric, label in metrics:
-            drivers = {key.split("/", 1)[0]: value for key, (value, _) in baseline.items()
-                       if key.split("/", 1)[1] == metric}
+            scored = {key.split("/", 1)[0]: value for key, (value, _) in baseline.items()
+                      if key.split("/", 1)[1] == str(metric)}
+            scored = {d: v for d, v in scored.items() if np.isfinite(v)}  # e.g. no correlation where nothing varies
+            drivers = {d: v for d, v in scored.items() if d not in references}
+            shown = {d: v for d, v in scored.items() if d in references}
             if not drivers:
                 continue
             episodes = next(n for key, (_, n) in baseline.items() if key.endswith(f"/{metric}"))
@@ -385,6 +392,8 @@ def scripted_baseline_statement(metrics: tuple[tuple[Metric, str], ...], paper: 
                 beyond = [d for d, v in drivers.items() if (e.low > v if paper > 0 else e.high < v)]
                 behind = [d for d, v in drivers.items() if (e.high < v if paper > 0 else e.low > v)]
                 them = ", ".join(f"{d} {v:.3f}" for d, v in drivers.items())
+                if shown:
+                    them += " (for comparison, " + ", ".join(f"{d} {v:.3f}" for d, v in shown.items()) + ")"
                 if len(beyond) == len(drivers):
                     verdict = "beyond every scripted driver: the rule is learnt, as in the paper"
                 elif behind:
