@@ -464,7 +464,22 @@ def test_a_scripted_baseline_scores_every_metric_on_the_trials_episodes():
     assert 0.0 <= got["blind, random paths/|fast_lanes.pearson_r|"][0] <= 1.0
     assert np.isnan(got["blind/|fast_lanes.pearson_r|"][0])  # every car on the axis: no correlation
     summary["trials"].append({**summary["trials"][0], "env_config.num_cars": 4})
-    assert base(summary, []) == {}  # trials of two car counts: no single baseline
+    two = base(summary, [])  # trials of two car counts: one baseline per count
+    assert set(two) == {f"{k}@num_cars={n}" for k in got for n in (4, 10)}
+    assert two["blind, random paths/success_rate@num_cars=10"] == got["blind, random paths/success_rate"]
+
+
+def test_a_baseline_per_car_count_is_set_beside_its_own_rows():
+    from training.results.statements import scripted_baseline_statement
+
+    say = scripted_baseline_statement((("share", "majority share"),), claimed=False)
+    base = {"random/share@num_cars=4": (0.52, 200), "random/share@num_cars=8": (0.95, 200)}
+    groups = [Group({"num_cars": "4"}, [0, 1, 2], {"share": mean_ci([0.80, 0.81, 0.82])}),
+              Group({"num_cars": "8"}, [0, 1, 2], {"share": mean_ci([0.80, 0.81, 0.82])})]
+    four, eight = say(groups, base)
+    assert "(num_cars=4): ours" in four and "random 0.520" in four and four.endswith("learnt.")
+    assert "random 0.950" in eight and eight.endswith("below random: not learnt.")
+    assert "paper" not in four + eight  # the paper claims no rule at every count: the section's other lines say
 
 
 def test_an_interval_stays_inside_its_metrics_range():

@@ -273,7 +273,15 @@ def _fast_lane_measures(table: dict[str, Any], cfg: Any) -> dict[str, Any]:
     return {**outcome_rates(table), "fast_lanes": fast_lane_metrics(table, cfg.road_width)}
 
 
-SCRIPTED_MEASURES = {"crosswalk-v0": _crosswalk_measures, "highway-spline-v0": _fast_lane_measures}
+def _lane_measures(table: dict[str, Any], cfg: Any) -> dict[str, Any]:
+    from box2d_driving.metrics.lanes import lane_metrics
+    from box2d_driving.metrics.lights import outcome_rates
+
+    return {**outcome_rates(table), "lanes": lane_metrics(table)}
+
+
+SCRIPTED_MEASURES = {"crosswalk-v0": _crosswalk_measures, "highway-spline-v0": _fast_lane_measures,
+                     "intersection-spline-v0": _lane_measures}
 
 
 @functools.lru_cache(maxsize=None)
@@ -291,16 +299,15 @@ def scripted_row(env_id: str, driver: str, paths: str, first_seed: int, episodes
 def scripted_baselines(env_id: str, metrics: tuple[Metric, ...],
                        drivers: tuple[tuple[str, str, str], ...]) -> Callable[[dict[str, Any], list[Group]], Baseline]:
     """A section's baseline: each of ``drivers`` (label, scripted driver, path choice) scored on
-    ``metrics`` over the trials' report episodes, keyed ``LABEL/METRIC`` (a section whose trials
-    share one car count; none otherwise)."""
+    ``metrics`` over the trials' report episodes, keyed ``LABEL/METRIC`` where every trial has one
+    car count, else ``LABEL/METRIC@num_cars=N`` for each count its trials ran."""
     def baseline(summary: dict[str, Any], groups: list[Group]) -> Baseline:
         first, episodes = report_episodes(summary)
-        n = _one_car_count(summary)
-        if n is None:
-            return {}
-        return {f"{label}/{metric}": (metric_value(scripted_row(env_id, driver, paths, first, episodes, n), metric),
-                                      episodes)
-                for label, driver, paths in drivers for metric in metrics}
+        counts = sorted({int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
+                         if r.get("status") == "done" and "env_config.num_cars" in r})
+        return {f"{label}/{metric}" + (f"@num_cars={n}" if len(counts) > 1 else ""):
+                (metric_value(scripted_row(env_id, driver, paths, first, episodes, n), metric), episodes)
+                for n in counts for label, driver, paths in drivers for metric in metrics}
     return baseline
 
 

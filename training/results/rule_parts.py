@@ -9,7 +9,8 @@ from __future__ import annotations
 from typing import Any
 
 from training.evaluation import figure_data as fd
-from training.results.data import Difference, HistogramMean, PaperValue, Preferred, Size, right_of_way_baselines
+from training.results.data import (Difference, HistogramMean, PaperValue, Preferred, Size, right_of_way_baselines,
+                                   scripted_baselines)
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, gap_figure
 from training.results.page_section import Section
 from training.results.statements import (Statement, above_statement, apart_statement, noise_trend_statement,
@@ -17,7 +18,8 @@ from training.results.statements import (Statement, above_statement, apart_state
 
 __all__ = ["AGAINST_NOISE", "COMMUNICATION_BUDGET", "COMMUNICATION_CLAIM", "COMMUNICATION_FIGURE",
            "COMMUNICATION_METRICS", "COMMUNICATION_STATEMENTS", "DENSER_BUDGET", "FAST_LANES_R", "LANE_SIDE_LEVEL",
-           "LANES_BUDGET", "LANES_CURVE_EXTRA", "LANES_FIGURE", "LANES_METRICS", "LANES_NOISE_METRICS",
+           "LANES_BASELINE", "LANES_BUDGET", "LANES_CURVE_EXTRA", "LANES_FIGURE", "LANES_METRICS",
+           "LANES_NOISE_METRICS",
            "LANES_PAPER_CLAIM", "LIGHTS_METRICS", "LIGHTS_NOISE_BUDGET", "ONE_SIDED", "ONE_SIDED_WORDS", "PEARSON",
            "SAFE_SHORTFALL_WORDS", "SUCCESS_LOST_UNHEARD", "SWEEP", "lanes_4_vs_8", "lanes_statements", "right_of_way",
            "turn_signals_12_cars"]
@@ -99,6 +101,15 @@ LANES_BUDGET = ("4 and 8 cars, LiDAR noise 0 to 1.0, entropy 1e-4, 150 to 1,000 
                 "(4.8-32 M joint steps, each a decision of every car), 1,200 spline episodes per epoch")
 
 
+# drivers with no lane rule, on random paths (the light rule knows nothing of lanes either), on the
+# lanes trials' own report episodes
+LANES_BASELINE_METRICS = (("lanes.majority_share", "crossings on the majority side"), (ONE_SIDED, "one-sided offset"))
+LANES_BASELINE = scripted_baselines("intersection-spline-v0", tuple(m for m, _ in LANES_BASELINE_METRICS), (
+    ("full-throttle on random paths", "full-throttle", "random"), ("random on random paths", "random", "random"),
+    ("light rule on random paths", "rule", "random")))
+LANES_BASELINE_STATEMENT = scripted_baseline_statement(LANES_BASELINE_METRICS, claimed=False)
+
+
 def lanes_statements(fewer: str, paper_counts: bool) -> tuple[Statement, ...]:
     """Fewer cars (``fewer``) against 8: the majority share and the one-sided offset, intervals
     apart. ``paper_counts``: the paper's own car counts (4 and 8), where its claim is "lanes with
@@ -113,7 +124,7 @@ def lanes_statements(fewer: str, paper_counts: bool) -> tuple[Statement, ...]:
                             level_text=f"{LANE_SIDE_LEVEL:g}",
                             paper=f"The paper: lanes with 8 cars, none with {fewer}. *Keep to one side*: the "
                                   f"one-sided offset's interval above {LANE_SIDE_LEVEL:g} of the half-width."),)
-            if paper_counts else ())
+            if paper_counts else ()) + (LANES_BASELINE_STATEMENT,)
 
 
 def lanes_4_vs_8(key: str, title: str, match: tuple[tuple[str, str], ...], command: str, setting: str,
@@ -122,7 +133,7 @@ def lanes_4_vs_8(key: str, title: str, match: tuple[tuple[str, str], ...], comma
     figure, statements and learning-curve columns, the paper's budget; ``extra``: other
     :class:`Section` fields (headlines)."""
     return Section(key, title, "lanes", match, LANES_METRICS, LANES_PAPER_CLAIM, command, setting=setting,
-                   figure=LANES_FIGURE, statements=lanes_statements("4", paper_counts=True),
+                   figure=LANES_FIGURE, statements=lanes_statements("4", paper_counts=True), baseline=LANES_BASELINE,
                    curve_extra=LANES_CURVE_EXTRA, paper_budget=LANES_BUDGET, **extra)
 
 

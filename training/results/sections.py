@@ -19,7 +19,7 @@ from training.results.page_section import IN_GRID, Headline, Section
 from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLAIM, COMMUNICATION_FIGURE,
                                          COMMUNICATION_METRICS, COMMUNICATION_STATEMENTS, DENSER_BUDGET,
                                          DENSER_JOINT_STEPS, FAST_LANES_R,
-                                         LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
+                                         LANES_BASELINE, LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
                                          LANES_NOISE_METRICS, LIGHTS_METRICS, LIGHTS_NOISE_BUDGET,
                                          LIGHTS_NOISE_JOINT_STEPS, ONE_SIDED,
                                          ONE_SIDED_WORDS, PEARSON, SAFE_SHORTFALL_WORDS, SUCCESS_LOST_UNHEARD, SWEEP,
@@ -145,7 +145,8 @@ SECTIONS: tuple[Section, ...] = (
                     "reached, the acceleration policy starting from the shipped 4-car noise-0.5 lights "
                     "policy, the path policy from scratch. " + ONE_SIDED_WORDS,
             figure=LANES_FIGURE,
-            statements=lanes_statements("2", paper_counts=False), curve_extra=LANES_CURVE_EXTRA,
+            statements=lanes_statements("2", paper_counts=False), baseline=LANES_BASELINE,
+            curve_extra=LANES_CURVE_EXTRA,
             shipped="lanes_8cars_noise05",
             paper_budget=LANES_BUDGET,
             headlines=(Headline("lanes emerge", "`intersection-spline-v0`, 8 cars, LiDAR noise 0.5",
@@ -196,6 +197,7 @@ SECTIONS: tuple[Section, ...] = (
                     "the same training seeds as at noise 0.5; the trials run one after the other, so a summary "
                     "holds the trials finished so far. " + ONE_SIDED_WORDS,
             figure=LANES_FIGURE,
+            baseline=LANES_BASELINE,
             statements=(level_change_statement("lidar_noise", "0", "0.5", LANES_NOISE_METRICS, paper=1),
                         level_change_statement("lidar_noise", "0.5", "1.0",
                                                (*LANES_NOISE_METRICS, ("success_rate", "success")), paper=0,
