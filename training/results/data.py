@@ -284,29 +284,43 @@ SCRIPTED_MEASURES = {"crosswalk-v0": _crosswalk_measures, "highway-spline-v0": _
                      "intersection-spline-v0": _lane_measures}
 
 
+def _junction_measures(table: dict[str, Any], cfg: Any) -> dict[str, Any]:
+    from box2d_driving.metrics.communication import communication_metrics
+    from box2d_driving.metrics.lights import outcome_rates
+
+    return {**outcome_rates(table), **({"communication": communication_metrics(table)} if cfg.communication else {})}
+
+
+SCRIPTED_MEASURES["real-junction-v0"] = _junction_measures
+
+
 @functools.lru_cache(maxsize=None)
 def scripted_row(env_id: str, driver: str, paths: str, first_seed: int, episodes: int,
-                 num_cars: int) -> dict[str, Any]:
+                 num_cars: int, overrides: tuple[tuple[str, Any], ...] = ()) -> dict[str, Any]:
     """A scripted driver's report measures on the given report episodes of ``env_id`` with
-    ``num_cars`` cars (its other defaults), flattened like a summary row's columns (``a.b``), so
-    that any of a section's metrics (a column, its size, a difference) reads from it."""
+    ``num_cars`` cars and config ``overrides`` (its other defaults), flattened like a summary row's
+    columns (``a.b``), so that any of a section's metrics (a column, its size, a difference) reads
+    from it."""
     from training.sweeps.summary import flatten
 
-    table, cfg = scripted_table(env_id, driver, first_seed, episodes, paths=paths, num_cars=num_cars)
+    table, cfg = scripted_table(env_id, driver, first_seed, episodes, paths=paths, num_cars=num_cars,
+                                **dict(overrides))
     return flatten(SCRIPTED_MEASURES[env_id](table, cfg))
 
 
-def scripted_baselines(env_id: str, metrics: tuple[Metric, ...],
-                       drivers: tuple[tuple[str, str, str], ...]) -> Callable[[dict[str, Any], list[Group]], Baseline]:
+def scripted_baselines(env_id: str, metrics: tuple[Metric, ...], drivers: tuple[tuple[str, str, str], ...],
+                       overrides: tuple[tuple[str, Any], ...] = ()
+                       ) -> Callable[[dict[str, Any], list[Group]], Baseline]:
     """A section's baseline: each of ``drivers`` (label, scripted driver, path choice) scored on
-    ``metrics`` over the trials' report episodes, keyed ``LABEL/METRIC`` where every trial has one
-    car count, else ``LABEL/METRIC@num_cars=N`` for each count its trials ran."""
+    ``metrics`` over the trials' report episodes (``env_id`` with config ``overrides``), keyed
+    ``LABEL/METRIC`` where every trial has one car count, else ``LABEL/METRIC@num_cars=N`` for each
+    count its trials ran."""
     def baseline(summary: dict[str, Any], groups: list[Group]) -> Baseline:
         first, episodes = report_episodes(summary)
         counts = sorted({int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
                          if r.get("status") == "done" and "env_config.num_cars" in r})
         return {f"{label}/{metric}" + (f"@num_cars={n}" if len(counts) > 1 else ""):
-                (metric_value(scripted_row(env_id, driver, paths, first, episodes, n), metric), episodes)
+                (metric_value(scripted_row(env_id, driver, paths, first, episodes, n, overrides), metric), episodes)
                 for n in counts for label, driver, paths in drivers for metric in metrics}
     return baseline
 

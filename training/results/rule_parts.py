@@ -16,7 +16,8 @@ from training.results.page_section import Section
 from training.results.statements import (Statement, above_statement, apart_statement, noise_trend_statement,
                                          scripted_baseline_statement)
 
-__all__ = ["AGAINST_NOISE", "COMMUNICATION_BUDGET", "COMMUNICATION_CLAIM", "COMMUNICATION_FIGURE",
+__all__ = ["AGAINST_NOISE", "COMMUNICATION_BASELINE", "COMMUNICATION_BUDGET", "COMMUNICATION_CLAIM",
+           "COMMUNICATION_FIGURE",
            "COMMUNICATION_METRICS", "COMMUNICATION_STATEMENTS", "DENSER_BUDGET", "FAST_LANES_R", "LANE_SIDE_LEVEL",
            "LANES_BASELINE", "LANES_BUDGET", "LANES_CURVE_EXTRA", "LANES_FIGURE", "LANES_METRICS",
            "LANES_NOISE_METRICS",
@@ -55,7 +56,12 @@ COMMUNICATION_BUDGET = ("12 cars at LiDAR noise 0, 0.5 and 0.75, entropy 1e-4, 1
 # every turn-signal section's figure and statements: the trend with noise, then whether the
 # listeners rely on the message at each noise level
 COMMUNICATION_FIGURE = against_noise_figure(AGAINST_NOISE)
+# drivers whose bit says nothing (random bits; full throttle always sends 0) on the trials' own episodes
+COMMUNICATION_BASELINE = scripted_baselines(
+    "real-junction-v0", tuple(m for m, _ in AGAINST_NOISE[:2]),
+    (("full-throttle", "full-throttle", "axis"), ("random", "random", "axis")), overrides=(("communication", True),))
 COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
+                            scripted_baseline_statement(AGAINST_NOISE[:2], claimed=False),
                             above_statement(SUCCESS_LOST_UNHEARD, "success lost with messages unheard",
                                             "the listeners rely on the message", "success rises without the message",
                                             level=0.0, level_text="zero",
@@ -143,7 +149,8 @@ def turn_signals_12_cars(key: str, title: str, match: tuple[tuple[str, str], ...
     figure and statements, the paper's budget; ``extra``: other :class:`Section` fields (headlines)."""
     return Section(key, title, "real-junction", (("communication", "true"), ("num_cars", "12"), *match),
                    COMMUNICATION_METRICS, COMMUNICATION_CLAIM, command, setting=setting, figure=COMMUNICATION_FIGURE,
-                   statements=COMMUNICATION_STATEMENTS, paper_budget=COMMUNICATION_BUDGET, **extra)
+                   statements=COMMUNICATION_STATEMENTS, baseline=COMMUNICATION_BASELINE,
+                   paper_budget=COMMUNICATION_BUDGET, **extra)
 
 
 # the right-of-way rules (FIFO order and safe distance at a real junction): columns, the paper's

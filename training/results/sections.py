@@ -16,7 +16,8 @@ from training.results.data import (Baseline, Group, PaperValue, light_blind_rate
                                    scripted_baselines)
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
-from training.results.rule_parts import (COMMUNICATION_BUDGET, COMMUNICATION_CLAIM, COMMUNICATION_FIGURE,
+from training.results.rule_parts import (COMMUNICATION_BASELINE, COMMUNICATION_BUDGET, COMMUNICATION_CLAIM,
+                                         COMMUNICATION_FIGURE,
                                          COMMUNICATION_METRICS, COMMUNICATION_STATEMENTS, DENSER_BUDGET,
                                          DENSER_JOINT_STEPS, FAST_LANES_R,
                                          LANES_BASELINE, LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
@@ -258,7 +259,7 @@ SECTIONS: tuple[Section, ...] = (
                     "success on the same report episodes with every message replaced by silence, so above "
                     "zero where the listeners rely on the message.",
             figure=COMMUNICATION_FIGURE,
-            statements=COMMUNICATION_STATEMENTS,
+            statements=COMMUNICATION_STATEMENTS, baseline=COMMUNICATION_BASELINE,
             shipped="real_junction_comm_8cars/noise05",
             paper_budget=COMMUNICATION_BUDGET,
             headlines=tuple(Headline("turn signals (communication)",
