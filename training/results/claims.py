@@ -94,7 +94,9 @@ def _budget(result: SectionResult) -> str:
 
 # "lanes with 8 cars, none with 4": whether each car count keeps to one side (both lanes sections)
 LANES_READINGS = (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep to one side"),
-                  Reading(r"- one-sided offset \(num_cars=4\b", "the cars drive on the axis or on both sides"))
+                  Reading(r"- one-sided offset \(num_cars=4\b", "the cars drive on the axis or on both sides"),
+                  # beside it: each car count against drivers with no lane rule on random paths
+                  Reading(r"- one-sided offset against scripted drivers ", "learnt", decides=False))
 
 CLAIMS: tuple[Claim, ...] = (
     Claim("With more LiDAR noise, fewer cars enter on red", ("traffic-lights-paper",),
@@ -115,7 +117,9 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("Turn signals: speaker consistency and |Pearson(heading change, bit)| rise with LiDAR noise",
           ("communication-paper-32M", "communication-paper-16M", "communication-paper"),
           (Reading(r"- speaker consistency \(bits\): noise "),
-           Reading(r"- \|Pearson\(heading change, bit\)\|: noise ")),
+           Reading(r"- \|Pearson\(heading change, bit\)\|: noise "),
+           # beside it: whether the bit says anything at each level, against bits that say nothing
+           Reading(r"- speaker consistency \(bits\) against scripted drivers ", "learnt", decides=False)),
           "communication.speaker_consistency_bits", "speaker consistency"),
     # every leader counts (wrecks too: collided cars stay on the road in the paper's code as in
     # ours), the reading the verdict uses; leaders that move are the other reading, shown beside it
