@@ -202,12 +202,33 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
         assert r["agent_steps"] > 0 and r["agent_steps_per_s"] > 0
         assert abs(r["env_share"] + r["inference_share"] + r["update_share"] - 1.0) < 0.05
         assert r["update_gflop"] > 0 and r["update_gflops"] > 0 and r["matmul_gflops"] > 0 and r["bound_gflops"] > 0
+        # the limit row: the same vector env, random actions, no learner, as many steps
+        assert r["steps"] > 0 and r["limit_agent_steps_per_s"] > 0
+        parts_ms = r["env_ms"] + r["inference_ms"] + r["update_ms"]
+        assert abs(parts_ms * r["steps"] / 1000.0 - r["seconds"]) < 0.05 * r["seconds"]
     assert "| update GFLOP/s | matmul GFLOP/s |" in printed and "| encoders free: GFLOP/s |" in printed
+    assert "| limit: random actions, no learner | of limit |" in printed
     with pytest.raises(SystemExit):  # never replaces a table
         bench(["--train", "--json", str(out)])
     if resolve_device("auto") == "cpu":
         with pytest.raises(SystemExit):  # cuda asked for where torch sees no GPU: a usage error
             bench(["--train", "--devices", "cuda"])
+
+
+def test_the_limit_row_counts_live_agent_steps_of_the_same_env(monkeypatch):
+    import training.trainers.bench_train as bt
+    from training.trainers.trainer import TrainConfig
+
+    cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": 2}, n_envs=2, num_cpus=0)
+    calls, real = [], bt.make_vec_env
+
+    def counting(config):  # the limit row builds the env of the config it measures
+        venv = real(config)
+        calls.append((config.n_envs, config.num_cpus, venv.num_envs))
+        return venv
+    monkeypatch.setattr(bt, "make_vec_env", counting)
+    assert bt.limit_rate(cfg, 2, 20) > 0
+    assert calls == [(2, 0, 4)]  # 2 instances of 2 car slots
 
 
 def test_world_benchmark_prints_its_table_and_the_machine(tmp_path, capsys):

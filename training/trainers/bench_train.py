@@ -13,6 +13,13 @@ timed ones, and splits the timed wall clock into:
 * ``inference``: the rest of the rollout (the policy's forward pass, the rollout buffer, callbacks);
 * ``update``: PPO's epochs over the batch.
 
+Each row also gives those three as milliseconds per step of the vector env (one step: every
+instance one decision), and a **limit**: the same vector env (same instances, same worker
+processes) stepped for as many steps with uniform random actions and no learner at all, after an
+untimed warm-up of as many steps as the warm-up updates took. The limit is what the env side
+delivers on that machine; training throughput over the limit is the share of it the learner lets
+through (the rest is the forward pass and the update, during which the env side waits).
+
 After the timed updates each row runs PPO's epochs once more on the last batch, timed alone, and
 once under ``torch.utils.flop_counter.FlopCounterMode`` to count the floating-point operations of
 the update's matrix products and convolutions (forward and backward; element-wise operations are
@@ -69,6 +76,9 @@ class TrainBenchRow:
         update_gflops: that work over the update's own time (GFLOP/s).
         bound_gflops: the same work over the time with the encoders replaced by free stand-ins.
         matmul_gflops: a plain product of the update's widest layer, same device and threads.
+        steps: vector-env steps in the timed updates (every instance one decision each).
+        env_ms, inference_ms, update_ms: the three parts per vector-env step (ms).
+        limit_agent_steps_per_s: the same vector env stepped with random actions, no learner.
     """
 
     num_cpus: int
@@ -85,6 +95,11 @@ class TrainBenchRow:
     update_gflops: float
     bound_gflops: float
     matmul_gflops: float
+    steps: int = 0
+    env_ms: float = 0.0
+    inference_ms: float = 0.0
+    update_ms: float = 0.0
+    limit_agent_steps_per_s: float = 0.0
 
 
 class _Clock(BaseCallback):
@@ -97,6 +112,7 @@ class _Clock(BaseCallback):
         self.t_start: Optional[float] = None
         self.rollout_s = 0.0
         self.agent_steps = 0
+        self.steps = 0  # vector-env steps timed
         self._t = 0.0
 
     @property
@@ -112,6 +128,7 @@ class _Clock(BaseCallback):
     def _on_step(self) -> bool:
         if self.timing:
             self.agent_steps += sum(1 for info in self.locals["infos"] if info)
+            self.steps += 1
         return True
 
     def _on_rollout_end(self) -> None:
@@ -184,8 +201,32 @@ def matmul_gflops(rows: int, width: int, device: str, repeats: int = 50) -> floa
     return best
 
 
+def limit_rate(config: TrainConfig, warmup_steps: int, steps: int) -> float:
+    """Live agent-steps per second of ``config``'s vector env (its instances, its worker processes)
+    stepped ``steps`` times with uniform random actions and no learner, after ``warmup_steps``
+    untimed ones: what the env side delivers without training."""
+    import numpy as np
+
+    venv = make_vec_env(config)
+    try:
+        venv.seed(config.seed)
+        venv.reset()
+        rng = np.random.default_rng(config.seed)
+        n = int(venv.action_space.n)
+        for _ in range(warmup_steps):
+            venv.step(rng.integers(n, size=venv.num_envs))
+        live = 0
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            live += sum(1 for info in venv.step(rng.integers(n, size=venv.num_envs))[3] if info)
+        return live / (time.perf_counter() - t0)
+    finally:
+        venv.close()
+
+
 def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
-    """Train ``warmup + updates`` PPO updates of ``config`` and time the last ``updates``."""
+    """Train ``warmup + updates`` PPO updates of ``config`` and time the last ``updates``; then
+    the limit row: the same vector env with random actions and no learner, as many steps."""
     th.set_num_threads(torch_threads(config))
     venv = make_vec_env(config)
     try:
@@ -202,17 +243,23 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
             model.learn(per_update * (warmup + updates), callback=clock)
             wall = time.perf_counter() - clock.t_start
             flops, update_s, bound_s = update_flops(model)
+            n_steps = model.n_steps
     finally:
         venv.close()
     env_s = venv.env_wait_s
+    inference_s, learn_s = max(0.0, clock.rollout_s - env_s), max(0.0, wall - clock.rollout_s)
+    per_step = 1000.0 / max(1, clock.steps)
+    limit = limit_rate(config, n_steps * warmup, clock.steps)
     return TrainBenchRow(
         num_cpus=config.num_cpus, worker_processes=venv.worker_processes, device=resolve_device(config.device),
         threads=torch_threads(config),
         agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
-        env_share=env_s / wall, inference_share=max(0.0, clock.rollout_s - env_s) / wall,
-        update_share=max(0.0, wall - clock.rollout_s) / wall, update_gflop=flops / 1e9,
+        env_share=env_s / wall, inference_share=inference_s / wall,
+        update_share=learn_s / wall, update_gflop=flops / 1e9,
         update_gflops=flops / update_s / 1e9, bound_gflops=flops / bound_s / 1e9,
-        matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)))
+        matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)),
+        steps=clock.steps, env_ms=env_s * per_step, inference_ms=inference_s * per_step,
+        update_ms=learn_s * per_step, limit_agent_steps_per_s=limit)
 
 
 def worker_counts(cores: int) -> list[int]:
@@ -241,13 +288,17 @@ def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
 
 def format_table(rows: list[TrainBenchRow]) -> str:
     """The markdown table ``bench --train`` prints, one row per measured setting."""
-    lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | env | inference | update "
+    lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | limit: random actions, "
+             "no learner | of limit | env | inference | update | ms per env step: env / inference / update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         workers = f"{r.worker_processes}" + ("" if r.worker_processes == r.num_cpus else f" (of {r.num_cpus} asked)")
+        of_limit = f"{r.agent_steps_per_s / r.limit_agent_steps_per_s:.0%}" if r.limit_agent_steps_per_s else "n/a"
         lines.append(f"| {workers} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
+                     f"{r.limit_agent_steps_per_s:,.0f} | {of_limit} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
+                     f"{r.env_ms:.2f} / {r.inference_ms:.2f} / {r.update_ms:.2f} | "
                      f"{r.update_gflop:.1f} | {r.update_gflops:.1f} | {r.matmul_gflops:.0f} | "
                      f"{r.update_gflops / r.matmul_gflops:.0%} | {r.bound_gflops:.1f} | "
                      f"{r.bound_gflops / r.matmul_gflops:.0%} |")
@@ -301,7 +352,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 row = bench_row(cfg, args.warmup, args.updates)
                 rows.append(row)
                 print(f"  workers {row.worker_processes:>2}, {device}, {row.threads} threads: "
-                      f"{row.agent_steps_per_s:,.0f} agent-steps/s", flush=True)
+                      f"{row.agent_steps_per_s:,.0f} agent-steps/s (limit {row.limit_agent_steps_per_s:,.0f})",
+                      flush=True)
     print()
     print(format_table(rows))
     gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"
