@@ -141,3 +141,34 @@ def test_actor_is_blind_to_the_team_block():
     z = x.clone()
     z[:, lay.own] += 0.5
     assert not th.allclose(net.forward_actor(z), a)
+
+
+def test_the_lean_rollout_forward_is_sb3s_bit_for_bit():
+    """The rollout forward pass without distribution objects gives SB3's actions, values and
+    log-probabilities exactly, drawing the same random numbers (so rollouts, and the weights
+    trained on them, do not change); with gradients on it is SB3's own path."""
+    from stable_baselines3.common.utils import obs_as_tensor
+
+    from training.trainers.trainer import TrainConfig, build_model, make_vec_env
+
+    cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": 3, "lidar_noise": 0.5}, n_envs=4,
+                      num_cpus=0)
+    venv = make_vec_env(cfg)
+    try:
+        policy = build_model(cfg, venv).policy
+        venv.seed(0)
+        obs = obs_as_tensor(venv.reset(), policy.device)
+        for deterministic in (False, True):
+            got = []
+            for lean in (True, False):
+                policy.lean_rollouts = lean
+                th.manual_seed(11)
+                with th.no_grad():
+                    got.append(policy(obs, deterministic=deterministic) + (th.rand(3),))  # then the RNG's state
+            for a, b in zip(*got):
+                assert a.dtype == b.dtype and a.shape == b.shape and th.equal(a, b)
+        policy.lean_rollouts = True
+        actions, values, log_prob = policy(obs)  # gradients on: SB3's path, differentiable
+        assert values.requires_grad and log_prob.requires_grad
+    finally:
+        venv.close()
