@@ -57,6 +57,7 @@ class Claim:
     readings: tuple[Reading, ...]
     curve: str
     curve_label: str
+    arbiter: bool = False  # run by the paper's own trainer too (training/results/arbiter.py)
 
 
 @dataclass
@@ -102,7 +103,7 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("With more LiDAR noise, fewer cars enter on red", ("traffic-lights-paper",),
           (Reading(r"- 4 cars, red-light violations: "),
            Reading(r"- red-light violations against scripted drivers ", decides=False)),
-          "red_light_violation_rate", "red-light violations"),
+          "red_light_violation_rate", "red-light violations", arbiter=True),
     Claim("With more cars, fewer cars enter on red", ("denser-traffic-paper",),
           (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
     Claim("Lanes with 8 cars, none with 4", ("lanes-paper-16M", "lanes-noise", "lanes-paper"),
@@ -254,9 +255,16 @@ def with_holm(rows: list[list[str]]) -> list[list[str]]:
     return out
 
 
-def claims_table(found: dict[str, SectionResult]) -> list[str]:
+# the last column where the paper's own trainer has not run a claim
+NOT_RUN_THERE = "not run there yet"
+
+
+def claims_table(found: dict[str, SectionResult], arbiter: str = NOT_RUN_THERE) -> list[str]:
     """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry, every p-value
-    with its Holm-adjusted value beside it (:func:`with_holm`)."""
-    header = ["the paper's claim", "the paper's run", "our largest run so far", "now", "what decides it"]
-    return [row(header), separator(len(header)), *(row(cells) for cells in with_holm([claim_row(c, found)
-                                                                                      for c in CLAIMS]))]
+    with its Holm-adjusted value beside it (:func:`with_holm`); the last column, ``arbiter``
+    (the original trainer's cell) for the claims it runs."""
+    header = ["the paper's claim", "the paper's run", "our largest run so far", "now", "what decides it",
+              "the paper's own code, in its world"]
+    rows = with_holm([claim_row(c, found) for c in CLAIMS])
+    return [row(header), separator(len(header)),
+            *(row(cells + [arbiter if c.arbiter else NOT_RUN_THERE]) for c, cells in zip(CLAIMS, rows))]

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Optional
 
 from training.common.markdown import row, separator
+from training.results.arbiter import ORIGINAL_RUNS, arbiter_cell, arbiter_section, load_original_runs
 from training.results.claims import SectionResult, claims_table
 from training.results.matching import grid_order, joined_groups, reference, section_summaries
 from training.results.readme import README_START, readme_table, readme_text, update_readme
@@ -74,11 +75,13 @@ def _estimate_cell(e: Estimate, seeds: Optional[list[int]] = None, planned: Opti
 ADDED_MARK = "†"  # not "*": Markdown would read pairs of them as emphasis
 
 
-def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: bool = False) -> str:
+def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: bool = False,
+               original: Path = ORIGINAL_RUNS) -> str:
     """Write the page to ``out`` (a table of where it stands on the paper's claims, then a section
-    per rule) and its figures into ``figures``; returns the page text. With
-    ``gifs``, (re)draw each section's animation of its shipped policy first (needs the checkpoints;
-    without, existing animations are linked)."""
+    per rule, then the original trainer's runs carried in ``original``) and its figures into
+    ``figures``; returns the page text. With ``gifs``, (re)draw each section's animation of its
+    shipped policy first (needs the checkpoints; without, existing animations are linked)."""
+    runs = load_original_runs(original) if Path(original).is_dir() else []
     figures.mkdir(parents=True, exist_ok=True)
     rel = Path(_relative(figures, out.parent))
     parts = _page_intro()
@@ -99,7 +102,8 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
                   "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
-    parts[intro:intro] = _claims_part(found_sections)
+    parts += arbiter_section(runs)
+    parts[intro:intro] = _claims_part(found_sections, arbiter_cell(runs))
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
@@ -206,7 +210,7 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     return parts, result
 
 
-def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
+def _claims_part(found_sections: dict[str, SectionResult], arbiter: str) -> list[str]:
     """The table of where the page stands on each of the paper's claims, with how to read it."""
     return ["## Where the page stands on the paper's claims", "",
             "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
@@ -226,8 +230,10 @@ def _claims_part(found_sections: dict[str, SectionResult]) -> list[str]:
             "95 % intervals, which are not adjusted). And whether the claim's measure had stopped moving by the "
             "end of training "
             "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
-            "noisy to tell, how many seeds with curves the observed spread would need to settle it.", "",
-            *claims_table(found_sections), ""]
+            "noisy to tell, how many seeds with curves the observed spread would need to settle it. The last column: "
+            "what the paper's own trainer, run on the paper's own command in its own world, says (so far only the "
+            "noise claim has been run there).", "",
+            *claims_table(found_sections, arbiter), ""]
 
 
 def _relative(target: Path, start: Path) -> str:

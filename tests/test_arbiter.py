@@ -1,0 +1,82 @@
+"""The original trainer's runs on the results page (``training/results/arbiter.py``): read from
+their carried folders, and the noise claim decided by the page's one rule only from finished,
+evaluated runs with two or more seeds at both ends."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from training.results.arbiter import arbiter_cell, arbiter_section, load_original_runs, noise_verdict
+from training.results.data import ResultsError
+
+COMMITTED = Path(__file__).resolve().parents[1] / "assets" / "original"
+
+
+def _run(folder: Path, noise: float, seed: int, violations: float | None, done: int | None = None) -> None:
+    epochs = 75 if noise < 1 else 50
+    here = folder / f"noise{noise}_seed{seed}"
+    here.mkdir(parents=True)
+    (here / "run.json").write_text(json.dumps({"seed": seed, "epochs": epochs, "env_kwargs": {"lidar_noise": noise}}))
+    done = epochs if done is None else done
+    (here / "state.json").write_text(json.dumps({"epochs_done": done, "joint_steps": done * 32000,
+                                                 "car_decisions": done * 126000}))
+    if violations is not None:
+        (here / "report.json").write_text(json.dumps({
+            "red_light_violation_rate": violations, "success_rate": 0.9, "collision_rate": 0.05, "epochs": done,
+            "intervals": {"red_light_violation_rate": {"half_width": 0.01}}}))
+
+
+def test_no_verdict_without_both_ends_and_two_paired_seeds(tmp_path):
+    _run(tmp_path, 0.25, 0, 0.02)
+    assert noise_verdict(load_original_runs(tmp_path))[0] == "not run yet"
+    _run(tmp_path, 1.0, 0, 0.01)
+    assert noise_verdict(load_original_runs(tmp_path))[0] == "no interval yet"
+    _run(tmp_path, 0.25, 1, 0.03)
+    _run(tmp_path, 1.0, 2, 0.00)  # seed 2 has no partner at 0.25: one paired seed still
+    assert noise_verdict(load_original_runs(tmp_path))[0] == "no interval yet"
+
+
+@pytest.mark.parametrize("low, high, verdict", [
+    ((0.10, 0.12, 0.11), (0.02, 0.03, 0.01), "reproduced"),
+    ((0.02, 0.03, 0.01), (0.10, 0.12, 0.11), "opposite"),
+    ((0.05, 0.10, 0.02), (0.09, 0.01, 0.06), "not detected"),
+])
+def test_the_paired_difference_decides_by_the_pages_rule(tmp_path, low, high, verdict):
+    for seed, (a, b) in enumerate(zip(low, high)):
+        _run(tmp_path, 0.25, seed, a)
+        _run(tmp_path, 1.0, seed, b)
+    got, words = noise_verdict(load_original_runs(tmp_path))
+    assert got == verdict and "paired by seed (3 seeds)" in words
+    if verdict == "not detected":
+        assert "the interval allows a fall of up to" in words
+
+
+def test_unfinished_or_unevaluated_runs_are_shown_but_do_not_count(tmp_path):
+    _run(tmp_path, 0.25, 0, 0.10)
+    _run(tmp_path, 0.25, 1, 0.12, done=64)  # stopped part-way: evaluated at epoch 64
+    _run(tmp_path, 1.0, 0, None)  # finished, not evaluated
+    _run(tmp_path, 1.0, 1, 0.02)
+    runs = load_original_runs(tmp_path)
+    assert [(r.lidar_noise, r.seed) for r in runs] == [(0.25, 0), (0.25, 1), (1.0, 0), (1.0, 1)]
+    assert noise_verdict(runs)[0] == "no interval yet"  # one seed (0 at 0.25, 1 at 1.0): unpaired
+    page = "\n".join(arbiter_section(runs))
+    assert "| `noise0.25_seed1` | 0.25 | 1 | 64 of 75 |" in page and "| 64 | 0.120 ± 0.010 |" in page
+    assert "| `noise1.0_seed0` | 1 | 0 | 50 of 50 |" in page and "not evaluated" in page
+    assert arbiter_cell(runs).startswith("**no interval yet** ([The paper's own code, in its own world]"
+                                         "(#the-papers-own-code-in-its-own-world))")
+
+
+def test_an_unreadable_run_names_its_folder(tmp_path):
+    _run(tmp_path, 0.25, 0, 0.1)
+    (tmp_path / "noise0.25_seed0" / "state.json").write_text("{")
+    with pytest.raises(ResultsError, match="noise0.25_seed0"):
+        load_original_runs(tmp_path)
+
+
+def test_the_committed_runs_read():
+    runs = load_original_runs(COMMITTED)
+    assert runs and all(r.epochs_done <= r.epochs for r in runs)
+    assert {r.lidar_noise for r in runs} <= {0.25, 1.0}

@@ -1,0 +1,131 @@
+"""The paper's own trainer in its own world, on the results page: the arbiter of the noise claim.
+
+``box2d-driving original train`` runs sdriving 0.1.0's trainer on the original command (its
+world, its update, its budget in epochs of 32,000 joint steps); the runs carried in
+``assets/original/<run>/`` are scored on report episodes by our metric code
+(``box2d-driving original evaluate --run assets/original/<run> --episodes 200 --out
+assets/original/<run>/report.json``). This module reads them and says what they say about the
+paper's claim that more LiDAR noise means fewer red-light violations: per run its numbers, per
+noise level the mean over seeds, and between the paper's two ends (0.25 and 1.0) the paired
+difference by seed with its 95 % interval, under the page's one verdict rule. No verdict from
+fewer than two seeds at each end.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Optional
+
+from training.common.markdown import anchor, row, separator
+from training.results.data import ResultsError
+from training.results.stats import mean_ci
+
+__all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "OriginalRun", "arbiter_cell", "arbiter_section", "load_original_runs"]
+
+ORIGINAL_RUNS = Path("assets/original")
+ARBITER_TITLE = "The paper's own code, in its own world"
+LOW, HIGH = 0.25, 1.0  # the paper's noise runs at the two ends (75 and 50 epochs)
+METRIC = "red_light_violation_rate"
+
+
+@dataclass(frozen=True)
+class OriginalRun:
+    """One carried run of the original trainer and its report-episode evaluation (None: not
+    evaluated yet)."""
+
+    name: str
+    lidar_noise: float
+    seed: int
+    epochs: int  # the original command's budget
+    epochs_done: int
+    joint_steps: int
+    car_decisions: int
+    report: Optional[dict[str, Any]]
+
+    @property
+    def evaluated_epochs(self) -> Optional[int]:
+        return None if self.report is None else self.report.get("epochs")
+
+
+def load_original_runs(folder: Path = ORIGINAL_RUNS) -> list[OriginalRun]:
+    """Every run folder in ``folder`` (a ``run.json`` and a ``state.json``), by noise then seed;
+    :class:`ResultsError` naming the file that cannot be read."""
+    runs = []
+    for run_json in sorted(Path(folder).glob("*/run.json")):
+        here = run_json.parent
+        try:
+            spec = json.loads(run_json.read_text())
+            state = json.loads((here / "state.json").read_text())
+            report_path = here / "report.json"
+            report = json.loads(report_path.read_text()) if report_path.exists() else None
+            runs.append(OriginalRun(here.name, float(spec["env_kwargs"]["lidar_noise"]), int(spec["seed"]),
+                                    int(spec["epochs"]), int(state["epochs_done"]), int(state["joint_steps"]),
+                                    int(state["car_decisions"]), report))
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ResultsError(f"{here}: not a readable original run ({exc})") from None
+    return sorted(runs, key=lambda r: (r.lidar_noise, r.seed))
+
+
+def _evaluated(runs: list[OriginalRun], noise: float) -> dict[int, float]:
+    """Seed -> violations of the runs at ``noise`` that finished their budget and were evaluated
+    at their last epoch."""
+    return {r.seed: float(r.report[METRIC]) for r in runs
+            if r.lidar_noise == noise and r.report is not None and r.epochs_done == r.epochs
+            and r.evaluated_epochs == r.epochs}
+
+
+def noise_verdict(runs: list[OriginalRun]) -> tuple[str, str]:
+    """(verdict, words) of the noise claim from the finished, evaluated runs: the difference high
+    minus low noise paired by seed (seeds run at both ends), under the page's rule; "not run yet"
+    or "no interval yet" with fewer than two such seeds."""
+    low, high = _evaluated(runs, LOW), _evaluated(runs, HIGH)
+    paired = sorted(set(low) & set(high))
+    ends = f"seeds finished and evaluated at noise {LOW:.2f}: {len(low)}, at noise {HIGH:.1f}: {len(high)}"
+    if not low or not high:
+        return "not run yet", f"{ends}; a verdict needs both ends"
+    if len(paired) < 2:
+        return "no interval yet", f"{ends}; an interval needs two seeds run at both ends"
+    diff = mean_ci([high[s] - low[s] for s in paired], bounds=(-1.0, 1.0))
+    words = (f"{ends}; paired by seed ({len(paired)} seeds), high minus low noise {diff.format()}")
+    if diff.high < 0:
+        return "reproduced", words + ": fewer violations with more noise, as in the paper"
+    if diff.low > 0:
+        return "opposite", words + ": more violations with more noise, unlike the paper"
+    return "not detected", words + f": no fall detected; the interval allows a fall of up to {-diff.low:.3f}"
+
+
+def arbiter_cell(runs: list[OriginalRun]) -> str:
+    """The claims table's cell for the noise claim: the verdict and what it rests on."""
+    verdict, words = noise_verdict(runs)
+    return f"**{verdict}** ([{ARBITER_TITLE}](#{anchor(ARBITER_TITLE)})): {words}"
+
+
+def arbiter_section(runs: list[OriginalRun]) -> list[str]:
+    """The page's section on the original trainer's runs: the table of runs and the verdict."""
+    parts = [f"## {ARBITER_TITLE}", "",
+             "sdriving 0.1.0's own trainer (`agents/ppo_distributed/ppo.py`, in one process: see "
+             "[paper_world.md](paper_world.md)) on the original command for each noise level (4 cars; 75 epochs of "
+             "32,000 joint steps at noise 0.25, 50 at noise 1.0; every car decides at every step and an arrived "
+             "car stays), run by `box2d-driving original train` and carried in `assets/original/`. Each run's "
+             "actor at its last epoch drives the original world on 200 report episodes, scored by our metric code "
+             "(`box2d-driving original evaluate`); rates with their 95 % interval over those episodes (episodes as "
+             "clusters). Only runs that finished their budget count towards the verdict.", ""]
+    if not runs:
+        return parts + ["No run carried yet.", ""]
+    header = ["run", "LiDAR noise", "seed", "epochs done", "joint steps", "car-decisions", "evaluated at epoch",
+              "red-light violations", "success", "collisions"]
+    parts += [row(header), separator(len(header))]
+    for r in runs:
+        rates = ["not evaluated"] * 3
+        if r.report is not None:
+            half = {k: v.get("half_width") for k, v in (r.report.get("intervals") or {}).items()}
+            rates = [f"{r.report[k]:.3f}" + (f" ± {half[k]:.3f}" if half.get(k) is not None else "")
+                     for k in (METRIC, "success_rate", "collision_rate")]
+        parts.append(row([f"`{r.name}`", f"{r.lidar_noise:g}", str(r.seed), f"{r.epochs_done} of {r.epochs}",
+                          f"{r.joint_steps:,}", f"{r.car_decisions:,}",
+                          "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *rates]))
+    verdict, words = noise_verdict(runs)
+    parts += ["", f"**The noise claim, by the paper's own code: {verdict}.** {words}.", ""]
+    return parts
