@@ -229,3 +229,17 @@ def test_the_page_section_is_replaced_whole_and_only_it(tmp_path):
     with pytest.raises(ValueError, match="no single section"):
         write_section(page, "default", "x")
     assert "| new |" in page.read_text()  # a refused write leaves the page as it was
+
+
+def test_a_finished_run_carried_without_its_full_weights_is_scored_from_its_last_actor(tmp_path):
+    from training.original.cli import latest_weights
+
+    run = tmp_path / "run"
+    (run / "actors").mkdir(parents=True)
+    (run / "state.json").write_text(json.dumps({"epochs_done": 75}))
+    (run / "weights.safetensors").write_bytes(b"x")
+    assert latest_weights(run) == run / "weights.safetensors"  # resumable: its full weights
+    (run / "weights.safetensors").unlink()
+    assert latest_weights(run) == run / "actors" / "epoch_0075.safetensors"
+    (run / "state.json").write_text("{")  # unreadable: the full weights asked for, reported missing
+    assert latest_weights(run) == run / "weights.safetensors"

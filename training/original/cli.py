@@ -130,14 +130,28 @@ def score_table(table: dict) -> dict:
     return metrics
 
 
+def latest_weights(run: Path) -> Path:
+    """The weights of a run's last epoch: ``weights.safetensors`` (actor, critic and optimiser
+    state, kept while the run can be resumed), else, for a finished run carried without it, the
+    actor kept after its last epoch (``actors/epoch_NNNN.safetensors``, NNNN from ``state.json``)."""
+    full = run / "weights.safetensors"
+    if full.is_file() or not (run / "state.json").is_file():
+        return full
+    try:
+        done = int(json.loads((run / "state.json").read_text())["epochs_done"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return full
+    return run / "actors" / f"epoch_{done:04d}.safetensors"
+
+
 def _evaluate(args) -> int:
     from box2d_driving.metrics.rollouts import load_table
 
     table_path = args.out.with_suffix(".npz")
     try:
         check_report_episodes(args.episodes, args.first_seed)
-        weights = (args.run / "weights.safetensors" if args.epoch is None
-                   else args.run / "actors" / f"epoch_{args.epoch:04d}.safetensors")
+        weights = latest_weights(args.run) if args.epoch is None else \
+            args.run / "actors" / f"epoch_{args.epoch:04d}.safetensors"
         for path in (args.run / "run.json", weights):
             if not path.is_file():
                 raise OriginalError(f"--run {args.run}: {path.relative_to(args.run)} is missing")
@@ -153,11 +167,12 @@ def _evaluate(args) -> int:
                     "--first-seed", str(args.first_seed), "--out", str(table_path)], check=True,
                    stderr=subprocess.DEVNULL)
     state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
+    latest = args.epoch is None
     metrics = score_table(load_table(table_path))
     metrics.update(episodes=args.episodes, first_seed=args.first_seed, run=str(args.run),
-                   epochs=state.get("epochs_done") if args.epoch is None else args.epoch,
-                   weights=str(weights), joint_steps=state.get("joint_steps") if args.epoch is None else None,
-                   car_decisions=state.get("car_decisions") if args.epoch is None else None)
+                   epochs=state.get("epochs_done") if latest else args.epoch,
+                   weights=str(weights), joint_steps=state.get("joint_steps") if latest else None,
+                   car_decisions=state.get("car_decisions") if latest else None)
     tmp = args.out.with_name(args.out.name + ".partial")
     tmp.write_text(json.dumps(metrics, indent=1, default=float) + "\n")
     os.replace(tmp, args.out)
