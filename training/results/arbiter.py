@@ -127,5 +127,5 @@ def arbiter_section(runs: list[OriginalRun]) -> list[str]:
                           f"{r.joint_steps:,}", f"{r.car_decisions:,}",
                           "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *rates]))
     verdict, words = noise_verdict(runs)
-    parts += ["", f"**The noise claim, by the paper's own code: {verdict}.** {words}.", ""]
+    parts += ["", f"**The noise claim, by the paper's own code: {verdict}.** {words[:1].upper()}{words[1:]}.", ""]
     return parts
