@@ -111,7 +111,7 @@ def page(table: str, argv: list[str]) -> str:
     command = " ".join(["box2d-driving check-shipped", *argv])
     return ("# Shipped policies on fresh episodes\n\n"
             "Written by `box2d-driving check-shipped`; do not edit by hand. Each shipped policy's report (the "
-            "numbers in the README's table of shipped policies) was measured on one block of report episode "
+            "numbers in the table of [the shipped policies](policies.md)) was measured on one block of report episode "
             "seeds. Here each policy drives another block of report seeds, as many episodes, and each reported "
             "rate is set against the fresh one. The interval is 95 % with episodes as clusters (the cars of one "
             "episode share its traffic, so they are not independent draws); `z` is the difference of the two "
