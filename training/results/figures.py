@@ -189,6 +189,13 @@ def against_noise_figure(panels: tuple[tuple[Metric, str], ...]) -> Figure:
             for x, e in zip(xs, est):
                 ax.scatter([x] * len(e.values), e.values, color="black", s=10, alpha=0.6, zorder=3)
             ax.axhline(0.0, color="grey", lw=0.8, zorder=1)  # where "above zero" is the question, zero is drawn
+            # scripted drivers on the same report episodes (a baseline keyed DRIVER/METRIC), as lines
+            drawn = sorted((k.split("/", 1)[0], v) for k, (v, _) in baseline.items()
+                           if k.split("/", 1)[1] == str(metric) and np.isfinite(v))
+            for (driver, value), style in zip(drawn, ("--", ":", "-.")):
+                ax.axhline(value, color="tab:red", ls=style, lw=1.2, label=driver)
+            if drawn:
+                ax.legend(fontsize=7, title="scripted drivers", title_fontsize=7)
             ax.set_xlabel("LiDAR noise (share of rays dropped)")
             ax.set_ylabel(label)
             ax.set_xticks(xs)
