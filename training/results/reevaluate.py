@@ -56,7 +56,7 @@ class ReevaluateResult:
         return out
 
 
-def _fixed_columns(row: dict[str, Any], grid: dict[str, Any]) -> set[str]:
+def _fixed_columns(grid: dict[str, Any]) -> set[str]:
     """The columns of a row that say which trial it is and how it trained (kept as they are)."""
     from training.sweeps.summary import SUMMARY_FIXED
 
@@ -65,7 +65,7 @@ def _fixed_columns(row: dict[str, Any], grid: dict[str, Any]) -> set[str]:
 
 def report_columns_of(row: dict[str, Any], grid: dict[str, Any]) -> dict[str, Any]:
     """A summary row's report columns (what its evaluation measured; the figures' counts aside)."""
-    fixed = _fixed_columns(row, grid) | {"figures"}
+    fixed = _fixed_columns(grid) | {"figures"}
     return {k: v for k, v in row.items() if k not in fixed}
 
 
@@ -144,7 +144,7 @@ def reevaluate_summary(summary_path: Path, log: Callable[[str], None] = print,
         except (CheckpointError, OSError, ValueError, KeyError) as exc:
             raise ResultsError(f"{kept}: the kept weights of trial {row['trial']} could not be re-evaluated "
                                f"({exc}); {path.name} is unchanged") from None
-        fixed = _fixed_columns(row, grid)
+        fixed = _fixed_columns(grid)
         old = report_columns_of(row, grid)
         new_columns = {k: v for k, v in fresh.items() if k not in fixed and k != "figures"}
         changed = [k for k in new_columns if k in old and k not in NOT_MEASURES and not _same(old[k], new_columns[k])]
