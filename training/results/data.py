@@ -393,22 +393,28 @@ def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Base
 
 
 @functools.lru_cache(maxsize=None)
-def scripted_violation_rate(driver: str, num_cars: int, first_seed: int, episodes: int) -> float:
+def scripted_violation_rate(driver: str, num_cars: int, first_seed: int, episodes: int,
+                            preset: Optional[str] = None) -> float:
     """The red-light violation rate of a scripted driver that knows no rule (``full-throttle``,
-    ``random``) on the given report episodes of ``intersection-v0`` with ``num_cars`` cars (LiDAR
-    noise does not matter to either: neither reads the LiDAR)."""
+    ``random``) on the given report episodes of ``intersection-v0`` with ``num_cars`` cars, in the
+    world of ``preset`` (None: our defaults; LiDAR noise does not matter to either driver: neither
+    reads the LiDAR)."""
     from box2d_driving.metrics.lights import traffic_light_metrics
 
-    table, _ = scripted_table("intersection-v0", driver, first_seed, episodes, num_cars=num_cars)
+    world = {} if preset is None else {"preset": preset}
+    table, _ = scripted_table("intersection-v0", driver, first_seed, episodes, num_cars=num_cars, **world)
     return float(traffic_light_metrics(table)["red_light_violation_rate"])
 
 
 def lights_baselines(summary: dict[str, Any], groups: list[Group]) -> Baseline:
-    """The rule-free scripted drivers' red-light violation rates on the trials' report episodes,
-    keyed ``DRIVER/red_light_violation_rate`` (a section whose trials share one car count)."""
+    """The rule-free scripted drivers' red-light violation rates on the trials' report episodes, in
+    the trials' world (their sweep's ``preset``, if any), keyed ``DRIVER/red_light_violation_rate``
+    (a section whose trials share one car count)."""
     first, episodes = report_episodes(summary)
     n = _one_car_count(summary)
     if n is None:
         return {}
-    return {f"{driver}/red_light_violation_rate": (scripted_violation_rate(driver, n, first, episodes), episodes)
+    preset = summary["sweep"].get("fixed", {}).get("preset")
+    return {f"{driver}/red_light_violation_rate": (scripted_violation_rate(driver, n, first, episodes, preset),
+                                                   episodes)
             for driver in SCRIPTED_BASELINES}

@@ -36,7 +36,8 @@ def joined_groups(section: Section, summaries: list[dict[str, Any]], summary: di
     """The grid points ``section.joins`` adds to ``summary`` (one of ``section``'s): the joined
     section's trials, their fixed value of the joined option added to their point. Only summaries
     of the same settings join: the same budget and fixed options but the joined one, and a grid of
-    the same keys less that option. Also returns those summaries' paths."""
+    the same keys less that option (options in ``section.joins_differ`` may differ). Also returns
+    those summaries' paths."""
     if section.joins is None:
         return [], []
     key, option = section.joins
@@ -45,10 +46,11 @@ def joined_groups(section: Section, summaries: list[dict[str, Any]], summary: di
     groups, paths = [], []
     for theirs in section_summaries(other, summaries):
         sweep = theirs["sweep"]
-        fixed = dict(sweep.get("fixed", {}))
+        fixed = {k: v for k, v in sweep.get("fixed", {}).items() if k not in section.joins_differ}
         value = fixed.pop(option, None)
+        ours = {k: v for k, v in mine.get("fixed", {}).items() if k not in section.joins_differ}
         if value is None or sorted([*theirs["grid"], option]) != sorted(summary["grid"]) or \
-                fixed != mine.get("fixed", {}) or sweep.get("timesteps") != mine.get("timesteps"):
+                fixed != ours or sweep.get("timesteps") != mine.get("timesteps"):
             continue
         paths.append(theirs["path"])
         groups += [Group({**g.point, option: str(value)}, g.seeds, g.estimates, g.figures)

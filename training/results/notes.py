@@ -22,6 +22,9 @@ def trial_budget(sweep: dict[str, Any]) -> str:
         budget = " and ".join(f"the {unit} in the table's `{key}` column" for key, unit in in_grid)
     elif sweep.get("timesteps"):
         budget = f"{sweep['timesteps']:,} decisions"
+    elif sweep.get("fixed", {}).get("original_epochs"):
+        epochs = int(sweep["fixed"]["original_epochs"])
+        budget = f"{epochs} epochs of 32,000 joint steps ({epochs * 32_000 / 1e6:g} M joint steps)"
     elif sweep.get("fixed", {}).get("rounds"):
         budget = f"{sweep['fixed']['rounds']} bilevel rounds"
     else:

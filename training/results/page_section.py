@@ -78,6 +78,8 @@ class Section:
             varies): that section's trials join this section's table and statements as the grid
             points at their fixed value (e.g. a sweep at LiDAR noise 0 and 1.0 joined by the same
             settings' noise-0.5 trials, so the three levels are compared paired by seed). None: none.
+        joins_differ: options the joined sweeps may fix at other values than this section's (the
+            paper's budget per noise level: 75 epochs at noise 0.25-0.75, 50 at noise 1.0).
     """
 
     key: str
@@ -102,6 +104,7 @@ class Section:
     seeds_before_look: Optional[int] = None
     curve_extra: tuple[tuple[str, str], ...] = ()
     joins: Optional[tuple[str, str]] = None
+    joins_differ: tuple[str, ...] = ()
 
     @property
     def argv(self) -> list[str]:
