@@ -17,7 +17,7 @@ __version__ = "0.1.0"
 from box2d_driving.config import ConfigError, DrivingConfig
 from box2d_driving.envs.actions import ActionError
 from box2d_driving.registry import make, registry
-from box2d_driving.envs.single_agent import register_single_agent_envs
+from box2d_driving.single_agent import register_single_agent_envs
 
 register_single_agent_envs()  # gymnasium.make("box2d_driving/Intersection-v0") and the others
 

@@ -7,7 +7,7 @@ Keys: hold Up to accelerate and Down to brake (the largest and smallest of the l
 policies choose from), neither to hold your speed; 1-9 pick a level in between (1 = hardest
 braking); R restarts, Esc or closing the window quits. Each decision is one second of the world;
 ``--fps`` decisions are played per real second (default 2). The other cars are driven as in the
-single-agent Gymnasium envs (``box2d_driving/envs/single_agent.py``): by the scenario's shipped
+single-agent Gymnasium envs (``box2d_driving/single_agent.py``): by the scenario's shipped
 policy when it can be loaded, else by a scripted one, or by ``--policy``.
 """
 
@@ -20,7 +20,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from box2d_driving.envs.single_agent import SINGLE_AGENT_IDS, SingleAgentDrivingEnv
+from box2d_driving.single_agent import SINGLE_AGENT_IDS, SingleAgentDrivingEnv
 
 PLAYABLE = {env_id: (shipped, fallback) for env_id, shipped, fallback in SINGLE_AGENT_IDS.values()}
 

@@ -33,7 +33,10 @@ def _project_module(name: str):
 
 def imports_of(module: str) -> set[str]:
     """The project modules ``module`` imports anywhere in its file (also inside functions, and
-    string arguments of ``importlib.import_module``), leaving out its own parent packages."""
+    string arguments of ``importlib.import_module``), leaving out its own sub-packages (``from
+    box2d_driving.envs import base`` names a sibling, not the package's ``__init__``) but not its
+    root package: ``import box2d_driving`` runs the root's ``__init__``, which imports most of
+    the package, so a module the root's ``__init__`` reaches must not import it back."""
     found = set()
     for node in ast.walk(ast.parse(MODULES[module].read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
@@ -44,7 +47,7 @@ def imports_of(module: str) -> set[str]:
         elif isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", "")) == "import_module":
             found.update(_project_module(a.value) for a in node.args
                          if isinstance(a, ast.Constant) and isinstance(a.value, str))
-    return {m for m in found if m and m != module and not module.startswith(m + ".")}
+    return {m for m in found if m and m != module and ("." not in m or not module.startswith(m + "."))}
 
 
 GRAPH = {m: imports_of(m) for m in MODULES}

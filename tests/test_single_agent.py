@@ -9,8 +9,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import box2d_driving
-from box2d_driving.envs import single_agent
-from box2d_driving.envs.single_agent import EGO, SINGLE_AGENT_IDS
+from box2d_driving import single_agent
+from box2d_driving.single_agent import EGO, SINGLE_AGENT_IDS
 
 IDS = sorted(SINGLE_AGENT_IDS)
 

@@ -20,6 +20,7 @@ from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config
                                                     load_json_file, read_arrays, read_json)
 from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor, check_spline_hidden
 from box2d_driving.policies.shipped import is_policy_folder, shipped_policy
+from box2d_driving.registry import make
 
 
 class RunPolicy:
@@ -90,12 +91,10 @@ class RunPolicy:
         """A fresh env with the settings the policy was trained on (``extra`` overrides them).
         A rendering env draws the light value the policy stops on red (``render_stop_value``);
         a bilevel policy's env picks each car's path with its spline policy."""
-        import box2d_driving
-
         if extra.get("render_mode") is not None and "render_stop_value" not in extra \
                 and self.stop_value is not None:
             extra["render_stop_value"] = self.stop_value
-        env = box2d_driving.make(self.env_id, **{**self.env_overrides, **extra})
+        env = make(self.env_id, **{**self.env_overrides, **extra})
         if self.spline_policy is not None:
             env.spline_policy = self.choose_paths
         return env
@@ -129,10 +128,8 @@ class TrainedPolicy(RunPolicy):
 def run_env(config: dict, where: Path):
     """The env a run's ``config`` (env id and overrides) names, or :class:`CheckpointError`
     naming ``where`` the config came from."""
-    import box2d_driving
-
     try:
-        return box2d_driving.make(config["env_id"], **config["env_overrides"])
+        return make(config["env_id"], **config["env_overrides"])
     except (KeyError, TypeError, ValueError) as exc:
         raise CheckpointError(f"{where}: cannot rebuild the policy's env ({exc!r})") from None
 

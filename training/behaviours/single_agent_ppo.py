@@ -5,7 +5,7 @@
     python training/behaviours/single_agent_ppo.py --quick --out runs/single_quick
 
 No custom policy, no wrappers: ``PPO("MlpPolicy", gymnasium.make(ENV_ID))``. The other cars are
-driven by the scenario's shipped policy (see ``box2d_driving/envs/single_agent.py``). Writes
+driven by the scenario's shipped policy (see ``box2d_driving/single_agent.py``). Writes
 ``OUT/policy.safetensors`` (the SB3 policy's weights, a format that cannot run code),
 ``OUT/config.json`` and ``OUT/progress.csv``, then prints the learner's success over a few
 report episodes.

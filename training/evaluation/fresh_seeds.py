@@ -25,7 +25,7 @@ import sys
 from pathlib import Path
 from typing import Any, Optional
 
-from box2d_driving.envs.single_agent import SHIPPED
+from box2d_driving.single_agent import SHIPPED
 from box2d_driving.metrics.intervals import RATES, Z95, rate_intervals
 from box2d_driving.metrics.rollouts import run_episodes
 from training.common.cli_args import OneLineParser, error, prog_name

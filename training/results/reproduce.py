@@ -39,7 +39,7 @@ __all__ = ["SECTIONS", "Group", "PaperValue", "ResultsError", "Section", "budget
            "main", "ran_budget", "trial_budget", "write_gif", "write_page"]
 
 
-from box2d_driving.envs.single_agent import SHIPPED
+from box2d_driving.single_agent import SHIPPED
 
 LIGHTS = ("lights", "lanes", "real-junction")  # behaviours whose scenes have traffic lights
 SUMMARIES = Path("assets/sweeps")  # the committed summaries, one per rule (SECTION.summary_name.json)

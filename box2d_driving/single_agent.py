@@ -152,5 +152,5 @@ def register_single_agent_envs() -> None:
     """Register the ``box2d_driving/...`` Gymnasium ids (done on ``import box2d_driving``)."""
     for gym_id, (env_id, shipped, fallback) in SINGLE_AGENT_IDS.items():
         if gym_id not in gym.registry:
-            gym.register(id=gym_id, entry_point="box2d_driving.envs.single_agent:SingleAgentDrivingEnv",
+            gym.register(id=gym_id, entry_point="box2d_driving.single_agent:SingleAgentDrivingEnv",
                          kwargs={"env_id": env_id, "shipped": shipped, "fallback": fallback})
