@@ -76,13 +76,14 @@ class MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 if not any(isinstance(f, MovedModules) for f in sys.meta_path):
     sys.meta_path.append(MovedModules())
 
-__all__ = ["MOVED", "TrainedPolicy", "load_policy"]
+__all__ = ["MOVED", "TorchPolicy", "TrainedPolicy", "load_policy"]
 
 
 def __getattr__(name: str):
-    """``training.load_policy`` and ``training.TrainedPolicy``, imported on first use: importing
+    """``training.load_policy`` and ``training.TorchPolicy`` (``TrainedPolicy``, its earlier name), imported
+    on first use: importing
     a light sub-module (``training.common.seeds``) does not load torch."""
-    if name in ("TrainedPolicy", "load_policy"):
+    if name in ("TorchPolicy", "TrainedPolicy", "load_policy"):
         from training.runs import inference
 
         return getattr(inference, name)

@@ -8,9 +8,12 @@ decision its trajectory ends.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import TYPE_CHECKING, Any, Callable, Optional
 
 import numpy as np
+
+if TYPE_CHECKING:  # for the annotations only: nothing of the policies is imported at run time
+    from box2d_driving.policies.protocol import Policy
 
 COLUMNS = ("episode", "car", "decision", "x", "y", "heading", "speed", "acceleration", "light",
            "in_junction", "lane_offset", "distance_to_goal", "arrived", "collided", "reward",
@@ -108,7 +111,7 @@ def load_table(path: Path) -> dict[str, np.ndarray]:
         return {k: data[k] for k in data.files}
 
 
-def run_episodes(env: Any, policy: Any, episodes: int, seed: int = 0,
+def run_episodes(env: Any, policy: Policy, episodes: int, seed: int = 0,
                  recorder: Optional[RolloutRecorder] = None) -> dict[str, np.ndarray]:
     """Run ``episodes`` episodes with ``policy.act`` and return the rollout table."""
     recorder = recorder or RolloutRecorder()

@@ -1,9 +1,12 @@
-"""Policies that drive the cars of a ParallelEnv: ``policy.act(observations) -> actions``.
+"""Policies that drive the cars of a ParallelEnv: ``policy.act(observations) -> actions``
+(:class:`~box2d_driving.policies.protocol.Policy`).
 
 * :mod:`~box2d_driving.policies.scripted`: hand-written drivers (random, full throttle, the light
   rule, the privileged pedestrian oracle), references for every metric.
 * :mod:`~box2d_driving.policies.trained`: a trained checkpoint run with numpy alone
-  (:func:`load_trained`); :mod:`~box2d_driving.policies.numpy_actor` holds its networks and
+  (:func:`load_trained`, a :class:`NumpyPolicy`; the trainer's torch loader,
+  ``training.runs.inference.load_policy``, gives a ``TorchPolicy`` with the same actions);
+  :mod:`~box2d_driving.policies.numpy_actor` holds its networks and
   :mod:`~box2d_driving.policies.checkpoint_file` the safe file format.
 
 This package imports nothing from the trainer (``training``), so the base install runs the
@@ -13,7 +16,8 @@ shipped policies.
 from box2d_driving.policies.checkpoint_file import CheckpointError
 from box2d_driving.policies.scripted import (SCRIPTED, FullThrottlePolicy, LightRulePolicy,
                                              PedestrianOraclePolicy, RandomPolicy, make_policy)
-from box2d_driving.policies.trained import RunPolicy, TrainedPolicy, load_trained
+from box2d_driving.policies.protocol import Policy
+from box2d_driving.policies.trained import NumpyPolicy, RunPolicy, TrainedPolicy, load_trained
 
-__all__ = ["CheckpointError", "FullThrottlePolicy", "LightRulePolicy", "PedestrianOraclePolicy",
-           "RandomPolicy", "RunPolicy", "SCRIPTED", "TrainedPolicy", "load_trained", "make_policy"]
+__all__ = ["CheckpointError", "FullThrottlePolicy", "LightRulePolicy", "NumpyPolicy", "PedestrianOraclePolicy",
+           "Policy", "RandomPolicy", "RunPolicy", "SCRIPTED", "TrainedPolicy", "load_trained", "make_policy"]

@@ -10,6 +10,7 @@ however the package was installed. A name may be a nested folder
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Union
 
 from box2d_driving.policies.checkpoint_file import FILE
 
@@ -22,7 +23,8 @@ SHIPPED_POLICIES_DIR = _CHECKOUT_DIR if _CHECKOUT_DIR.is_dir() else _PACKAGED_DI
 INFERENCE_FILES = ("config.json", FILE, "eval/metrics.json", "README.md",
                    "accel/config.json", f"accel/{FILE}", f"spline/{FILE}")
 
-__all__ = ["INFERENCE_FILES", "SHIPPED_POLICIES_DIR", "is_policy_folder", "shipped_policies", "shipped_policy"]
+__all__ = ["INFERENCE_FILES", "SHIPPED_POLICIES_DIR", "is_policy_folder", "resolve_policy_path", "shipped_policies",
+           "shipped_policy"]
 
 
 def is_policy_folder(path: Path) -> bool:
@@ -47,3 +49,23 @@ def shipped_policy(name: str) -> Path:
     if name in shipped_policies():
         return SHIPPED_POLICIES_DIR / name
     raise KeyError(f"no shipped policy {name!r} (shipped: {', '.join(shipped_policies()) or 'none'})")
+
+
+def resolve_policy_path(path: Union[str, Path]) -> Path:
+    """Where the policy ``path`` names is, for both loaders (numpy and torch): ``path`` itself, or
+    the shipped policy of that name where no such path exists; a folder of several policies in
+    sub-folders is refused naming them (:class:`CheckpointError`)."""
+    from box2d_driving.policies.checkpoint_file import CheckpointError
+
+    path = Path(path)
+    if not path.exists() and len(path.parts) <= 2:
+        try:
+            path = shipped_policy(path.as_posix())
+        except KeyError:
+            pass
+    if path.is_dir() and not is_policy_folder(path):
+        inside = sorted(p.name for p in path.iterdir() if p.is_dir() and is_policy_folder(p))
+        if inside:
+            raise CheckpointError(f"{path} holds no policy of its own but {len(inside)} in sub-folders "
+                                  f"({', '.join(inside)}): load one of them, e.g. {path / inside[0]}")
+    return path

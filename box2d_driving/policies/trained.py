@@ -19,7 +19,7 @@ import numpy as np
 from box2d_driving.policies.checkpoint_file import (CheckpointError, find_config, is_bilevel_run,
                                                     load_json_file, read_arrays, read_json)
 from box2d_driving.policies.numpy_actor import DrivingActor, MlpActor, check_spline_hidden
-from box2d_driving.policies.shipped import is_policy_folder, shipped_policy
+from box2d_driving.policies.shipped import resolve_policy_path
 from box2d_driving.registry import make
 
 
@@ -100,11 +100,12 @@ class RunPolicy:
         return env
 
 
-class TrainedPolicy(RunPolicy):
-    """A trained actor run with numpy. ``act(observations)`` maps ``{agent: obs}`` to
-    ``{agent: action}``: the most likely action, or (``deterministic=False``) one drawn from the
-    policy's distribution with ``seed``'s generator. The actor reads only each car's own
-    observation; a bilevel run's ``spline_policy`` is an :class:`MlpActor`."""
+class NumpyPolicy(RunPolicy):
+    """A trained actor run with numpy (the base install's loader: :func:`load_trained`).
+    ``act(observations)`` maps ``{agent: obs}`` to ``{agent: action}``: the most likely action, or
+    (``deterministic=False``) one drawn from the policy's distribution with ``seed``'s generator.
+    The actor reads only each car's own observation; a bilevel run's ``spline_policy`` is an
+    :class:`MlpActor`."""
 
     def __init__(self, actor: DrivingActor, config: dict, run_dir: Path, deterministic: bool = True,
                  seed: Optional[int] = None) -> None:
@@ -125,6 +126,10 @@ class TrainedPolicy(RunPolicy):
         return self.spline_policy(obs0)
 
 
+# the numpy policy's name in earlier releases
+TrainedPolicy = NumpyPolicy
+
+
 def run_env(config: dict, where: Path):
     """The env a run's ``config`` (env id and overrides) names, or :class:`CheckpointError`
     naming ``where`` the config came from."""
@@ -135,14 +140,14 @@ def run_env(config: dict, where: Path):
 
 
 def load_trained(path: Union[str, Path], deterministic: bool = True,
-                 seed: Optional[int] = None) -> TrainedPolicy:
+                 seed: Optional[int] = None) -> NumpyPolicy:
     """Load a checkpoint: a run folder (``model.safetensors`` + ``config.json``), the
     ``.safetensors`` file itself, or a bilevel run folder with ``accel/`` and ``spline/``, whose
     envs then pick their paths with the spline policy. Raises :class:`CheckpointError` (a
     ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
     malformed. A shipped policy may be given by name (``"traffic_lights_4cars_noise05"``, see
     :func:`~box2d_driving.policies.shipped.shipped_policies`)."""
-    path = _resolve(path)
+    path = resolve_policy_path(path)
     if is_bilevel_run(path):
         policy = load_trained(path / "accel", deterministic, seed)
         policy.spline_policy = _spline_actor(path)
@@ -161,25 +166,7 @@ def load_trained(path: Union[str, Path], deterministic: bool = True,
     if actor.obs_dim != layout.size:
         raise CheckpointError(f"{file} reads {actor.obs_dim} observation values, {config_path}'s env "
                               f"gives {layout.size}: another scenario's checkpoint?")
-    return TrainedPolicy(actor, config, config_path.parent, deterministic, seed)
-
-
-def _resolve(path: Union[str, Path]) -> Path:
-    """``path`` itself, or the shipped policy of that name where no such path exists; a folder
-    of several policies in sub-folders is refused naming them."""
-    path = Path(path)
-    if not path.exists() and len(path.parts) <= 2:
-        try:
-            path = shipped_policy(path.as_posix())
-        except KeyError:
-            pass
-    if path.is_dir() and not is_policy_folder(path):
-        inside = sorted(p.name for p in path.iterdir() if p.is_dir() and is_policy_folder(p))
-        if inside:
-            raise CheckpointError(f"{path} holds no policy of its own but {len(inside)} in sub-folders "
-                                  f"({', '.join(inside)}): "
-                                  f"load one of them, e.g. {path / inside[0]}")
-    return path
+    return NumpyPolicy(actor, config, config_path.parent, deterministic, seed)
 
 
 def _spline_actor(run: Path) -> MlpActor:

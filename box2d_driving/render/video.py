@@ -5,7 +5,10 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional
+from typing import TYPE_CHECKING, Any, Optional
+
+if TYPE_CHECKING:  # for the annotations only: nothing of the policies is imported at run time
+    from box2d_driving.policies.protocol import Policy
 
 
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -33,7 +36,7 @@ def check_outputs(video: Optional[Path], frames_dir: Optional[Path], overwrite: 
         raise FileExistsError(f"{frames_dir} is not empty; pass --overwrite to write into it")
 
 
-def record(env: Any, policy: Any, episodes: int = 1, video: Optional[Path] = None,
+def record(env: Any, policy: Policy, episodes: int = 1, video: Optional[Path] = None,
            frames_dir: Optional[Path] = None, seed: Optional[int] = 0, fps: Optional[float] = None,
            overwrite: bool = False) -> Recording:
     """Run ``episodes`` episodes of ``env`` (``render_mode="rgb_array"``) with ``policy.act`` and

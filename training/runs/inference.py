@@ -14,10 +14,11 @@ import torch as th
 from box2d_driving.policies.checkpoint_file import find_config, is_bilevel_run, read_json
 from box2d_driving.policies.trained import RunPolicy, run_env
 from box2d_driving.policies.numpy_actor import check_spline_hidden
+from box2d_driving.policies.shipped import resolve_policy_path
 from training.runs.checkpoint import CheckpointError, load_policy_weights, read_checkpoint
 
 
-class TrainedPolicy(RunPolicy):
+class TorchPolicy(RunPolicy):
     """A trained actor run with torch (the trainer's network itself). ``act(observations)`` maps
     ``{agent: obs}`` to ``{agent: action}``; deterministic (most likely action) unless
     ``deterministic=False``. The actor needs only each car's own observation, so no training
@@ -50,13 +51,18 @@ def actor_actions(policy: Any, obs: np.ndarray, deterministic: bool = True) -> n
     return actions.cpu().numpy().astype(np.int64)
 
 
-def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPolicy:
+# the torch policy's name in earlier releases
+TrainedPolicy = TorchPolicy
+
+
+def load_policy(path: Union[str, Path], deterministic: bool = True) -> TorchPolicy:
     """Load a checkpoint: a run folder (``model.safetensors`` + ``config.json``), the
     ``.safetensors`` file itself, or a bilevel run folder with ``accel/`` and ``spline/``, whose
     envs then pick their paths with the spline policy. Raises :class:`CheckpointError` (a
     ``ValueError``) naming the file for anything missing, unsafe (a pickled ``model.zip``) or
-    malformed."""
-    path = Path(path)
+    malformed. A shipped policy may be given by name, as to
+    :func:`box2d_driving.policies.load_trained` (the same path resolution)."""
+    path = resolve_policy_path(path)
     if is_bilevel_run(path):
         policy = load_policy(path / "accel", deterministic)
         policy.attach_spline(_load_spline_policy(path, path / "spline"))
@@ -65,7 +71,7 @@ def load_policy(path: Union[str, Path], deterministic: bool = True) -> TrainedPo
     return _trained(ckpt, find_config(ckpt.path), deterministic)
 
 
-def load_bilevel_round(run: Union[str, Path], round_: int, deterministic: bool = True) -> TrainedPolicy:
+def load_bilevel_round(run: Union[str, Path], round_: int, deterministic: bool = True) -> TorchPolicy:
     """A bilevel run's kept round ``round_``: its acceleration policy
     (``checkpoints/round_NNNN_accel.safetensors``) with that round's spline policy attached
     (``round_NNNN_spline.safetensors``), both as the run's configs shape them."""
@@ -76,12 +82,12 @@ def load_bilevel_round(run: Union[str, Path], round_: int, deterministic: bool =
     return policy
 
 
-def _trained(ckpt: Any, config_path: Path, deterministic: bool) -> TrainedPolicy:
+def _trained(ckpt: Any, config_path: Path, deterministic: bool) -> TorchPolicy:
     """The CTDE policy of checkpoint ``ckpt``, shaped by the run config at ``config_path``."""
     config = read_json(config_path)
     net = build_ctde_policy(config, config_path)
     load_policy_weights(net, ckpt, actor_only_ok=True)
-    policy = TrainedPolicy(net, config, deterministic)
+    policy = TorchPolicy(net, config, deterministic)
     policy.run_dir = config_path.parent
     return policy
 
