@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from training.behaviours.scripts import config_from, run_script
+from training.behaviours.algorithms import run_script
+from training.behaviours.scripts import config_from
 from training.behaviours.traffic_lights import Args
 from training.common.cli_args import parse
 from training.trainers.presets import TRAINING_PRESETS

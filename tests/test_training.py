@@ -327,3 +327,27 @@ def test_cli_renders_a_trained_policy_and_delegates_train(tmp_path, capsys):
     assert cli(["render", "highway-v0", "--policy", str(out), "--out", str(tmp_path / "w.mp4")]) == 2
     assert cli(["train", "nope"]) == 2
     assert "trained on intersection-v0" in capsys.readouterr().err
+
+
+def test_every_behaviour_trains_with_an_algorithm_named_by_its_arguments():
+    """Scripts, sweep trials and their checks pick the trainer from one table, by the script's
+    arguments: no branch on the behaviour's name anywhere."""
+    from dataclasses import dataclass
+
+    from box2d_driving import plugins
+    from training.behaviours.algorithms import ALGORITHMS, algorithm_of
+    from training.sweeps.spec import algorithm, script_module
+
+    chosen = {b: algorithm(b).name for b in plugins.behaviours()}
+    assert chosen["lanes"] == chosen["fast-lanes"] == "bilevel-ppo"
+    assert {chosen[b] for b in ("lights", "crosswalk", "real-junction")} == {"ppo"}
+    assert {a.name for a in ALGORITHMS} == set(chosen.values())
+    for b in chosen:
+        assert algorithm_of(script_module(b).Args).budget == ("rounds" if chosen[b] == "bilevel-ppo" else "decisions")
+
+    @dataclass
+    class Stranger:
+        out: str = "x"
+
+    with pytest.raises(TypeError, match="Stranger derives from no algorithm"):
+        algorithm_of(Stranger)

@@ -15,7 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-from training.behaviours.scripts import BilevelArgs, run_bilevel_script
+from training.behaviours.algorithms import run_script
+from training.behaviours.scripts import BilevelArgs
 
 ENV_ID = "highway-spline-v0"
 
@@ -29,7 +30,7 @@ class Args(BilevelArgs):
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    return run_bilevel_script(ENV_ID, Args, argv, __doc__)
+    return run_script(ENV_ID, Args, argv, __doc__)
 
 
 if __name__ == "__main__":

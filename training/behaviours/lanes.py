@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from typing import Optional
 
 from box2d_driving.envs.intersection_spline import IntersectionSplineConfig
-from training.behaviours.scripts import BilevelArgs, run_bilevel_script
+from training.behaviours.algorithms import run_script
+from training.behaviours.scripts import BilevelArgs
 
 ENV_ID = "intersection-spline-v0"
 
@@ -42,7 +43,7 @@ class Args(BilevelArgs):
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    return run_bilevel_script(ENV_ID, Args, argv, __doc__)
+    return run_script(ENV_ID, Args, argv, __doc__)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-from training.behaviours.scripts import ScriptArgs, run_script
+from training.behaviours.algorithms import run_script
+from training.behaviours.scripts import ScriptArgs
 
 ENV_ID = "real-junction-v0"
 

@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 from box2d_driving.config import ConfigError
 from box2d_driving.presets import preset_overrides
-from training.common.cli_args import parse, prog_name
 from training.trainers.presets import training_preset
-from training.trainers.trainer import RunError, TrainConfig, train
+from training.trainers.trainer import TrainConfig
 
 if TYPE_CHECKING:
     from training.trainers.bilevel import BilevelConfig
@@ -155,26 +152,6 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
     return cfg
 
 
-def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
-    """Parse ``argv`` into ``args_class``, train, print a summary; exit status."""
-    name = prog_name()
-    args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
-    try:
-        stats = train(config_from(env_id, args), Path(args.out), resume=args.resume)
-    except (RunError, ValueError) as exc:
-        print(f"{name}: error: {exc}", file=sys.stderr)
-        return 2
-    signum = stats.pop("interrupted_by_signal", None)
-    print("last update:", {k.split("/")[-1]: round(v, 4) if isinstance(v, float) else v
-                           for k, v in stats.items()})
-    print(f"checkpoint: {Path(args.out) / 'model.safetensors'}")
-    if signum is not None:
-        print(f"{name}: interrupted by signal {signum}: checkpoint saved; continue with "
-              f"--resume --out {args.out}", file=sys.stderr)
-        return 128 + signum
-    return 0
-
-
 @dataclass
 class BilevelArgs(CommonArgs):
     """Arguments of the bilevel (spline + acceleration) scripts.
@@ -219,24 +196,3 @@ def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
         cfg.spline_samples, cfg.spline_minibatch = QUICK.spline_samples, QUICK.spline_minibatch
         cfg.checkpoint_every = QUICK.checkpoint_every_rounds
     return cfg
-
-
-def run_bilevel_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
-    """Parse ``argv`` into ``args_class``, run the bilevel alternation, print a summary."""
-    from training.trainers.bilevel import train_bilevel
-
-    name = prog_name()
-    args = parse(args_class, argv, description=(doc or "").split("\n\n")[0])
-    try:
-        row = train_bilevel(bilevel_config_from(env_id, args), Path(args.out), resume=args.resume)
-    except (RunError, ValueError) as exc:
-        print(f"{name}: error: {exc}", file=sys.stderr)
-        return 2
-    signum = row.pop("interrupted_by_signal", None)
-    print("last round:", {k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()})
-    print(f"checkpoints: {Path(args.out) / 'accel'} and {Path(args.out) / 'spline'}")
-    if signum is not None:
-        print(f"{name}: interrupted by signal {signum}: round saved; continue with "
-              f"--resume --out {args.out}", file=sys.stderr)
-        return 128 + signum
-    return 0

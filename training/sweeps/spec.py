@@ -115,10 +115,11 @@ def script_module(behaviour: str):
     return importlib.import_module(plugins.command(f"train:{behaviour}").__module__)
 
 
-def is_bilevel(behaviour: str) -> bool:
-    from training.behaviours.scripts import BilevelArgs
+def algorithm(behaviour: str) -> Any:
+    """The training algorithm of ``behaviour``'s script (:mod:`training.behaviours.algorithms`)."""
+    from training.behaviours.algorithms import algorithm_of
 
-    return issubclass(script_module(behaviour).Args, BilevelArgs)
+    return algorithm_of(script_module(behaviour).Args)
 
 
 def _option(behaviour: str, key: str, value: str) -> list[str]:
@@ -162,12 +163,11 @@ def parse_pairs(pairs: list[str], what: str, many: bool) -> dict[str, Any]:
 def check_spec(spec: SweepSpec) -> None:
     """Every trial's arguments parse and make a valid config, before anything is written."""
     from training.common.cli_args import parse
-    from training.behaviours.scripts import bilevel_config_from, config_from
-
     script = script_module(spec.behaviour)
+    trainer = algorithm(spec.behaviour)
     if spec.seeds < 1 or spec.episodes < 1:
         raise SweepError(f"--seeds and --episodes must be >= 1, got {spec.seeds} and {spec.episodes}")
-    if spec.timesteps is not None and is_bilevel(spec.behaviour):
+    if spec.timesteps is not None and trainer.budget != "decisions":
         raise SweepError(f"{spec.behaviour} trains in rounds: give --set rounds=N or --minutes, not --timesteps")
     overlap = set(spec.grid) & set(spec.fixed)
     if overlap:
@@ -179,6 +179,6 @@ def check_spec(spec: SweepSpec) -> None:
         except SystemExit:  # argparse has printed which option and value
             raise SweepError(f"trial {trial['name']}: its options do not parse: {' '.join(argv)}") from None
         try:
-            (bilevel_config_from if is_bilevel(spec.behaviour) else config_from)(script.ENV_ID, args)
+            trainer.config(script.ENV_ID, args)
         except ValueError as exc:
             raise SweepError(f"trial {trial['name']}: {exc}") from None

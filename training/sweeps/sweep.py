@@ -35,7 +35,7 @@ from typing import Any, Optional
 from training.runs.run_dir import write_json_atomic
 from training.sweeps.carry import carried_runs
 from training.sweeps.deadline import Deadline
-from training.sweeps.spec import (SweepError, SweepSpec, check_spec, is_bilevel, parse_pairs, script_module,
+from training.sweeps.spec import (SweepError, SweepSpec, check_spec, parse_pairs, script_module,
                                  spec_differences)
 from training.sweeps.summary import (extendable_runs, final_metrics, first_line, metrics_from_row, reusable_rows,
                                     summary_row, train_metrics, write_summary)
@@ -65,7 +65,7 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
     from training.evaluation import evaluate  # noqa: F401  (imported now: a trial runs one version of the code,
     # even if the checkout changes while it trains)
     from training.common.cli_args import parse
-    from training.behaviours.scripts import bilevel_config_from, config_from
+    from training.behaviours.algorithms import algorithm_of
 
     trial = trial_spec(config, trials)
     if trial.get("reuse"):  # measured by an earlier run of this sweep (--reuse): its row as it was
@@ -94,15 +94,9 @@ def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) 
         tune.report(train_metrics(progress), checkpoint=tune.Checkpoint.from_directory(str(run)))
 
     argv = trial["argv"] + ["--out", str(run)] + (["--resume"] if resume else [])
+    algorithm = algorithm_of(script.Args)
     args = parse(script.Args, argv)
-    if is_bilevel(trial["behaviour"]):
-        from training.trainers.bilevel import train_bilevel
-
-        result = train_bilevel(bilevel_config_from(script.ENV_ID, args), run, resume=resume, on_checkpoint=report)
-    else:
-        from training.trainers.trainer import train
-
-        result = train(config_from(script.ENV_ID, args), run, resume=resume, on_checkpoint=report)
+    result = algorithm.train(algorithm.config(script.ENV_ID, args), run, resume=resume, on_checkpoint=report)
     if "interrupted_by_signal" in result:
         raise RuntimeError(f"training stopped by signal {result['interrupted_by_signal']}; rerun the sweep")
     metrics = evaluate_run(run, trial["episodes"])
