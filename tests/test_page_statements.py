@@ -165,7 +165,7 @@ def test_a_grid_point_whose_cars_do_not_arrive_is_called_unlearnt(tmp_path):
 
 
 def test_a_lone_car_that_stops_on_red_is_told_apart_from_a_light_blind_driver(tmp_path):
-    from training.results.data import light_blind_violation_rate
+    from training.results.baselines import light_blind_violation_rate
 
     blind = light_blind_violation_rate(1, 0.0, REPORT.start, 200)
     assert 0.3 < blind < 0.6  # full throttle enters on red about as often as on green
@@ -438,7 +438,7 @@ def test_a_reference_driver_is_shown_beside_but_not_in_the_verdict():
 def test_random_paths_cover_the_path_space_and_repeat_by_seed(space):
     from gymnasium import spaces
 
-    from training.results.data import random_paths
+    from training.results.baselines import random_paths
 
     made = {"box": spaces.Box(-1.0, 1.0, (1,), np.float32), "discrete": spaces.Discrete(5),
             "multidiscrete": spaces.MultiDiscrete([6, 6, 6])}[space]
@@ -450,7 +450,8 @@ def test_random_paths_cover_the_path_space_and_repeat_by_seed(space):
 
 
 def test_a_scripted_baseline_scores_every_metric_on_the_trials_episodes():
-    from training.results.data import Size, scripted_baselines
+    from training.results.baselines import scripted_baselines
+    from training.results.data import Size
 
     summary = {"path": "x.json", "trials": [
         {"status": "done", "report_first_seed": 1_500_000_000, "report_episodes": 3, "env_config.num_cars": 10}]}

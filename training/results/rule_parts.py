@@ -9,8 +9,8 @@ from __future__ import annotations
 from typing import Any
 
 from training.evaluation import figure_data as fd
-from training.results.data import (Difference, HistogramMean, PaperValue, Preferred, Size, right_of_way_baselines,
-                                   scripted_baselines)
+from training.results.baselines import right_of_way_baselines, scripted_baselines
+from training.results.data import Difference, HistogramMean, PaperValue, Preferred, Size
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, gap_figure
 from training.results.page_section import Section
 from training.results.statements import (Statement, above_statement, apart_statement, noise_trend_statement,

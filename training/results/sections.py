@@ -12,8 +12,8 @@ from __future__ import annotations
 from typing import Optional
 
 from training.evaluation import figure_data as fd
-from training.results.data import (Baseline, Group, PaperValue, light_blind_rates, lights_baselines,
-                                   scripted_baselines)
+from training.results.baselines import light_blind_rates, lights_baselines, scripted_baselines
+from training.results.data import Baseline, Group, PaperValue
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
 from training.results.rule_parts import (COMMUNICATION_BASELINE, COMMUNICATION_BUDGET, COMMUNICATION_CLAIM,
