@@ -176,6 +176,7 @@ def test_each_rule_runs_with_the_resources_its_command_names_unless_overridden()
     assert sweep_resources(by_key["traffic-lights"], None, 3) == (1, 3)
 
 
+@pytest.mark.e2e
 def test_run_sweeps_every_rule_keeps_its_summary_and_a_fresh_machine_continues_from_it(tmp_path, monkeypatch):
     import shutil
 
@@ -295,6 +296,7 @@ def test_a_time_limit_goes_with_run_is_positive_and_starts_no_sweep_once_passed(
     assert not (tmp_path / "runs").exists()
 
 
+@pytest.mark.e2e
 def test_a_time_limit_reached_mid_trial_carries_the_trial_with_its_curve_so_far(tmp_path, monkeypatch):
     """A real sweep stopped by its deadline: here the deadline "passes" once the trial in training
     has reported its first checkpoint (a time in minutes would make the test depend on this

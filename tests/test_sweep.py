@@ -95,6 +95,7 @@ def _sweep(out: Path, timesteps: int) -> list[str]:
 BUDGET = 20000
 
 
+@pytest.mark.e2e
 def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_report_seeds(tmp_path):
     out = tmp_path / "sweep"
     env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "RAY_DEDUP_LOGS": "0"}
@@ -193,6 +194,7 @@ def test_sweep_is_interrupted_continued_isolates_a_failing_trial_and_reports_on_
     assert rows4[next(n for n in rows4 if n != good)]["status"] == "error"
 
 
+@pytest.mark.e2e
 def test_a_time_limit_stops_the_sweep_as_ctrl_c_would(tmp_path):
     """``--time-limit``: the sweep stops itself once the limit has passed (here before a trial
     can finish: each would train 100 times the interrupted test's budget), through Ray Tune's own

@@ -230,6 +230,7 @@ def test_wall_clock_budget_stops_a_run(tmp_path):
     assert state["wall_s"] >= 3.0
 
 
+@pytest.mark.e2e
 def test_main_job_demo_runs_end_to_end(tmp_path):
     """The README's main job: quick training, its report, the shipped policy's report + video."""
     from training import demo
