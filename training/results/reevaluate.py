@@ -43,8 +43,10 @@ class ReevaluateResult:
     removed: dict[str, list[str]] = field(default_factory=dict)  # trial -> columns no longer measured
 
     def lines(self) -> list[str]:
+        named = self.not_kept if len(self.not_kept) <= 4 else \
+            self.not_kept[:3] + [f"and {len(self.not_kept) - 3} more"]
         out = [f"{self.name}: {len(self.reevaluated)} trials re-evaluated, {len(self.not_kept)} kept no weights"
-               + (f" ({', '.join(self.not_kept)})" if self.not_kept else "")]
+               + (f" ({', '.join(named)})" if self.not_kept else "")]
         for trial in self.reevaluated:
             parts = [f"{word} {', '.join(cols)}" for word, cols in (
                 ("changed", self.changed.get(trial)), ("new", self.added.get(trial)),
