@@ -64,7 +64,7 @@ def test_unfinished_or_unevaluated_runs_are_shown_but_do_not_count(tmp_path):
     assert noise_verdict(runs)[0] == "no interval yet"  # one seed (0 at 0.25, 1 at 1.0): unpaired
     page = "\n".join(arbiter_section(runs))
     assert "| `noise0.25_seed1` | 0.25 | 1 | 64 of 75 |" in page and "| 64 | 0.120 ± 0.010 |" in page
-    assert "| `noise1.0_seed0` | 1 | 0 | 50 of 50 |" in page and "not evaluated" in page
+    assert "| `noise1.0_seed0` | 1.0 | 0 | 50 of 50 |" in page and "not evaluated" in page
     assert arbiter_cell(runs).startswith("**no interval yet** ([The paper's own code, in its own world]"
                                          "(#the-papers-own-code-in-its-own-world))")
 

@@ -123,7 +123,8 @@ def arbiter_section(runs: list[OriginalRun]) -> list[str]:
             half = {k: v.get("half_width") for k, v in (r.report.get("intervals") or {}).items()}
             rates = [f"{r.report[k]:.3f}" + (f" ± {half[k]:.3f}" if half.get(k) is not None else "")
                      for k in (METRIC, "success_rate", "collision_rate")]
-        parts.append(row([f"`{r.name}`", f"{r.lidar_noise:g}", str(r.seed), f"{r.epochs_done} of {r.epochs}",
+        noise = f"{r.lidar_noise:.1f}" if r.lidar_noise == int(r.lidar_noise) else f"{r.lidar_noise:g}"
+        parts.append(row([f"`{r.name}`", noise, str(r.seed), f"{r.epochs_done} of {r.epochs}",
                           f"{r.joint_steps:,}", f"{r.car_decisions:,}",
                           "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *rates]))
     verdict, words = noise_verdict(runs)
