@@ -121,19 +121,23 @@ def scripted_baselines(env_id: str, metrics: tuple[Metric, ...], drivers: tuple[
     count its trials ran."""
     def baseline(summary: dict[str, Any], groups: list[Group]) -> Baseline:
         first, episodes = report_episodes(summary)
-        counts = sorted({int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
-                         if r.get("status") == "done" and "env_config.num_cars" in r})
+        counts = _car_counts(summary)
         return {f"{label}/{metric}" + (f"@num_cars={n}" if len(counts) > 1 else ""):
                 (metric_value(scripted_row(env_id, driver, paths, first, episodes, n, overrides), metric), episodes)
                 for n in counts for label, driver, paths in drivers for metric in metrics}
     return baseline
 
 
+def _car_counts(summary: dict[str, Any]) -> list[int]:
+    """The cars per instance the finished trials of ``summary`` ran with, each once, ascending."""
+    return sorted({int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
+                   if r.get("status") == "done" and "env_config.num_cars" in r})
+
+
 def _one_car_count(summary: dict[str, Any]) -> Optional[int]:
     """The cars per instance every finished trial of ``summary`` ran with, None where they differ."""
-    cars = {int(as_number(r["env_config.num_cars"])) for r in summary["trials"]
-            if r.get("status") == "done" and "env_config.num_cars" in r}
-    return cars.pop() if len(cars) == 1 else None
+    counts = _car_counts(summary)
+    return counts[0] if len(counts) == 1 else None
 
 
 @functools.lru_cache(maxsize=None)

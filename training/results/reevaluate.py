@@ -104,11 +104,9 @@ def _measure(kept: Path, row: dict[str, Any]) -> dict[str, Any]:
         metrics = evaluate(Args(checkpoint=str(kept), episodes=int(row["report_episodes"]),
                                 seed=int(row["report_first_seed"]), out=str(out)))
         reported = report_metrics(metrics, out / "rollouts.npz", kept)
-    # the columns a sweep writes from the same metrics (summary_row), this row's fixed ones aside
-    fresh = summary_row({"name": row["trial"], "behaviour": row.get("behaviour", ""), "seed": row.get("seed"),
-                         "point": {}}, "done", reported)
-    return {k: v for k, v in fresh.items() if k not in ("trial", "behaviour", "seed", "status", "error", "run",
-                                                        "decisions", "agent_steps", "wall_s")}
+    # the columns a sweep writes from the same metrics (summary_row); the caller keeps the row's fixed ones
+    return summary_row({"name": row["trial"], "behaviour": row.get("behaviour", ""), "seed": row.get("seed"),
+                        "point": {}}, "done", reported)
 
 
 def reevaluate_summary(summary_path: Path, log: Callable[[str], None] = print,

@@ -21,7 +21,8 @@ __all__ = ["AGAINST_NOISE", "COMMUNICATION_BASELINE", "COMMUNICATION_BUDGET", "C
            "COMMUNICATION_METRICS", "COMMUNICATION_STATEMENTS", "DENSER_BUDGET", "FAST_LANES_R", "LANE_SIDE_LEVEL",
            "LANES_BASELINE", "LANES_BUDGET", "LANES_CURVE_EXTRA", "LANES_FIGURE", "LANES_METRICS",
            "LANES_NOISE_METRICS",
-           "LANES_PAPER_CLAIM", "LIGHTS_METRICS", "LIGHTS_NOISE_BUDGET", "ONE_SIDED", "ONE_SIDED_WORDS", "PEARSON",
+           "LANES_PAPER_CLAIM", "LIGHTS_BASELINE_STATEMENT", "LIGHTS_METRICS", "LIGHTS_NOISE_BUDGET",
+           "LIGHTS_NOISE_FIGURE", "LIGHTS_NOISE_STATEMENTS", "ONE_SIDED", "ONE_SIDED_WORDS", "PEARSON",
            "SAFE_SHORTFALL_WORDS", "SUCCESS_LOST_UNHEARD", "SWEEP", "lanes_4_vs_8", "lanes_statements", "right_of_way",
            "turn_signals_12_cars"]
 
@@ -72,6 +73,14 @@ COMMUNICATION_STATEMENTS = (noise_trend_statement(AGAINST_NOISE),
 # the lights rules' table columns, and the paper's runs of them (from the original code's experiment list)
 LIGHTS_METRICS = (("red_light_violation_rate", "red-light violations"), ("success_rate", "success"),
                   ("collision_rate", "collisions"))
+# the lights noise grids' figure and statements (our default world's grid and the paper world's):
+# violations and success against noise, the noise trend paired by seed, the rule-free drivers
+LIGHTS_NOISE_FIGURE = against_noise_figure((("red_light_violation_rate", "red-light violations"),
+                                            ("success_rate", "success")))
+LIGHTS_BASELINE_STATEMENT = scripted_baseline_statement((("red_light_violation_rate", "red-light violations"),),
+                                                        paper=-1)
+LIGHTS_NOISE_STATEMENTS = (noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
+                                                 paper=-1), LIGHTS_BASELINE_STATEMENT)
 LIGHTS_NOISE_BUDGET = ("4 cars at LiDAR noise 0.25, 0.5 and 0.75 for 75 epochs and 1.0 for 50, entropy 1e-4; an epoch "
                        "is 32,000 joint steps, each a decision of every car (arrived cars stay): 75 epochs = 2.4 M "
                        "joint steps, about 9.6 M car-decisions")

@@ -14,20 +14,21 @@ from typing import Optional
 from training.evaluation import figure_data as fd
 from training.results.baselines import light_blind_rates, lights_baselines, scripted_baselines
 from training.results.data import Baseline, Group, PaperValue
-from training.results.figures import against_noise_figure, bars_figure, distribution_figure, lights_figure
+from training.results.figures import bars_figure, distribution_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
 from training.results.rule_parts import (COMMUNICATION_BASELINE, COMMUNICATION_BUDGET, COMMUNICATION_CLAIM,
                                          COMMUNICATION_FIGURE,
                                          COMMUNICATION_METRICS, COMMUNICATION_STATEMENTS, DENSER_BUDGET,
                                          DENSER_JOINT_STEPS, FAST_LANES_R,
                                          LANES_BASELINE, LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
-                                         LANES_NOISE_METRICS, LIGHTS_METRICS, LIGHTS_NOISE_BUDGET,
+                                         LANES_NOISE_METRICS, LIGHTS_BASELINE_STATEMENT, LIGHTS_METRICS,
+                                         LIGHTS_NOISE_BUDGET, LIGHTS_NOISE_FIGURE, LIGHTS_NOISE_STATEMENTS,
                                          LIGHTS_NOISE_JOINT_STEPS, ONE_SIDED,
                                          ONE_SIDED_WORDS, PEARSON, SAFE_SHORTFALL_WORDS, SUCCESS_LOST_UNHEARD, SWEEP,
                                          lanes_4_vs_8, lanes_statements, right_of_way, turn_signals_12_cars)
 from training.results.statements import (above_statement, level_change_statement, lights_statement,
                                          scripted_baseline_statement,
-                                         noise_trend_statement, paper_comparison, reference_statement,
+                                         paper_comparison, reference_statement,
                                          unlearnt_statement)
 
 __all__ = ["IN_GRID", "Headline", "PaperValue", "SECTIONS", "Section", "section", "statements"]
@@ -72,12 +73,7 @@ SECTIONS: tuple[Section, ...] = (
                     "level, so the noise trend is tested paired by seed. A sixth seed was added after the first "
                     "five: their curves left the violations too noisy to call settled at one noise level, and "
                     "their spread put the seeds needed at about 6.",
-            figure=against_noise_figure((("red_light_violation_rate", "red-light violations"),
-                                         ("success_rate", "success"))),
-            baseline=lights_baselines,
-            statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
-                                              paper=-1),
-                        scripted_baseline_statement((("red_light_violation_rate", "red-light violations"),), paper=-1)),
+            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4, seeds_before_look=5,
             headlines=(Headline("stop at red lights, the noise grid at 2.4 M decisions",
                                 "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), "
@@ -97,12 +93,7 @@ SECTIONS: tuple[Section, ...] = (
                     "it, 50 epochs at noise 1.0, as the original commands list them. The same training seeds run "
                     "at every noise level, so the noise trend is tested paired by seed. Six seeds at every level "
                     "were planned before any was run.",
-            figure=against_noise_figure((("red_light_violation_rate", "red-light violations"),
-                                         ("success_rate", "success"))),
-            baseline=lights_baselines,
-            statements=(noise_trend_statement((("red_light_violation_rate", "4 cars, red-light violations"),),
-                                              paper=-1),
-                        scripted_baseline_statement((("red_light_violation_rate", "red-light violations"),), paper=-1)),
+            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
             joins=("traffic-lights-preset-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
     Section("traffic-lights-preset-noise1", "Stopping at red lights in the paper's world and update, LiDAR noise "
@@ -117,8 +108,7 @@ SECTIONS: tuple[Section, ...] = (
                     "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
                     "noise-1.0 row, paired by seed with the other levels.",
             baseline=lights_baselines,
-            statements=(scripted_baseline_statement((("red_light_violation_rate", "red-light violations"),),
-                                                    paper=-1),),
+            statements=(LIGHTS_BASELINE_STATEMENT,),
             paper_budget="4 cars at LiDAR noise 1.0 for 50 epochs of 32,000 joint steps (1.6 M joint steps), "
                          "entropy 1e-4",
             paper_joint_steps=50 * 32_000, cars=4),
