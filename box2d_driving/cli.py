@@ -40,9 +40,18 @@ def _parse_overrides(pairs: list[str]) -> dict:
 
 
 def _list(_: argparse.Namespace) -> int:
-    width = max(len(k) for k in box2d_driving.registry())
-    for env_id, desc in box2d_driving.registry().items():
-        print(f"{env_id:<{width}}  {desc}")
+    from box2d_driving.scenarios import scenarios
+
+    records = scenarios()
+    width = max(len(k) for k in records)
+    for env_id, record in records.items():
+        print(f"{env_id:<{width}}  {record.description}")
+        more = [f"scripted drivers: {', '.join(record.baselines)}"]
+        if record.trainer:
+            more.append(f"train: box2d-driving train {record.trainer}")
+        if record.single_agent:
+            more.append(f"single-agent: {record.single_agent.gym_id}")
+        print(f"{'':<{width}}  " + "; ".join(more))
     return 0
 
 
@@ -80,10 +89,10 @@ def _render(args: argparse.Namespace) -> int:
 
 
 def _play(args: argparse.Namespace) -> int:
-    from box2d_driving.play import PLAYABLE, no_display_reason, play
+    from box2d_driving.play import no_display_reason, play, playable_ids
 
     reason = no_display_reason()
-    if reason is not None and args.env_id in PLAYABLE:  # else it would run on, unseen, until killed
+    if reason is not None and args.env_id in playable_ids():  # else it would run on, unseen, until killed
         raise ValueError(f"play needs a window to show and no display is available ({reason}); to watch "
                          f"episodes without one, record them: box2d-driving render {args.env_id} --out episodes.mp4")
 

@@ -20,9 +20,13 @@ from typing import Any, Optional
 
 import numpy as np
 
-from box2d_driving.single_agent import SINGLE_AGENT_IDS, SingleAgentDrivingEnv
+from box2d_driving.single_agent import SingleAgentDrivingEnv, single_agent_ids
 
-PLAYABLE = {env_id: (shipped, fallback) for env_id, shipped, fallback in SINGLE_AGENT_IDS.values()}
+
+def playable_ids() -> dict[str, tuple[Optional[str], str]]:
+    """Env id -> (shipped background policy, scripted fall-back): the scenarios with a
+    single-agent version, which ``play`` can seat you in."""
+    return {env_id: (shipped, fallback) for env_id, shipped, fallback in single_agent_ids().values()}
 
 
 def no_display_reason() -> Optional[str]:
@@ -107,14 +111,15 @@ def play(env_id: str, policy: Optional[str] = None, fps: float = 2.0, episodes: 
          seed: Optional[int] = None, max_frames: Optional[int] = None, **overrides: Any) -> PlayResult:
     """Run the game until the window closes, Esc, or ``episodes`` episodes have ended
     (``max_frames`` bounds the frames drawn, for tests)."""
-    if env_id not in PLAYABLE:
-        raise ValueError(f"play knows {', '.join(PLAYABLE)}; got {env_id!r}")
+    playable = playable_ids()
+    if env_id not in playable:
+        raise ValueError(f"play knows {', '.join(playable)}; got {env_id!r}")
     if fps <= 0:
         raise ValueError(f"--fps must be > 0, got {fps}")
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     import pygame
 
-    shipped, fallback = PLAYABLE[env_id]
+    shipped, fallback = playable[env_id]
     from box2d_driving.render.viewer import Viewer, ViewerConfig
 
     env = SingleAgentDrivingEnv(env_id, background=policy, fallback=fallback, shipped=shipped, **overrides)

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 COMMANDS = "box2d_driving.commands"
+API = "box2d_driving.api"  # functions: train, load_policy (torch)
 
 
 def command(name: str) -> Optional[Callable[[list[str]], int]]:
@@ -54,3 +55,15 @@ def require(name: str) -> Callable[[list[str]], int]:
 def behaviours() -> list[str]:
     """The behaviours ``train`` offers (entry points ``train:NAME``), sorted by name."""
     return sorted(ep.name.split(":", 1)[1] for ep in entry_points(group=COMMANDS) if ep.name.startswith("train:"))
+
+
+def api(name: str) -> Callable[..., Any]:
+    """The function ``name`` the training package offers in the group :data:`API`, or
+    :class:`CommandMissing` saying what to install."""
+    try:
+        found = [ep for ep in entry_points(group=API) if ep.name == name]
+        if found:
+            return found[0].load()
+    except ImportError as exc:
+        raise CommandMissing(f"needs the train extra ({INSTALL}): {exc}") from None
+    raise CommandMissing(f"needs the train extra ({INSTALL})")

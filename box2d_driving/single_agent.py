@@ -38,13 +38,17 @@ from box2d_driving.registry import make as make_parallel
 EGO = "car_0"
 SHIPPED = SHIPPED_POLICIES_DIR  # assets/policies in a checkout, the package's copy in a wheel
 
-# id -> (multi-agent env id, shipped background policy, scripted fall-back)
-SINGLE_AGENT_IDS = {
-    "box2d_driving/Intersection-v0": ("intersection-v0", "traffic_lights_4cars_noise05", "rule"),
-    "box2d_driving/Highway-v0": ("highway-v0", None, "full-throttle"),
-    "box2d_driving/Crosswalk-v0": ("crosswalk-v0", "crosswalk_4cars_satnav_collision6", "pedestrian-oracle"),
-    "box2d_driving/RealJunction-v0": ("real-junction-v0", "real_junction_8cars_collision3", "rule"),
-}
+
+
+def single_agent_ids() -> dict[str, tuple[str, Optional[str], str]]:
+    """Gymnasium id -> (multi-agent env id, shipped background policy, scripted fall-back), from
+    the scenario records that have a single-agent version (:mod:`box2d_driving.scenarios`)."""
+    from box2d_driving.scenarios import scenarios
+
+    return {s.single_agent.gym_id: (env_id, s.single_agent.background, s.single_agent.fallback)
+            for env_id, s in scenarios().items() if s.single_agent is not None}
+
+
 # settings of a shipped policy that are the learner's business, not the observation's
 _YOURS = ("num_cars", "collision_reward", "goal_reward", "horizon", "remove_collided")
 
@@ -149,8 +153,8 @@ def _observation_settings(policy: Any) -> dict:
 
 
 def register_single_agent_envs() -> None:
-    """Register the ``box2d_driving/...`` Gymnasium ids (done on ``import box2d_driving``)."""
-    for gym_id, (env_id, shipped, fallback) in SINGLE_AGENT_IDS.items():
-        if gym_id not in gym.registry:
-            gym.register(id=gym_id, entry_point="box2d_driving.single_agent:SingleAgentDrivingEnv",
-                         kwargs={"env_id": env_id, "shipped": shipped, "fallback": fallback})
+    """Register the ``box2d_driving/...`` Gymnasium ids (done on ``import box2d_driving``): each
+    scenario record's ``single_agent`` id is registered with its record."""
+    from box2d_driving.scenarios import scenarios
+
+    scenarios()

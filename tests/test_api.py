@@ -8,7 +8,9 @@ from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
 
 import box2d_driving
 from box2d_driving import ConfigError
-from box2d_driving.registry import env_module
+import importlib
+
+from box2d_driving.scenarios import scenario
 
 ENV_IDS = sorted(box2d_driving.registry())
 VARIANTS = [(e, {}) for e in ENV_IDS] + [("intersection-v0", {"communication": True, "lidar_noise": 0.5}),
@@ -31,12 +33,14 @@ def test_aec_api(env_id):
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        api_test(env_module(env_id).env(), num_cycles=30)
+        api_test(scenario(env_id).aec_env(), num_cycles=30)
     assert not [w for w in caught if "infinity" in str(w.message)]  # finite observation bounds
     from pettingzoo.utils.env import AECEnv
 
-    for make in (env_module(env_id).env, env_module(env_id).raw_env):
+    module = importlib.import_module("box2d_driving.envs." + env_id.replace("-", "_"))  # PettingZoo-style
+    for make in (module.env, module.raw_env):
         assert isinstance(make(), AECEnv), make  # env() and raw_env() are AEC envs
+    assert isinstance(module.parallel_env(num_cars=2), scenario(env_id).env_class)
 
 
 @pytest.mark.parametrize("env_id,overrides", VARIANTS + [("intersection-v0", {"lidar_encoding": "proximity"})])

@@ -135,6 +135,8 @@ def test_bilevel_alternates_checkpoints_both_and_resumes(tmp_path, env_id):
     for name in ("accel/model.safetensors", "spline/model.safetensors", "accel/config.json",
                  "checkpoints/round_0002_spline.safetensors"):
         assert (out / name).exists(), name
+    assert json.loads((out / "config.json").read_text())["algorithm"] == "bilevel-ppo"
+    assert json.loads((out / "accel" / "config.json").read_text())["algorithm"] == "ppo"
     with pytest.raises(RunError, match="not empty"):
         train_bilevel(_config(env_id), out)
     train_bilevel(_config(env_id, rounds=3), out, resume=True)

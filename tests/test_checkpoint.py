@@ -207,3 +207,27 @@ def test_weights_read_are_a_copy_not_a_view_of_the_file(run, tmp_path):
     done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "run")], capture_output=True, text=True,
                           cwd=Path(__file__).resolve().parents[1], timeout=HANG)
     assert done.returncode == 0 and "intact" in done.stdout, (done.returncode, done.stderr[-2000:])
+
+
+def test_a_run_folders_algorithm_is_read_from_its_config(tmp_path):
+    from box2d_driving.policies.checkpoint_file import CheckpointError, is_bilevel_run, run_algorithm
+
+    run = tmp_path / "run"
+    (run / "accel").mkdir(parents=True)
+    (run / "spline").mkdir()
+    assert run_algorithm(run) is None and not is_bilevel_run(run)  # no config.json: not a run folder
+    (run / "config.json").write_text("{}")  # written before runs recorded it: the folders say
+    assert run_algorithm(run) == "bilevel-ppo" and is_bilevel_run(run)
+    (run / "config.json").write_text(json.dumps({"algorithm": "ppo"}))  # recorded: the record decides
+    assert run_algorithm(run) == "ppo" and not is_bilevel_run(run)
+    (run / "config.json").write_text(json.dumps({"algorithm": "sac"}))
+    with pytest.raises(CheckpointError, match="algorithm 'sac' is none this package reads"):
+        run_algorithm(run)
+    assert run_algorithm(run / "config.json") is None  # a file is no run folder
+
+
+def test_the_loaders_read_every_algorithm_the_trainers_record():
+    from box2d_driving.policies.checkpoint_file import ALGORITHMS as READ
+    from training.behaviours.algorithms import ALGORITHMS as TRAINED
+
+    assert sorted(a.name for a in TRAINED) == sorted(READ)

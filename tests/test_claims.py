@@ -11,7 +11,7 @@ from training.results.claims import (CLAIMS, DIFFERS, NOT_DETECTED, NOT_RUN, OPP
 from training.results.data import Group
 from training.results.rule_parts import LANES_BUDGET
 from training.results.sections import SECTIONS
-from training.results.stats import mean_ci
+from box2d_driving.metrics.stats import mean_ci
 
 CLAIM = Claim("More noise, fewer violations", ("big", "small"), (Reading(r"- violations: "),), "v", "violations")
 

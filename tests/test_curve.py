@@ -39,7 +39,7 @@ def test_rule_metrics_follow_the_scenario():
         env = box2d_driving.make(env_id, num_cars=2)
         table = run_episodes(env, make_policy("full-throttle", env), 2, seed=1_000_000_000)
         got = cc.rule_metrics(env_id, table, env.config)
-        assert tuple(got) == cc.CURVE_METRICS[env_id] and extra in got
+        assert tuple(got) == cc.curve_metrics(env_id) and extra in got
         assert all(0.0 <= x <= 1.0 or np.isnan(x) for x in got.values())
 
 
@@ -69,7 +69,7 @@ def test_a_sweep_curve_has_every_started_trials_checkpoints(tmp_path, capsys):
     assert [int(r["decisions"]) for r in rows] == kept and len(kept) >= 2
     assert {r["trial"] for r in rows} == {"lights_lidar_noise=0_seed=0"}
     assert {r["lidar_noise"] for r in rows} == {"0"} and {r["seed"] for r in rows} == {"0"}
-    assert set(cc.CURVE_METRICS["intersection-v0"]) <= set(rows[0])
+    assert set(cc.curve_metrics("intersection-v0")) <= set(rows[0])
     assert {r["first_seed"] for r in rows} == {"1000000000"}  # selection seeds
     # an existing curve is not replaced without --overwrite
     assert curves.main([str(sweep), "--episodes", "1"]) == 2
@@ -136,7 +136,7 @@ def test_plateau_lines_call_a_flat_a_moving_and_a_noisy_curve():
 
 def test_seeds_to_settle_is_the_first_count_whose_interval_fits_the_tolerance():
     from training.results.curves import PLATEAU_TOLERANCE, seeds_to_settle, settle_words
-    from training.results.stats import mean_ci, t95
+    from box2d_driving.metrics.stats import mean_ci, t95
 
     e = mean_ci([-0.060, 0.008, 0.049])  # a 32 M turn-signal point's late changes (bits)
     k = seeds_to_settle(e)
@@ -162,7 +162,7 @@ def test_a_bilevel_runs_curve_drives_each_kept_round_with_its_own_spline_policy(
                                 checkpoint_every=1), run)
     rows = cc.run_curve(run, 1, 1_000_000_000)
     assert [(r["round"], r["decisions"]) for r in rows] == [(1, 80), (2, 160)]
-    assert set(cc.CURVE_METRICS["intersection-spline-v0"]) <= set(rows[0])
+    assert set(cc.curve_metrics("intersection-spline-v0")) <= set(rows[0])
     # each round's own weights: the spline policy of round 1 is not the final one
     first, last = load_bilevel_round(run, 1), load_bilevel_round(run, 2)
     w1 = torch.cat([p.flatten() for p in first.spline_policy.parameters()])

@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from tests.helpers import HANG
 
@@ -63,12 +64,24 @@ def test_the_docs_site_builds_in_strict_mode(tmp_path):
     assert (tmp_path / "site" / "reference" / "envs" / "index.html").exists()
 
 
-def test_the_own_scenario_tutorial_runs_as_written():
+def test_the_own_scenario_tutorial_runs_as_written(tmp_path, monkeypatch, capsys):
+    from box2d_driving import scenarios
+
     _, blocks = _tutorial("own-scenario.md")
-    assert len(blocks) == 2
+    assert len(blocks) == 3
+    monkeypatch.chdir(tmp_path)  # the tutorial's runs/crossing lands here
+    monkeypatch.setattr(scenarios, "_REGISTERED", dict(scenarios._REGISTERED))  # crossing-v0 for this test only
     namespace: dict = {}
-    for block in blocks:  # the scenario, then PettingZoo's API test on it
+    for block in blocks:  # the scenario, PettingZoo's API test on it, then registered, trained, measured
         exec(compile(block, "own-scenario.md", "exec"), namespace)
+    env = namespace["CrossingEnv"](num_cars=4)
+    assert env.observation_layout.satnav_fields[-1] == "crossing_busy"
+    measured = eval(capsys.readouterr().out.strip().splitlines()[-1])  # the last print: measure's dict
+    assert set(measured) == {"success_rate", "collision_rate", "shared_crossing_share"}
+    assert all(0.0 <= v <= 1.0 for v in measured.values())
+    assert (tmp_path / "runs" / "crossing" / "model.safetensors").is_file()
+    table = namespace["table"]
+    assert set(np.unique(table["crossing_busy"][table["decision"] > 0])) <= {0.0, 1.0}
 
 
 # Sizes a test may shrink a tutorial's command to (smaller, never different): the tiny training

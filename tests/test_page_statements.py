@@ -12,7 +12,7 @@ import pytest
 from tests.results_helpers import VIOLATIONS, lights_summary, ragged_tables
 from training.common.seeds import REPORT
 from training.results.reproduce import Group, main
-from training.results.stats import mean_ci, t95, t_test_p
+from box2d_driving.metrics.stats import mean_ci, t95, t_test_p
 
 
 def test_a_metric_is_a_column_its_size_or_the_difference_of_two_metrics():
@@ -64,7 +64,7 @@ def test_the_paper_comparison_says_inside_or_outside(tmp_path):
 
 
 def test_the_t_test_p_value_meets_the_t_table_and_the_obvious_cases():
-    from training.results.stats import incomplete_beta
+    from box2d_driving.metrics.stats import incomplete_beta
 
     # standard tables' 95 % quantiles (3 decimals) against the exact ones, which give p = 0.05
     table = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 10: 2.228, 20: 2.086, 30: 2.042, 120: 1.980}
@@ -84,7 +84,7 @@ def test_welch_p_value_and_the_seeds_two_independent_rows_would_need():
         reference_statement,
         seeds_needed_apart,
     )
-    from training.results.stats import welch_p
+    from box2d_driving.metrics.stats import welch_p
 
     # equal spreads and sizes: Welch's t equals Student's, t = 3 / sqrt(2 / 3) = 3.674 with 4 dof: p = 0.0213
     assert welch_p([1.0, 2.0, 3.0], [4.0, 5.0, 6.0]) == pytest.approx(0.0213, abs=5e-4)

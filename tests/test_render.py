@@ -176,7 +176,10 @@ def test_cli_bad_arguments_give_one_clear_line(tmp_path, capsys, argv, needle):
 
 def test_cli_list(capsys):
     assert cli(["list"]) == 0
-    assert "intersection-v0" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "intersection-v0" in out
+    assert "scripted drivers: random, full-throttle, pedestrian-oracle; train: box2d-driving train crosswalk; " \
+           "single-agent: box2d_driving/Crosswalk-v0" in out  # from the crosswalk's record
 
 
 def test_long_roads_are_drawn_large_enough_to_see_and_the_view_follows_the_traffic():
@@ -221,3 +224,17 @@ def test_the_viewer_draws_a_public_scene_and_never_imports_the_envs():
 
     again = Viewer("rgb_array", ViewerConfig(), show_lidar=True).render(scene)
     assert np.array_equal(frame, again)  # the scene is all the viewer needs
+
+
+def test_mp4_without_ffmpeg_names_the_video_extra_and_a_gif_still_works(tmp_path, monkeypatch, capsys):
+    from box2d_driving.render import video as video_module
+
+    monkeypatch.setattr(video_module, "mp4_available", lambda: False)  # a base install: no imageio-ffmpeg
+    env = box2d_driving.make("intersection-v0", num_cars=2, render_mode="rgb_array", horizon=3)
+    with pytest.raises(ValueError, match=r"writing MP4 needs ffmpeg, which the video extra installs .*\[video\]"):
+        record(env, RandomPolicy(env, seed=0), video=tmp_path / "v.mp4")
+    assert not list(tmp_path.iterdir())  # nothing written
+    assert cli(["render", "intersection-v0", "--out", str(tmp_path / "v.mp4"), "--set", "horizon=3"]) == 2
+    assert "video extra" in capsys.readouterr().err
+    rec = record(env, RandomPolicy(env, seed=0), video=tmp_path / "v.gif")
+    assert rec.frames == 4 and (tmp_path / "v.gif").stat().st_size > 0

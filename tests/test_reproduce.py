@@ -11,7 +11,7 @@ import pytest
 from tests.results_helpers import VIOLATIONS, lights_summary, ragged_tables
 from training.common.seeds import REPORT, SELECTION
 from training.results.reproduce import ResultsError, main, trial_budget
-from training.results.stats import mean_ci
+from box2d_driving.metrics.stats import mean_ci
 
 
 def test_page_shows_means_intervals_seeds_statements_and_the_figure(tmp_path):
@@ -408,7 +408,7 @@ def test_every_section_states_the_papers_budget_beside_ours_and_the_plateau_ques
 
 def test_seeds_added_after_an_interim_look_are_marked():
     from training.results.reproduce import ADDED_MARK, _estimate_cell
-    from training.results.stats import mean_ci
+    from box2d_driving.metrics.stats import mean_ci
 
     e = mean_ci([0.1, 0.2, 0.3, 0.4])
     assert _estimate_cell(e, [0, 1, 2, 3], planned=3).endswith(f"(0.100, 0.200, 0.300, 0.400{ADDED_MARK})")

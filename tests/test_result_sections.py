@@ -10,7 +10,7 @@ from tests.results_helpers import VIOLATIONS, lights_summary
 from training.common.seeds import REPORT, SELECTION
 from training.evaluation.figure_data import LANE_BINS
 from training.results.reproduce import main
-from training.results.stats import mean_ci, t_test_p
+from box2d_driving.metrics.stats import mean_ci, t_test_p
 
 
 def _paper_lights(folder, violations):

@@ -10,9 +10,9 @@ from gymnasium.utils.env_checker import check_env
 
 import box2d_driving
 from box2d_driving import single_agent
-from box2d_driving.single_agent import EGO, SINGLE_AGENT_IDS
+from box2d_driving.single_agent import EGO, single_agent_ids
 
-IDS = sorted(SINGLE_AGENT_IDS)
+IDS = sorted(single_agent_ids())
 
 
 @pytest.mark.parametrize("gym_id", IDS)

@@ -125,6 +125,7 @@ def test_train_writes_checkpoints_logs_and_resumes(tmp_path):
     # config.json keeps the first leg's settings; each resume records the ones it was given
     assert json.loads((out / "config.json").read_text())["timesteps"] == 320
     assert json.loads((out / "config.resumed_000000000480.json").read_text())["timesteps"] == 640
+    assert json.loads((out / "config.json").read_text())["algorithm"] == "ppo"  # how loaders read the folder
     from training.evaluation.plots import read_progress
     assert len(read_progress(out)["time/agent_steps"]) == 8  # 4 + 2 + 2 updates, none lost
     with pytest.raises(RunError, match="env_overrides differs"):

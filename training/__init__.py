@@ -43,7 +43,7 @@ MOVED = {
     "sweep": "sweeps.sweep", "sweep_spec": "sweeps.spec", "sweep_summary": "sweeps.summary",
     "reproduce": "results.reproduce", "reproduce_run": "results.run_all", "results_data": "results.data",
     "results_sections": "results.sections", "results_statements": "results.statements",
-    "results_figures": "results.figures", "stats": "results.stats",
+    "results_figures": "results.figures",
 }
 
 

@@ -57,7 +57,11 @@ class DrivingEnv(ParallelEnv, EzPickle):
     """
 
     config_class: type[DrivingConfig] = DrivingConfig
+    # scenario-specific sat-nav values (``satnav_extra_values``) and each one's (low, high) bounds
     satnav_extras: tuple[str, ...] = ()
+    satnav_bounds: dict[str, tuple[float, float]] = {}
+    # scenario-specific reward terms (``reward_extra_values``), added after the shipped ones
+    reward_extras: tuple[str, ...] = ()
     n_lights: int = 0
     metadata: dict[str, Any] = {"name": "driving", "render_modes": ["human", "rgb_array"],
                                 "is_parallelizable": True, "render_fps": 4}
@@ -103,10 +107,18 @@ class DrivingEnv(ParallelEnv, EzPickle):
         lay = self.observation_layout
         bounds = {
             "light": (0.0, 1.0), "speed": (-1.0 if self.config.reverse else 0.0, 1.0),
-            "heading_error": (-math.pi, math.pi),
-            "inv_goal_distance": (0.0, 1.0), "rating": (0.0, 1.0), "bit_received": (0.0, 1.0),
-            "crosswalk_ahead": (0.0, 1.0),
+            "heading_error": (-math.pi, math.pi), "inv_goal_distance": (0.0, 1.0), "bit_received": (0.0, 1.0),
+            **self.satnav_bounds,
         }
+        unbounded = [f for f in lay.satnav_fields if f not in bounds]
+        if unbounded:
+            raise ConfigError(f"{type(self).__name__}: sat-nav field(s) {', '.join(map(repr, unbounded))} have no "
+                              "bounds; declare them in satnav_bounds, e.g. satnav_bounds = {"
+                              f"{unbounded[0]!r}: (0.0, 1.0)}}")
+        for name, (lo, hi) in bounds.items():
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+                raise ConfigError(f"{type(self).__name__}: satnav_bounds[{name!r}] must be finite with low < high, "
+                                  f"got {(lo, hi)}")
         lidar_high = 1.0 / readout.MIN_DISTANCE if self.config.lidar_encoding == "inverse" else 1.0
         low = np.concatenate([np.zeros(lay.history * lay.n_rays),
                               np.tile([bounds[f][0] for f in lay.satnav_fields], lay.history)])
@@ -122,6 +134,11 @@ class DrivingEnv(ParallelEnv, EzPickle):
     def satnav_extra_values(self) -> np.ndarray:
         """``(N, len(satnav_extras))`` scenario-specific sat-nav values."""
         return np.zeros((self.config.num_cars, 0))
+
+    def reward_extra_values(self, cars: np.ndarray) -> np.ndarray:
+        """``(len(cars), len(reward_extras))``: this decision's scenario-specific reward terms for
+        ``cars`` (called after the world advanced, before any of them is removed)."""
+        return np.zeros((len(cars), 0))
 
     def scenario_info(self, cars: np.ndarray) -> list[dict[str, Any]]:
         """Scenario-specific per-car facts added to ``infos`` (one dict per car in ``cars``)."""

@@ -40,7 +40,8 @@ class Decision:
         cars: ``(n,)`` indices of the cars that acted (the live agents before the step), ascending.
         observations: ``(n, D)`` float32, each car's observation after the decision.
         rewards: ``(n,)`` the sum of the reward terms.
-        terms: each reward term (:data:`box2d_driving.envs.reward.TERMS`), ``(n,)``.
+        terms: each reward term, ``(n,)``: :data:`box2d_driving.envs.reward.TERMS`, then the
+            scenario's ``reward_extras``.
         terminated: ``(n,)`` the car reached its goal or crashed in this decision.
         truncated: the horizon ended the episode with this decision (for every car not terminated).
         infos: one dict per car (the env's documented keys, ``reward_terms`` last).
@@ -115,12 +116,20 @@ def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
             terms["progress"] = np.where(waiting, -(speed / v_lim) / cfg.horizon, terms["progress"])
         for env in envs:
             env._arrived_before = env.world.has_arrived.copy()
-    total = sum(terms[t] for t in TERMS)
+    if first.reward_extras:  # the scenario's own terms, after the shipped ones
+        extra = np.concatenate([np.asarray(env.reward_extra_values(c), dtype=np.float64).reshape(len(c), -1)
+                                for env, c in zip(envs, acting)])
+        if extra.shape[1] != len(first.reward_extras):
+            raise ValueError(f"{type(first).__name__}.reward_extra_values gave {extra.shape[1]} terms per car, "
+                             f"reward_extras names {len(first.reward_extras)}")
+        terms.update(zip(first.reward_extras, extra.T))
+    names = TERMS + tuple(first.reward_extras)
+    total = sum(terms[t] for t in names)
 
     lidar_frame, satnav_frame = frames(envs, acting, senders=acting)
     infos = car_infos(envs, acting)
-    for info, values in zip(infos, zip(*[terms[t].tolist() for t in TERMS])):
-        info["reward_terms"] = dict(zip(TERMS, values))
+    for info, values in zip(infos, zip(*[terms[t].tolist() for t in names])):
+        info["reward_terms"] = dict(zip(names, values))
     done = collided if cfg.arrived_cars_stay else arrived | collided
 
     out, start = [], 0
@@ -131,7 +140,7 @@ def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
         truncated = env.decision >= cfg.horizon
         gone = done[rows]
         out.append(Decision(cars=cars, observations=env.history.observations(cars), rewards=total[rows],
-                            terms={t: terms[t][rows] for t in TERMS}, terminated=gone,
+                            terms={t: terms[t][rows] for t in names}, terminated=gone,
                             truncated=truncated, infos=infos[rows]))
         env._acting = cars[:0] if truncated else cars[~gone]
         env.agents = [env.possible_agents[i] for i in env._acting.tolist()]

@@ -97,6 +97,7 @@ class CrosswalkEnv(HighwayEnv):
     """Highway with pedestrians crossing; cars must see them with the LiDAR and slow down."""
 
     config_class = CrosswalkConfig
+    satnav_bounds = {"crosswalk_ahead": (0.0, 1.0)}
 
     @property
     def satnav_extras(self) -> tuple[str, ...]:

@@ -98,6 +98,7 @@ class HighwayEnv(DrivingEnv):
 
     config_class = HighwayConfig
     satnav_extras = ("rating",)
+    satnav_bounds = {"rating": (0.0, 1.0)}
     metadata = {**DrivingEnv.metadata, "name": "highway_v0"}
 
     def build_layout(self, rng: np.random.Generator) -> Layout:

@@ -27,9 +27,15 @@ COLLISION_COLUMNS = ("collision_partner", "partner_halted")
 
 
 class RolloutRecorder:
-    """Collects rows from ``reset``/``step`` infos; :meth:`table` returns the columns."""
+    """Collects rows from ``reset``/``step`` infos; :meth:`table` returns the columns.
 
-    def __init__(self) -> None:
+    Args:
+        extra_columns: more numeric info keys to record as float columns (NaN where a car's info
+            lacks one or holds None): a scenario's own facts (:func:`scenario_columns`).
+    """
+
+    def __init__(self, extra_columns: tuple[str, ...] = ()) -> None:
+        self.extra_columns = tuple(c for c in extra_columns if c not in COLUMNS + OPTIONAL_COLUMNS)
         self.rows: list[tuple] = []
         self.collided_with: list[int] = []
         self.partners: list[tuple[int, bool]] = []
@@ -45,15 +51,16 @@ class RolloutRecorder:
                 info["distance_to_goal"], info["arrived"], info["collided"],
                 0.0 if rewards is None else rewards[agent], info.get("approach", -1),
                 info.get("rating", 1.0), _num(info.get("stop_line_distance")),
-                *(_num(info.get(k)) for k in OPTIONAL_COLUMNS),
+                *(_num(info.get(k)) for k in OPTIONAL_COLUMNS + self.extra_columns),
             ))
             self.collided_with.append(COLLIDED_WITH.index(info["collided_with"] or ""))
             self.partners.append((info.get("collision_partner", -1), info.get("partner_halted", False)))
 
     def table(self) -> dict[str, np.ndarray]:
-        names = COLUMNS + OPTIONAL_COLUMNS
+        floats = OPTIONAL_COLUMNS + self.extra_columns
+        names = COLUMNS + floats
         cols = list(zip(*self.rows)) if self.rows else [[] for _ in names]
-        out = {name: np.asarray(col, dtype=float if name in OPTIONAL_COLUMNS else None)
+        out = {name: np.asarray(col, dtype=float if name in floats else None)
                for name, col in zip(names, cols)}
         for name in ("episode", "car", "decision", "approach"):
             out[name] = out[name].astype(np.int64)
@@ -111,10 +118,17 @@ def load_table(path: Path) -> dict[str, np.ndarray]:
         return {k: data[k] for k in data.files}
 
 
+def scenario_columns(env: Any) -> tuple[str, ...]:
+    """The numeric facts a scenario adds to its cars' infos (its env's ``scenario_info_fields``),
+    recorded as columns of its rollout tables."""
+    return tuple(getattr(getattr(env, "unwrapped", env), "scenario_info_fields", {}))
+
+
 def run_episodes(env: Any, policy: Policy, episodes: int, seed: int = 0,
                  recorder: Optional[RolloutRecorder] = None) -> dict[str, np.ndarray]:
-    """Run ``episodes`` episodes with ``policy.act`` and return the rollout table."""
-    recorder = recorder or RolloutRecorder()
+    """Run ``episodes`` episodes with ``policy.act`` and return the rollout table (with the env's
+    own columns, :func:`scenario_columns`)."""
+    recorder = recorder or RolloutRecorder(scenario_columns(env))
     for ep in range(episodes):
         obs, infos = env.reset(seed=seed + ep)
         recorder.add(ep, infos)

@@ -5,7 +5,7 @@
   rule, the privileged pedestrian oracle), references for every metric.
 * :mod:`~box2d_driving.policies.trained`: a trained checkpoint run with numpy alone
   (:func:`load_trained`, a :class:`NumpyPolicy`; the trainer's torch loader,
-  ``training.runs.inference.load_policy``, gives a ``TorchPolicy`` with the same actions);
+  ``box2d_driving.load_policy(path, backend="torch")``, gives a ``TorchPolicy`` with the same actions);
   :mod:`~box2d_driving.policies.numpy_actor` holds its networks and
   :mod:`~box2d_driving.policies.checkpoint_file` the safe file format.
 

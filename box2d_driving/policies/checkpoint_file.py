@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import struct
 from pathlib import Path
-from typing import Any, Union
+from typing import Any, Optional, Union
 
 import numpy as np
 
@@ -129,11 +129,30 @@ def read_arrays(path: Union[str, Path]) -> tuple[Path, dict[str, np.ndarray], di
     return path, policy, meta
 
 
-def is_bilevel_run(path: Union[str, Path]) -> bool:
-    """Whether ``path`` is a bilevel run folder: ``accel/`` (the acceleration policy) and
-    ``spline/`` (the path-choosing policy) beside one ``config.json``."""
+ALGORITHMS = ("ppo", "bilevel-ppo")  # the algorithms a run folder's config.json may name
+
+
+def run_algorithm(path: Union[str, Path]) -> Optional[str]:
+    """The algorithm that trained the run folder ``path``, as its ``config.json`` records it
+    (``"ppo"`` or ``"bilevel-ppo"``); for a folder written before runs recorded it, ``bilevel-ppo``
+    where ``accel/`` and ``spline/`` sit beside the config, ``ppo`` otherwise. None where ``path``
+    is not a folder with a ``config.json``. An unknown name is a :class:`CheckpointError`."""
     path = Path(path)
-    return path.is_dir() and (path / "spline").is_dir() and (path / "accel").is_dir()
+    if not (path.is_dir() and (path / "config.json").is_file()):
+        return None
+    recorded = read_json(path / "config.json").get("algorithm")
+    if recorded is None:
+        return "bilevel-ppo" if (path / "spline").is_dir() and (path / "accel").is_dir() else "ppo"
+    if recorded not in ALGORITHMS:
+        raise CheckpointError(f"{path / 'config.json'}: algorithm {recorded!r} is none this package reads "
+                              f"({', '.join(ALGORITHMS)})")
+    return recorded
+
+
+def is_bilevel_run(path: Union[str, Path]) -> bool:
+    """Whether ``path`` is a bilevel run folder (:func:`run_algorithm`): ``accel/`` (the
+    acceleration policy) and ``spline/`` (the path-choosing policy) beside one ``config.json``."""
+    return run_algorithm(path) == "bilevel-ppo"
 
 
 def find_config(model_path: Path) -> Path:

@@ -5,8 +5,9 @@ A run folder holds ``model.safetensors`` (the weights, see
 policy was trained with). A bilevel run (lanes, fast lanes) holds ``accel/`` (the acceleration
 policy) and ``spline/`` (the path-choosing policy) beside one ``config.json``. Loading rebuilds the
 actor from those two files and nothing else: no torch, no SB3 (the base install runs the shipped
-policies, for instance as the background cars of the single-agent Gymnasium envs). The trainer's
-``training.load_policy`` gives the same actions through torch.
+policies, for instance as the background cars of the single-agent Gymnasium envs).
+``box2d_driving.load_policy(path, backend="torch")`` (the train extra) gives the same actions
+through torch.
 """
 
 from __future__ import annotations

@@ -25,11 +25,23 @@ class Recording:
     render_seconds_per_frame: float
 
 
+def mp4_available() -> bool:
+    """Whether MP4 can be written here: imageio's ffmpeg plugin (the video or train extra)."""
+    import importlib.util
+
+    return importlib.util.find_spec("imageio_ffmpeg") is not None
+
+
 def check_outputs(video: Optional[Path], frames_dir: Optional[Path], overwrite: bool) -> None:
     """Refuse to replace existing outputs unless ``overwrite``; reject unknown video formats."""
     if video is not None:
         if video.suffix.lower() not in VIDEO_SUFFIXES:
             raise ValueError(f"video file must end in {' or '.join(VIDEO_SUFFIXES)}: {video}")
+        if video.suffix.lower() == ".mp4" and not mp4_available():
+            from box2d_driving.plugins import install_hint
+
+            raise ValueError(f"{video}: writing MP4 needs ffmpeg, which the video extra installs "
+                             f"({install_hint('video')}); a .gif needs nothing more")
         if video.exists() and not overwrite:
             raise FileExistsError(f"{video} exists; pass --overwrite to replace it")
     if frames_dir is not None and frames_dir.exists() and any(frames_dir.iterdir()) and not overwrite:

@@ -26,7 +26,6 @@ class Args(ScriptArgs):
     """
 
     num_cars: int = 4
-    timesteps: int = 3_000_000
     out: str = "runs/crosswalk"
     crosswalk_in_satnav: bool = False
 

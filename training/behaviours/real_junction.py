@@ -32,7 +32,6 @@ class Args(ScriptArgs):
     """
 
     num_cars: int = 8
-    timesteps: int = 3_000_000
     out: str = "runs/real_junction"
     communication: bool = False
     comm_fallback: str = "zero"

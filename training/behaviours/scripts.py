@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Optional
+from typing import Optional
 
 from box2d_driving.config import ConfigError
 from box2d_driving.presets import preset_overrides
+from training.trainers.bilevel import BilevelConfig
 from training.trainers.presets import training_preset
 from training.trainers.trainer import TrainConfig
-
-if TYPE_CHECKING:
-    from training.trainers.bilevel import BilevelConfig
 
 
 @dataclass(frozen=True)
@@ -76,21 +74,21 @@ class CommonArgs:
 
     num_cars: int = 4
     lidar_noise: float = 0.0
-    seed: int = 0
+    seed: int = TrainConfig.seed
     quick: bool = False
     out: str = "runs/run"
     resume: bool = False
-    ent_coef: Optional[float] = None
-    critic: str = "mean"
-    n_envs: int = 16
-    batch_decisions: int = 32_000
-    epochs: int = 4
-    minibatch_by_step: bool = True
-    threads: Optional[int] = None
-    num_cpus: int = 0
-    device: str = "auto"
-    max_minutes: Optional[float] = None
-    init_from: Optional[str] = None
+    ent_coef: Optional[float] = None  # None: TrainConfig's (or the preset's)
+    critic: str = TrainConfig.critic
+    n_envs: int = TrainConfig.n_envs
+    batch_decisions: int = TrainConfig.batch_decisions
+    epochs: int = TrainConfig.epochs
+    minibatch_by_step: bool = TrainConfig.minibatch_by_step
+    threads: Optional[int] = TrainConfig.threads
+    num_cpus: int = TrainConfig.num_cpus
+    device: str = TrainConfig.device
+    max_minutes: Optional[float] = TrainConfig.max_minutes
+    init_from: Optional[str] = TrainConfig.init_from
     horizon: Optional[int] = None
     collision_reward: Optional[float] = None
     remove_collided: bool = False
@@ -106,7 +104,7 @@ class CommonArgs:
 class ScriptArgs(CommonArgs):
     """timesteps: slot-decisions to train for in total"""
 
-    timesteps: int = 3_000_000
+    timesteps: int = TrainConfig.timesteps
 
 
 def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
@@ -129,7 +127,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,
         max_minutes=args.max_minutes,
         init_from=args.init_from,
-        ent_coef=0.01 if args.ent_coef is None else args.ent_coef, preset=args.preset,
+        ent_coef=TrainConfig.ent_coef if args.ent_coef is None else args.ent_coef, preset=args.preset,
     )
     if args.preset is not None:  # the preset's update, then any flag given away from its default
         preset = training_preset(args.preset)
@@ -166,22 +164,20 @@ class BilevelArgs(CommonArgs):
     checkpoint_every: rounds between kept checkpoints
     """
 
-    rounds: int = 40
-    spline_samples: int = 2048
-    spline_updates_per_round: int = 1
-    accel_updates_per_round: int = 1
-    spline_learning_rate: float = 1e-3
-    spline_ent_coef: float = 0.0
-    spline_init_from: Optional[str] = None
-    checkpoint_every: int = 10
+    rounds: int = BilevelConfig.rounds
+    spline_samples: int = BilevelConfig.spline_samples
+    spline_updates_per_round: int = BilevelConfig.spline_updates_per_round
+    accel_updates_per_round: int = BilevelConfig.accel_updates_per_round
+    spline_learning_rate: float = BilevelConfig.spline_learning_rate
+    spline_ent_coef: float = BilevelConfig.spline_ent_coef
+    spline_init_from: Optional[str] = BilevelConfig.spline_init_from
+    checkpoint_every: int = BilevelConfig.checkpoint_every
 
 
-def bilevel_config_from(env_id: str, args: BilevelArgs) -> "BilevelConfig":
+def bilevel_config_from(env_id: str, args: BilevelArgs) -> BilevelConfig:
     """The :class:`~training.trainers.bilevel.BilevelConfig` of a spline behaviour's arguments:
     the acceleration stage as :func:`config_from` builds it, the rounds and spline settings from
     the flags."""
-    from training.trainers.bilevel import BilevelConfig
-
     accel = config_from(env_id, args, timesteps=0)
     cfg = BilevelConfig(
         accel=accel, rounds=args.rounds, spline_samples=args.spline_samples,

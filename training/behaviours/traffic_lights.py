@@ -23,7 +23,6 @@ class Args(ScriptArgs):
     """Train the traffic-light rule on intersection-v0."""
 
     num_cars: int = 4
-    timesteps: int = 3_000_000
     out: str = "runs/traffic_lights"
 
 

@@ -9,7 +9,7 @@ seeds; report the chosen policy with ``evaluate``, on report seeds.
     box2d-driving curve runs/sweep-lights-paper --episodes 100    # every trial: OUT/curves.csv
                                                                   # (training/sweeps/curves.py)
 
-Which metrics a curve follows depends on the scenario the run trained on (:data:`CURVE_METRICS`):
+Which metrics a curve follows depends on the scenario the run trained on (:func:`curve_metrics`, its record's):
 success and collisions always, plus the scenario's rule (red-light violations, pedestrians,
 right of way and safe distance, the message, lanes, fast lanes). A bilevel run (lanes, fast
 lanes) is drawn from its kept rounds, each round's acceleration and spline policies together.
@@ -25,30 +25,14 @@ from typing import Any, Callable, Collection, Optional
 
 import numpy as np
 
-from box2d_driving.metrics.lanes import fast_lane_metrics, lane_metrics
-from box2d_driving.metrics.lights import outcome_rates, traffic_light_metrics
-from box2d_driving.metrics.pedestrians import crosswalk_metrics
+from box2d_driving.config import ConfigError
 from box2d_driving.metrics.rollouts import run_episodes
+from box2d_driving.scenarios import scenario
 from box2d_driving.policies.checkpoint_file import is_bilevel_run
 from training.common.cli_args import OneLineParser, error, prog_name
 from training.common.seeds import SELECTION
 from training.evaluation import plots
-from training.evaluation.reports import junction_summary
 
-OUTCOMES = ("success_rate", "collision_rate")
-VIOLATIONS = ("red_light_violation_rate",)
-LANES = ("lanes.majority_share", "lanes.time_share_majority", "lanes.mean_abs_lane_position", "lanes.one_sided_offset")
-# scenario -> the metrics its curve follows (success and collisions first), named as in a sweep's
-# summary so that the results page finds them
-CURVE_METRICS: dict[str, tuple[str, ...]] = {
-    "intersection-v0": OUTCOMES + VIOLATIONS,
-    "crosswalk-v0": OUTCOMES + ("pedestrian_collision_rate", "safe_stopping_share", "share_more_than_6m"),
-    "real-junction-v0": OUTCOMES + VIOLATIONS + ("right_of_way.fifo_share", "safety_distance.safe_share"),
-    "intersection-spline-v0": OUTCOMES + VIOLATIONS + LANES,
-    "highway-spline-v0": OUTCOMES + ("fast_lanes.pearson_r",),
-}
-# with the message on, a real junction's curve also follows the communication measures
-COMMUNICATION = ("communication.speaker_consistency_bits", "communication.pearson_heading_change_bit")
 # the share of a run's training whose trend says whether a metric had stopped moving
 LATE_SHARE = 0.5
 
@@ -57,30 +41,16 @@ class CurveError(ValueError):
     """A run or sweep folder a curve cannot be drawn for (no checkpoints, an unknown scenario, ...)."""
 
 
-def rule_metrics(env_id: str, table: dict, config: Any) -> dict[str, float]:
-    """The curve's metrics (:data:`CURVE_METRICS`) of one checkpoint's episodes."""
-    rates = outcome_rates(table)
-    out = {k: rates[k] for k in OUTCOMES}
-    if env_id in ("intersection-v0", "real-junction-v0", "intersection-spline-v0"):
-        out["red_light_violation_rate"] = traffic_light_metrics(table)["red_light_violation_rate"]
-    if env_id == "crosswalk-v0":
-        walk = crosswalk_metrics(table, config.a_max)
-        out.update({k: walk[k] for k in CURVE_METRICS[env_id][2:]})
-    elif env_id == "real-junction-v0":
-        summary = junction_summary(table, config)
-        out["right_of_way.fifo_share"] = summary["fifo_share"]
-        out["safety_distance.safe_share"] = summary["safe_share"]
-        if config.communication:
-            from box2d_driving.metrics.communication import communication_metrics
+def curve_metrics(env_id: str) -> tuple[str, ...]:
+    """The metrics a curve of ``env_id`` follows: success, collisions and its scenario record's
+    ``curve_metrics`` (:mod:`box2d_driving.scenarios`)."""
+    return scenario(env_id).curve()
 
-            talk = communication_metrics(table)
-            out.update({k: talk[k.split(".", 1)[1]] for k in COMMUNICATION})
-    elif env_id == "intersection-spline-v0":
-        lanes = lane_metrics(table)
-        out.update({k: lanes[k.split(".", 1)[1]] for k in LANES})
-    elif env_id == "highway-spline-v0":
-        out["fast_lanes.pearson_r"] = fast_lane_metrics(table, config.road_width)["pearson_r"]
-    return out
+
+def rule_metrics(env_id: str, table: dict, config: Any) -> dict[str, float]:
+    """The curve's metrics (:func:`curve_metrics`, and any more its scenario measures with the
+    options of ``config``, e.g. the message's) of one checkpoint's episodes."""
+    return scenario(env_id).measure(table, config)
 
 
 def kept_checkpoints(run: Path) -> list[dict[str, Any]]:
@@ -125,8 +95,10 @@ def run_curve(run: Path, episodes: int, seed: int, log: Callable[[str], None] = 
     for c, agent_steps in zip(ckpts, steps):
         policy = load_bilevel_round(run, c["round"]) if "round" in c else load_policy(c["file"])
         env = policy.make_env()
-        if policy.env_id not in CURVE_METRICS:
-            raise CurveError(f"{run}: no curve metrics for {policy.env_id} (known: {', '.join(CURVE_METRICS)})")
+        try:
+            scenario(policy.env_id)
+        except ConfigError as exc:
+            raise CurveError(f"{run}: {exc}") from None
         table = run_episodes(env, policy, episodes, seed=seed)
         row = {"decisions": c["decisions"], **({"round": c["round"]} if "round" in c else {}),
                "agent_steps": float(agent_steps), "episodes": episodes, "first_seed": seed,

@@ -23,7 +23,8 @@ from typing import Any, Collection, Optional
 import numpy as np
 
 from training.common.markdown import row
-from training.evaluation.checkpoint_curve import COMMUNICATION, CurveError, late_change
+from box2d_driving.metrics.rules import COMMUNICATION
+from training.evaluation.checkpoint_curve import CurveError, late_change
 
 __all__ = ["READING_COLUMNS", "ReadingWindows", "SIGN_FREE", "curve_file", "read_curve_file", "readings",
            "readings_table", "summary_of", "summary_rows", "unfinished_trials"]

@@ -23,11 +23,10 @@ from typing import Optional
 
 import box2d_driving
 from box2d_driving.metrics.intervals import RATES, rate_intervals
-from box2d_driving.metrics.lights import outcome_rates
 from box2d_driving.metrics.rollouts import run_episodes, save_table
 from box2d_driving.policies import SCRIPTED, make_policy
 from training.evaluation import plots
-from training.evaluation.reports import REPORTS, add_collisions
+from training.evaluation.reports import add_collisions, report_for
 from training.common.cli_args import error, parse
 from training.common.seeds import REPORT
 
@@ -114,9 +113,7 @@ def _evaluate_into(out: Path, args: Args) -> dict:
     table = run_episodes(env, policy, args.episodes, seed=args.seed)
     seconds = time.perf_counter() - t0
     save_table(table, out / "rollouts.npz")
-    report = REPORTS.get(env_id)
-    metrics = (report(table, env, policy, out, args.episodes, args.seed, make_env) if report
-               else outcome_rates(table))
+    metrics = report_for(env_id)(table, env, policy, out, args.episodes, args.seed, make_env)
     add_collisions(metrics, table, out)
     # how far each rate may move on another block of episodes: 95 % half-widths, episodes as clusters
     metrics["intervals_95"] = {name: i["half_width"] for name, i in

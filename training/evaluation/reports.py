@@ -15,9 +15,10 @@ from box2d_driving.metrics.lanes import fast_lane_metrics, junction_lane_samples
 from box2d_driving.metrics.lights import GO_STOP, junction_entries, outcome_rates, traffic_light_metrics
 from box2d_driving.metrics.pedestrians import crosswalk_metrics, pedestrian_samples
 from box2d_driving.metrics.right_of_way import (closing_samples, fifo_metrics, leader_samples,
-                                                 safety_distance_from_samples, safety_distance_metrics,
-                                                 unsafe_breakdown)
+                                                 safety_distance_from_samples, unsafe_breakdown)
 from box2d_driving.metrics.rollouts import last_rows, run_episodes
+from box2d_driving.metrics.rules import junction_summary
+from box2d_driving.scenarios import scenario
 from training.evaluation import plots
 
 
@@ -86,16 +87,6 @@ def fast_lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: i
     return metrics
 
 
-def junction_summary(table: dict, config: Any) -> dict[str, float]:
-    """Success, collisions, FIFO share and safe-distance share: the real-junction headline numbers
-    (used by the unheard-messages control and the checkpoint curve)."""
-    rates = outcome_rates(table)
-    return {"success_rate": rates["success_rate"], "collision_rate": rates["collision_rate"],
-            "fifo_share": fifo_metrics(table)["fifo_share"],
-            "safe_share": safety_distance_metrics(table, config.a_max, config.car_length,
-                                                  wrecks_stay=config.wrecks_stay)["safe_share"]}
-
-
 def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
                          make_env: Callable[..., Any]) -> dict:
     """Outcomes, lights, right of way (FIFO), safe following distance (+ scatter), and the
@@ -123,10 +114,16 @@ def real_junction_report(table: dict, env: Any, policy: Any, out: Path, episodes
     return metrics
 
 
-REPORTS: dict[str, Callable[..., dict]] = {
-    "intersection-v0": lights_report,
-    "crosswalk-v0": crosswalk_report,
-    "intersection-spline-v0": lanes_report,
-    "highway-spline-v0": fast_lanes_report,
-    "real-junction-v0": real_junction_report,
-}
+def report_for(env_id: str) -> Callable[..., dict]:
+    """The evaluation report of ``env_id``: its scenario record's ``report``; for a scenario
+    without one, success, collisions and the record's rule metrics
+    (:meth:`box2d_driving.scenarios.Scenario.measure`)."""
+    record = scenario(env_id)
+    if record.report is not None:
+        return record.resolve("report")
+
+    def rule_report(table: dict, env: Any, policy: Any, out: Path, episodes: int, seed: int,
+                    make_env: Callable[..., Any]) -> dict:
+        return {**outcome_rates(table), **record.measure(table, env.config)}
+
+    return rule_report

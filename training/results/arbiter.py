@@ -20,7 +20,7 @@ from typing import Any, Optional
 
 from training.common.markdown import anchor, row, separator
 from training.results.data import ResultsError
-from training.results.stats import mean_ci
+from box2d_driving.metrics.stats import mean_ci
 
 __all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "OriginalRun", "arbiter_cell", "arbiter_section", "load_original_runs"]
 

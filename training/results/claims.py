@@ -21,7 +21,7 @@ from training.results.curves import (PLATEAU_TOLERANCE, TOO_NOISY, late_changes,
 from training.results.data import Group
 from training.common.markdown import all_of, anchor, row, separator
 from training.results.sections import section
-from training.results.stats import ONE_SEED
+from box2d_driving.metrics.stats import ONE_SEED
 
 __all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "combined_verdict",
            "reading_verdict"]
@@ -178,7 +178,7 @@ def _plateau(result: SectionResult, metric: str, label: str) -> str:
 
 def _deciding_lines(claim: Claim, result: SectionResult) -> list[tuple[str, Reading]]:
     """The section's statements on ``claim``, less those on one training seed (an estimate printed
-    with :data:`~training.results.stats.ONE_SEED`, no interval: a 32 M run with its first seed
+    with :data:`~box2d_driving.metrics.stats.ONE_SEED`, no interval: a 32 M run with its first seed
     finished does not yet replace a smaller run with intervals)."""
     return [(line, r) for r in claim.readings for line in result.lines
             if re.match(r.pattern, line) and ONE_SEED not in line]

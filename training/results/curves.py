@@ -22,7 +22,7 @@ import numpy as np
 from training.evaluation.checkpoint_curve import LATE_SHARE, late_change
 from training.results.data import ResultsError, as_number
 from training.results.figures import _plt
-from training.results.stats import Estimate, half_width, mean_ci, mean_var
+from box2d_driving.metrics.stats import Estimate, half_width, mean_ci, mean_var
 
 __all__ = ["PLATEAU_TOLERANCE", "STOPPED", "TOO_NOISY", "curves_path", "curve_figure", "late_changes", "load_curves",
            "plateau_lines", "plateau_verdict", "seeds_to_settle", "settle_words"]

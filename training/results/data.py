@@ -13,7 +13,7 @@ import numpy as np
 
 from training.common.seeds import REPORT
 from training.evaluation.figure_data import to_majority_side
-from training.results.stats import Estimate, mean_ci
+from box2d_driving.metrics.stats import Estimate, mean_ci
 
 
 # below this mean success rate a grid point's policy has not learnt the task at the sweep's budget

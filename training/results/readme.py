@@ -11,7 +11,7 @@ from training.common.markdown import anchor, row, separator
 from training.results.data import ResultsError
 from training.results.matching import group_at
 from training.results.sections import SECTIONS
-from training.results.stats import Estimate
+from box2d_driving.metrics.stats import Estimate
 
 __all__ = ["README_END", "README_START", "readme_table", "readme_text", "update_readme"]
 

@@ -33,7 +33,7 @@ from training.results.reevaluate import kept_count
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
 from training.results.sections import SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
-from training.results.stats import Estimate
+from box2d_driving.metrics.stats import Estimate
 
 __all__ = ["SECTIONS", "Group", "PaperValue", "ResultsError", "Section", "budget_note", "groups_of", "load_summary",
            "main", "ran_budget", "trial_budget", "write_gif", "write_page"]

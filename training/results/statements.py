@@ -14,7 +14,7 @@ import numpy as np
 
 from training.common.markdown import all_of
 from training.results.data import LEARNT_SUCCESS, SINGLE_POINT, Baseline, Group, Metric, PaperValue, as_number
-from training.results.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
+from box2d_driving.metrics.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections

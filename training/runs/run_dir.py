@@ -91,9 +91,10 @@ def storage_error(out: Path, exc: OSError) -> RunError:
                     f"complete checkpoint is kept: make room, then continue it with --resume")
 
 
-def write_config(path: Path, config: Any) -> None:
-    """A config dataclass as JSON (``config.json``, ``config.resumed_*.json``)."""
-    write_json_atomic(path, dataclasses.asdict(config))
+def write_config(path: Path, config: Any, algorithm: str) -> None:
+    """A config dataclass as JSON (``config.json``, ``config.resumed_*.json``), with the name of
+    the algorithm that trains it (``"algorithm"``: how the loaders read the run folder)."""
+    write_json_atomic(path, {"algorithm": algorithm, **dataclasses.asdict(config)})
 
 
 def append_logger(out: Path, decisions: int):

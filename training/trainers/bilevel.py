@@ -88,7 +88,7 @@ class BilevelConfig:
     spline_updates_per_round: int = 1
     accel_updates_per_round: int = 1
     spline_n_envs: int = 16
-    spline_learning_rate: float = 3e-4
+    spline_learning_rate: float = 1e-3
     spline_epochs: int = 10
     spline_minibatch: int = 256
     spline_ent_coef: float = 0.0
@@ -184,8 +184,8 @@ def start_run_dir(out: Path, config: BilevelConfig) -> None:
     """Create a new run's folders and configs (after every check has passed)."""
     (out / "accel").mkdir(parents=True, exist_ok=True)
     (out / "spline").mkdir(exist_ok=True)
-    write_config(out / "config.json", config)
-    write_config(out / "accel" / "config.json", config.accel)
+    write_config(out / "config.json", config, "bilevel-ppo")
+    write_config(out / "accel" / "config.json", config.accel, "ppo")  # the acceleration stage alone
 
 
 def make_bandit(config: BilevelConfig, accel_model: PPO) -> SplineBanditVecEnv:

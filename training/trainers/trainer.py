@@ -102,7 +102,7 @@ class TrainConfig:
 
     env_id: str = "intersection-v0"
     env_overrides: dict = field(default_factory=dict)
-    timesteps: int = 2_000_000
+    timesteps: int = 3_000_000
     seed: int = 0
     n_envs: int = 16
     batch_decisions: int = 32_000
@@ -222,7 +222,7 @@ def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> Optional[Re
 def start_run_dir(out: Path, config: TrainConfig) -> None:
     """Create a new run's folder and its ``config.json`` (after every check has passed)."""
     out.mkdir(parents=True, exist_ok=True)
-    write_config(out / "config.json", config)
+    write_config(out / "config.json", config, "ppo")
 
 
 def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
@@ -345,7 +345,7 @@ def _learn(config: TrainConfig, out: Path, point: Optional[ResumePoint], venv: S
               f"{wall / 60:.1f} of {max_seconds / 60:.1f} min done", file=sys.stderr)
         return {}
     if resume:  # config.json stays the run's first config; record what this leg was given
-        write_config(out / f"config.resumed_{model.num_timesteps:012d}.json", config)
+        write_config(out / f"config.resumed_{model.num_timesteps:012d}.json", config, "ppo")
     else:
         start_run_dir(out, config)
     model.set_logger(configure(str(out), ["csv", "tensorboard"]) if not resume else
