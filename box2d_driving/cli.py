@@ -16,7 +16,7 @@ import ast
 import os
 import sys
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import box2d_driving
 from box2d_driving import plugins
@@ -24,7 +24,7 @@ from box2d_driving.cli_parser import OneLineParser
 
 
 def _parse_overrides(pairs: list[str]) -> dict:
-    out = {}
+    out: dict[str, Any] = {}
     for pair in pairs:
         if "=" not in pair:
             raise ValueError(f"--set expects KEY=VALUE, got {pair!r}")
@@ -176,7 +176,7 @@ def _map_output_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out (and --png) file")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser() -> OneLineParser:
     """The parser of the world's own subcommands (the training ones are found by entry point)."""
     parser = OneLineParser(prog="box2d-driving",
                      description="Multi-agent Box2D driving worlds in which road rules emerge.")

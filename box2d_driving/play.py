@@ -131,7 +131,7 @@ def play(env_id: str, policy: Optional[str] = None, fps: float = 2.0, episodes: 
     pygame.display.set_caption(f"box2d-driving play {env_id}")
     font = pygame.font.Font(None, 24)
     clock = pygame.time.Clock()
-    keys = Keyboard(env.parallel.config.accelerations, env.action_space.n)
+    keys = Keyboard(env.parallel.config.accelerations, env.parallel.config.n_actions)
     outcomes: list[str] = []
     decisions = frames = 0
     episode_seed = seed

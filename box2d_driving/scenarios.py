@@ -65,6 +65,8 @@ def _register_gym_id(scenario: Scenario, replace: bool = False) -> None:
     :class:`box2d_driving.single_agent.SingleAgentDrivingEnv`); an id Gymnasium has already is
     kept unless ``replace``."""
     spec = scenario.single_agent
+    if spec is None:
+        return
     if spec.gym_id in gym.registry:
         if not replace:
             return

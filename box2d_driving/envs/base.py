@@ -27,6 +27,7 @@ from box2d_driving.sensors import lidar, readout
 
 if TYPE_CHECKING:
     from box2d_driving.render.scene import Scene
+    from box2d_driving.render.viewer import Viewer
 
 # Per-car entries of state(): x, y, cos(h), sin(h), speed, acceleration, goal x, goal y,
 # remaining / initial path length, active, arrived, collided, rating.
@@ -57,12 +58,11 @@ class DrivingEnv(ParallelEnv, EzPickle):
     """
 
     config_class: type[DrivingConfig] = DrivingConfig
-    # scenario-specific sat-nav values (``satnav_extra_values``) and each one's (low, high) bounds
-    satnav_extras: tuple[str, ...] = ()
+    config: DrivingConfig  # an instance of config_class
+    # each scenario-specific sat-nav value's (low, high) bounds (the names: ``satnav_extras``)
     satnav_bounds: dict[str, tuple[float, float]] = {}
     # scenario-specific reward terms (``reward_extra_values``), added after the shipped ones
     reward_extras: tuple[str, ...] = ()
-    n_lights: int = 0
     metadata: dict[str, Any] = {"name": "driving", "render_modes": ["human", "rgb_array"],
                                 "is_parallelizable": True, "render_fps": 4}
 
@@ -92,9 +92,22 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._ray_directions: Optional[lidar.RayDirections] = None
         self.np_random: Optional[np.random.Generator] = None
         self.layout: Optional[Layout] = None
-        self._viewer = None
+        self._viewer: Optional[Viewer] = None
+        # whether scenario_info adds anything (the env core skips merging the base class's empty dicts)
+        self.adds_scenario_info = type(self).scenario_info is not DrivingEnv.scenario_info
         self._last_rays: Optional[np.ndarray] = None  # kept while rendering, for drawing the rays
         self._last_dropped: Optional[np.ndarray] = None
+
+    @property
+    def satnav_extras(self) -> tuple[str, ...]:
+        """Names of the scenario's own sat-nav values (:meth:`satnav_extra_values`), none here; a
+        scenario sets the class attribute (``satnav_extras = ("rating",)``) or overrides this."""
+        return ()
+
+    @property
+    def n_lights(self) -> int:
+        """Light slots in :meth:`state` (none here; a scenario with lights sets the count)."""
+        return 0
 
     # -- spaces -------------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Box:
@@ -144,18 +157,18 @@ class DrivingEnv(ParallelEnv, EzPickle):
         """Scenario-specific per-car facts added to ``infos`` (one dict per car in ``cars``)."""
         return [{} for _ in cars]
 
-    scenario_info.adds_nothing = True
     # the keys ``scenario_info`` adds, with their meaning (the scenario pages print them)
-    scenario_info_fields: dict[str, str] = {}  # the env core skips merging the empty dicts of this default
+    scenario_info_fields: dict[str, str] = {}
 
-    def _seed(self, seed: Optional[int]) -> None:
+    def _seed(self, seed: Optional[int]) -> np.random.Generator:
+        """The env's generator, made anew from ``seed`` where one is given (or none exists yet)."""
         if seed is not None or self.np_random is None:
             self.np_random, _ = seeding.np_random(seed)
+        return self.np_random
 
     def _new_layout(self, seed: Optional[int], options: dict) -> Layout:
         """The episode's layout (the spline scenarios insert their path choice here)."""
-        self._seed(seed)
-        return self.build_layout(self.np_random)
+        return self.build_layout(self._seed(seed))
 
     # -- API ----------------------------------------------------------------------------------
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
@@ -210,6 +223,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
                 w.has_arrived.astype(float), (w.status == COLLIDED).astype(float),
                 w.ratings]
         lights = np.zeros(self.n_lights)
+        if self.layout is None:
+            raise RuntimeError("state() needs reset() first")
         if self.layout.lights is not None:
             lights[: len(self.layout.lights)] = self.layout.lights.values(self.time)
         return np.concatenate([np.stack(cols, axis=1).ravel(), lights,
@@ -240,7 +255,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
             raise RuntimeError("scene() needs reset() first")
         cfg, w = self.config, self.world
         lights = self.layout.lights
-        draw_rays = cfg.render_lidar and self._last_rays is not None
+        rays, dropped = self._last_rays, self._last_dropped
+        draw_rays = cfg.render_lidar and rays is not None and dropped is not None
         return Scene(
             name=self.metadata.get("name", ""), decision=self.decision, horizon=cfg.horizon,
             layout=self.layout, light_values=None if lights is None else lights.values(self.time),
@@ -248,8 +264,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
             car_length=cfg.car_length, car_width=cfg.car_width,
             ped_positions=np.asarray(w.ped_positions).copy(), ped_sizes=np.asarray(w.ped_sizes).copy(),
             stop_value=cfg.render_stop_value,
-            rays=self._last_rays.copy() if draw_rays else None,
-            dropped=self._last_dropped.copy() if draw_rays else None, lidar_range=cfg.lidar_range)
+            rays=rays.copy() if draw_rays and rays is not None else None,
+            dropped=dropped.copy() if draw_rays and dropped is not None else None, lidar_range=cfg.lidar_range)
 
     def close(self) -> None:
         self.world.release()

@@ -124,7 +124,7 @@ def step_instances(envs: Envs, actions: Sequence[np.ndarray]) -> list[Decision]:
                              f"reward_extras names {len(first.reward_extras)}")
         terms.update(zip(first.reward_extras, extra.T))
     names = TERMS + tuple(first.reward_extras)
-    total = sum(terms[t] for t in names)
+    total = sum((terms[t] for t in names), np.zeros(len(flat)))  # in order: the same sums as ever
 
     lidar_frame, satnav_frame = frames(envs, acting, senders=acting)
     infos = car_infos(envs, acting)
@@ -337,7 +337,7 @@ def car_infos(envs: Envs, cars: Sequence[np.ndarray]) -> list[dict[str, Any]]:
             info["bit_sent"], info["bit_received"] = int(b), int(h)
     start = 0
     for env, c in zip(envs, cars):
-        if not getattr(env.scenario_info, "adds_nothing", False):  # a scenario's own facts
+        if env.adds_scenario_info:  # a scenario's own facts
             for info, extra in zip(infos[start:start + len(c)], env.scenario_info(c)):
                 info.update(extra)
         start += len(c)

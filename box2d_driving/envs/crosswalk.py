@@ -97,6 +97,7 @@ class CrosswalkEnv(HighwayEnv):
     """Highway with pedestrians crossing; cars must see them with the LiDAR and slow down."""
 
     config_class = CrosswalkConfig
+    config: CrosswalkConfig  # an instance of config_class
     satnav_bounds = {"crosswalk_ahead": (0.0, 1.0)}
 
     @property
@@ -105,7 +106,7 @@ class CrosswalkEnv(HighwayEnv):
     metadata = {**DrivingEnv.metadata, "name": "crosswalk_v0"}
 
     def _finish_layout(self, rng: np.random.Generator, layout: Layout) -> Layout:
-        cfg: CrosswalkConfig = self.config
+        cfg = self.config
         size = cfg.pedestrian_size
         y_max = cfg.road_width / 2 + cfg.walkway
         count = int(rng.integers(cfg.pedestrians_range[0], cfg.pedestrians_range[1] + 1))

@@ -97,12 +97,17 @@ class HighwayEnv(DrivingEnv):
     """One-way straight road; cars of different acceleration ratings on straight tracks."""
 
     config_class = HighwayConfig
-    satnav_extras = ("rating",)
+    config: HighwayConfig  # an instance of config_class
+
+    @property
+    def satnav_extras(self) -> tuple[str, ...]:
+        return ("rating",)  # the car's acceleration rating
+
     satnav_bounds = {"rating": (0.0, 1.0)}
     metadata = {**DrivingEnv.metadata, "name": "highway_v0"}
 
     def build_layout(self, rng: np.random.Generator) -> Layout:
-        cfg: HighwayConfig = self.config
+        cfg = self.config
         x0, x1, half = cfg.x_start, cfg.x_start + cfg.road_length, cfg.road_width / 2
         edges = np.array([[[x0, -half], [x1, -half]], [[x0, half], [x1, half]]])
         drivable = [np.array([[x0, -half], [x1, -half], [x1, half], [x0, half]])]

@@ -59,6 +59,7 @@ class HighwaySplineEnv(SplineStageMixin, HighwayEnv):
     """The highway with a stage-0 lateral target per car (see the module docstring)."""
 
     config_class = HighwaySplineConfig
+    config: HighwaySplineConfig  # an instance of config_class
     metadata = {**HighwayEnv.metadata, "name": "highway_spline_v0"}
 
     def __init__(self, **overrides) -> None:
@@ -71,12 +72,12 @@ class HighwaySplineEnv(SplineStageMixin, HighwayEnv):
 
     def lateral_targets(self, actions: np.ndarray) -> np.ndarray:
         """Lateral target ``y`` (m) of each car for stage-0 ``actions`` ``(N, 1)``."""
-        cfg: HighwaySplineConfig = self.config
+        cfg = self.config
         a = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1), -1.0, 1.0)
         return a * cfg.spline_lateral_limit * cfg.road_width / 2
 
     def apply_spline(self, layout: Layout, actions: np.ndarray) -> Layout:
-        cfg: HighwaySplineConfig = self.config
+        cfg = self.config
         targets = self.lateral_targets(actions)
         starts = np.array([car.path.points[0] for car in layout.cars]).reshape(-1, 2)
         goal_x = np.array([car.path.points[-1][0] for car in layout.cars])

@@ -145,11 +145,12 @@ class IntersectionEnv(DrivingEnv):
     """Signalled four-way junction; cars drive straight across on fixed tracks."""
 
     config_class = IntersectionConfig
+    config: IntersectionConfig  # an instance of config_class
     n_lights = N_APPROACHES
     metadata = {**DrivingEnv.metadata, "name": "intersection_v0"}
 
     def build_layout(self, rng: np.random.Generator) -> Layout:
-        cfg: IntersectionConfig = self.config
+        cfg = self.config
         length = float(rng.uniform(*cfg.road_length_range))
         width = float(rng.uniform(*cfg.road_width_range))
         half = width / 2
@@ -199,7 +200,7 @@ class IntersectionEnv(DrivingEnv):
         ``approach_order``, ``goal_radius``) on straight tracks; a track reaches back to the start
         arm's far end when cars ``reverse`` and on to the goal arm's far end when they stay after
         arriving (``arrived_cars_stay``), so either motion stays on it."""
-        cfg: IntersectionConfig = self.config
+        cfg = self.config
         half = width / 2
         first = int(rng.integers(N_APPROACHES)) if cfg.approach_order == "rotate" else 0
         free = [list(rng.permutation(cfg.slots_per_approach)) for _ in range(N_APPROACHES)] \
@@ -218,7 +219,7 @@ class IntersectionEnv(DrivingEnv):
                     lane = cfg.lane_fraction * half
                 else:
                     lane = float(rng.uniform(*cfg.lane_offset_range)) * width
-                if cfg.spawn_mode == "slots":
+                if free is not None:  # spawn_mode "slots"
                     if not free[a]:
                         continue
                     back = half + cfg.spawn_first_slot + int(free[a].pop()) * cfg.spawn_slot_spacing

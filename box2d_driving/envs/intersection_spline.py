@@ -30,7 +30,7 @@ from box2d_driving.config import require
 from box2d_driving.envs.intersection import IntersectionConfig, IntersectionEnv
 from box2d_driving.envs.spline import SplineStageMixin
 from box2d_driving.road.geometry import spline_paths
-from box2d_driving.road.layout import Layout
+from box2d_driving.road.layout import LaneAxis, Layout
 
 N_WAYPOINTS = 3
 
@@ -78,11 +78,12 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
     """The signalled junction with stage-0 path choice (see the module docstring)."""
 
     config_class = IntersectionSplineConfig
+    config: IntersectionSplineConfig  # an instance of config_class
     metadata = {**IntersectionEnv.metadata, "name": "intersection_spline_v0"}
 
     def __init__(self, **overrides) -> None:
         super().__init__(**overrides)
-        cfg: IntersectionSplineConfig = self.config
+        cfg = self.config
         c = cfg.choices_per_waypoint
         self.spline_action_space = (spaces.Discrete(cfg.n_spline_actions) if cfg.spline_action == "joint"
                                     else spaces.MultiDiscrete([c] * N_WAYPOINTS))
@@ -92,7 +93,7 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
     def decode_offsets(self, actions: np.ndarray) -> np.ndarray:
         """``(N, 3)`` signed waypoint offsets (fractions of ``W/2``, + = right) of ``actions``:
         joint indices ``(N,)`` or per-waypoint choices ``(N, 3)``."""
-        cfg: IntersectionSplineConfig = self.config
+        cfg = self.config
         c, m = cfg.choices_per_waypoint, len(cfg.spline_offsets)
         actions = np.asarray(actions, dtype=np.int64)
         digits = actions if actions.ndim == 2 else (actions[:, None] // c ** np.arange(N_WAYPOINTS)) % c
@@ -108,25 +109,34 @@ class IntersectionSplineEnv(SplineStageMixin, IntersectionEnv):
         """Route waypoints ``(N, 3, 2)``, directions and right vectors ``(N, 2)``."""
         starts = np.array([c.path.points[0] for c in layout.cars])
         goals = np.array([c.path.points[-1] for c in layout.cars])
-        dirs = np.array([c.lane_axis.direction for c in layout.cars])
-        rights = np.array([c.lane_axis.right for c in layout.cars])
-        centre = np.array([c.lane_axis.origin for c in layout.cars])  # the junction centre
+        dirs = np.array([a.direction for a in _axes(layout)])
+        rights = np.array([a.right for a in _axes(layout)])
+        centre = np.array([a.origin for a in _axes(layout)])  # the junction centre
         return np.stack([starts, centre, goals], axis=1), dirs, rights
 
     def spline_observation_values(self, layout: Layout) -> np.ndarray:
-        cfg: IntersectionSplineConfig = self.config
+        cfg = self.config
         wps, dirs, rights = self._waypoints(layout)
         rel = wps - wps[:, :1]
         local = np.stack([np.einsum("nkj,nj->nk", rel, dirs), np.einsum("nkj,nj->nk", rel, -rights)], axis=2)
-        half = np.array([c.lane_axis.half_width for c in layout.cars])
+        half = np.array([a.half_width for a in _axes(layout)])
         return np.concatenate([local.reshape(len(wps), -1), half[:, None]], axis=1) / cfg.spline_obs_scale
 
     def apply_spline(self, layout: Layout, actions: np.ndarray) -> Layout:
-        cfg: IntersectionSplineConfig = self.config
+        cfg = self.config
         wps, _, rights = self._waypoints(layout)
         offsets = self.decode_offsets(actions)
-        half = np.array([c.lane_axis.half_width for c in layout.cars])
+        half = np.array([a.half_width for a in _axes(layout)])
         control = wps + (offsets * half[:, None])[:, :, None] * rights[:, None, :]
         paths = spline_paths(control, samples_per_segment=cfg.spline_samples)
         cars = [dataclasses.replace(car, path=path) for car, path in zip(layout.cars, paths)]
         return dataclasses.replace(layout, cars=cars)
+
+
+def _axes(layout: Layout) -> list[LaneAxis]:
+    """Each car's lane axis (every spline junction car has one: its route is laid along it)."""
+    axes = [c.lane_axis for c in layout.cars]
+    missing = [i for i, a in enumerate(axes) if a is None]
+    if missing:
+        raise ValueError(f"cars {missing} have no lane axis to lay a spline route along")
+    return [a for a in axes if a is not None]

@@ -95,6 +95,7 @@ class RealJunctionEnv(DrivingEnv):
     """Cars through a real signalled junction on lane centre lines and connectors."""
 
     config_class = RealJunctionConfig
+    config: RealJunctionConfig  # an instance of config_class
     metadata = {**DrivingEnv.metadata, "name": "real_junction_v0"}
 
     @property
@@ -102,7 +103,7 @@ class RealJunctionEnv(DrivingEnv):
         return max(len(m.signals) for m in self.config.roadmaps())
 
     def build_layout(self, rng: np.random.Generator) -> Layout:
-        cfg: RealJunctionConfig = self.config
+        cfg = self.config
         maps = cfg.roadmaps()
         m = maps[int(rng.integers(len(maps)))] if len(maps) > 1 else maps[0]
         heads = {h.arm: k for k, h in enumerate(m.signals)}

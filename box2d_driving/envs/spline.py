@@ -16,18 +16,23 @@ first half of ``reset``: it is where the seed goes, and nothing else draws from 
 
 from __future__ import annotations
 
-from typing import Any, Callable, Optional
+from typing import TYPE_CHECKING, Any, Callable, Optional
 
 import numpy as np
 from gymnasium import spaces
 
-from box2d_driving.road.layout import Layout
 from box2d_driving.envs.actions import ActionError
+from box2d_driving.road.layout import Layout
+
+if TYPE_CHECKING:  # the type checker sees the env it is mixed into
+    from box2d_driving.envs.base import DrivingEnv as _Host
+else:
+    _Host = object
 
 SplinePolicy = Callable[[np.ndarray], np.ndarray]
 
 
-class SplineStageMixin:
+class SplineStageMixin(_Host):
     """Adds the stage-0 path choice to a :class:`~box2d_driving.envs.base.DrivingEnv`.
 
     Scenarios implement :meth:`spline_observation_values` and :meth:`apply_spline` (action 0 must
@@ -36,6 +41,8 @@ class SplineStageMixin:
     """
 
     spline_policy: Optional[SplinePolicy] = None
+    spline_observation_space: spaces.Box
+    spline_action_space: spaces.Discrete | spaces.MultiDiscrete | spaces.Box
 
     # -- scenario hooks -----------------------------------------------------------------------
     def spline_observation_values(self, layout: Layout) -> np.ndarray:
@@ -50,13 +57,12 @@ class SplineStageMixin:
         """Stage-0 actions used when nobody chooses: all zeros, which every spline scenario
         defines as the route along the road axis."""
         space = self.spline_action_space
-        return np.zeros((len(self.possible_agents),) + space.shape, dtype=space.dtype)
+        return np.zeros((len(self.possible_agents),) + _shape(space), dtype=space.dtype)
 
     # -- two-phase reset ----------------------------------------------------------------------
     def plan(self, seed: Optional[int] = None) -> dict[str, np.ndarray]:
         """First half of ``reset``: draw the episode and return each car's stage-0 observation."""
-        self._seed(seed)
-        self._planned = self.build_layout(self.np_random)
+        self._planned: Optional[Layout] = self.build_layout(self._seed(seed))
         self._planned_obs = self.spline_observation_values(self._planned).astype(np.float32)
         return {a: self._planned_obs[i] for i, a in enumerate(self.possible_agents)}
 
@@ -70,6 +76,7 @@ class SplineStageMixin:
             self.plan(seed)
         layout, obs0 = self._planned, self._planned_obs
         self._planned = None
+        assert layout is not None  # planned just above
         actions = self._stage0_actions(options.get("spline_actions"), obs0)
         self.spline_observations = obs0
         self.spline_actions = actions
@@ -95,7 +102,7 @@ class SplineStageMixin:
             raise ActionError(f"spline actions must be integers, got {actions.dtype} values {actions.tolist()}")
         if actions.dtype.kind not in "iuf":
             raise ActionError(f"spline actions must be numbers, got {actions.dtype} values {actions.tolist()}")
-        per_car = int(np.prod(space.shape))
+        per_car = int(np.prod(_shape(space)))
         if actions.size != n * per_car:
             raise ActionError(f"spline actions must hold {per_car} value(s) for each of the {n} cars, "
                               f"got shape {actions.shape}")
@@ -105,12 +112,17 @@ class SplineStageMixin:
             if actions.min() < 0 or actions.max() >= space.n:
                 raise ActionError(f"spline actions must be in [0, {space.n}), got {actions.tolist()}")
         elif isinstance(space, spaces.MultiDiscrete):
-            actions = actions.reshape((n,) + space.shape)
+            actions = actions.reshape((n,) + _shape(space))
             if actions.min() < 0 or np.any(actions >= space.nvec):
                 raise ActionError(f"spline actions must be in [0, {space.nvec.tolist()}), got {actions.tolist()}")
         else:
-            actions = actions.reshape((n,) + space.shape)
+            actions = actions.reshape((n,) + _shape(space))
             if not np.all(np.isfinite(actions)):
                 raise ActionError("spline actions must be finite")
             actions = np.clip(actions, space.low, space.high)  # as SB3 clips Box actions
         return actions
+
+
+def _shape(space: spaces.Space) -> tuple[int, ...]:
+    """A space's shape (``()`` for a Discrete one)."""
+    return tuple(space.shape or ())

@@ -128,7 +128,8 @@ def _build(specs: list[ArmSpec], cfg: ImportConfig, name: str, source: dict, sig
 
 def _lay_lanes(specs: list[ArmSpec], mouths: list[float], cfg: ImportConfig) -> tuple[list[Arm], list[Lane]]:
     """Each arm and its lanes, from its mouth outwards; inbound lanes point towards the junction."""
-    arms, lanes = [], []
+    arms: list[Arm] = []
+    lanes: list[Lane] = []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         axis = geo.resample(spec.centreline, cfg.sample_step / 2, mouth)
         arm = Arm(id=i, name=spec.name, highway=spec.highway, centreline=spec.centreline, mouth=mouth,
@@ -173,7 +174,8 @@ def _place_crossings(specs: list[ArmSpec], mouths: list[float], cfg: ImportConfi
                      notes: list[str]) -> tuple[list[Crosswalk], list[StopLine]]:
     """Crosswalks near the junction (one per ``crosswalk_width`` of arm; far ones left out with a
     note) and each approach's stop line, behind its crosswalks."""
-    crosswalks, stop_lines = [], []
+    crosswalks: list[Crosswalk] = []
+    stop_lines: list[StopLine] = []
     for i, (spec, mouth) in enumerate(zip(specs, mouths)):
         stop = mouth + cfg.stop_margin
         for s, kind, sid in sorted(spec.crossings):

@@ -227,7 +227,10 @@ def _group_approaches(lane_lines: dict[str, np.ndarray], inbound: list[str], out
     if len(arms_of) > 1 and close(arms_of[0][0], arms_of[-1][0]):  # the group across +-180 degrees
         arms_of[0] = arms_of.pop() + arms_of[0]
 
-    arms, lanes, lane_id, angles = [], [], {}, []
+    arms: list[Arm] = []
+    lanes: list[Lane] = []
+    lane_id: dict[Any, int] = {}
+    angles: list[float] = []
     for k, tokens in enumerate(arms_of):
         a = math.atan2(np.mean([math.sin(bearing[t]) for t in tokens]), np.mean([math.cos(bearing[t]) for t in tokens]))
         out_dir = np.array([math.cos(a), math.sin(a)])
@@ -254,7 +257,7 @@ def _connect(links: list[tuple[str, str, str]], connector_paths: dict[str, np.nd
              cfg: ImportConfig) -> list[Connector]:
     """A connector per link (U-turns left out), its movement from the turn between its ends, with
     conflicts marked."""
-    connectors = []
+    connectors: list[Connector] = []
     for i, ct, o in links:
         path = connector_paths[ct]
         d0, d1 = path[1] - path[0], path[-1] - path[-2]

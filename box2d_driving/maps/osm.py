@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from pathlib import Path
-from typing import Optional, Union
+from typing import Optional, Sequence, Union
 
 import numpy as np
 
@@ -98,8 +98,10 @@ def lane_counts(tags: dict[str, str], outward_forward: bool, cfg: ImportConfig, 
     elif fwd and bwd:
         if lanes and lanes != fwd + bwd:
             notes.append(f"way {way_id}: lanes={lanes} but forward+backward={fwd + bwd}; used the latter")
-    elif lanes and (fwd or bwd):
-        fwd, bwd = (fwd, max(lanes - fwd, 1)) if fwd else (max(lanes - bwd, 1), bwd)
+    elif lanes and fwd:
+        bwd = max(lanes - fwd, 1)
+    elif lanes and bwd:
+        fwd = max(lanes - bwd, 1)
     elif lanes:
         if lanes == 1:
             notes.append(f"way {way_id}: two-way road with lanes=1; one lane each way")
@@ -110,6 +112,7 @@ def lane_counts(tags: dict[str, str], outward_forward: bool, cfg: ImportConfig, 
     else:
         fwd = bwd = two_way_default
         notes.append(f"way {way_id}: no lane tags; {two_way_default} lane(s) each way ({highway} default)")
+    assert fwd is not None and bwd is not None  # every branch above sets both
     return (bwd, fwd) if outward_forward else (fwd, bwd)
 
 
@@ -230,7 +233,10 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
         else LocalFrame(*where)
     g = _Graph(data, probe)
     centre_ref = _find_centre(g, data, where, LocalFrame)
-    lat0, lon0 = data.location(centre_ref)
+    found = data.location(centre_ref)
+    if found is None:  # _find_centre picks a node on a road: a file read twice differently
+        raise MapError(f"junction node {centre_ref} has no location on a road in {data.path.name}")
+    lat0, lon0 = found
     frame = LocalFrame(lat0, lon0)
     g = _Graph(data, frame)
     cluster = _cluster(g, centre_ref, cfg)
@@ -262,9 +268,9 @@ def _import_junction(path: Union[str, Path, OsmData], where: Union[int, tuple[fl
     stem = data.path.name.split(".")[0].lower()
     roadmap = build_map(specs, cfg, name or f"{stem}_{centre_ref}", source, signalled=signalled, notes=notes)
     if not roadmap.connectors:  # every arm one-way in, or every one out: nothing can cross it
-        arms = ", ".join(f"{a.name or a.id}: {len(a.lanes_in)} in/{len(a.lanes_out)} out" for a in roadmap.arms)
+        listed = ", ".join(f"{a.name or a.id}: {len(a.lanes_in)} in/{len(a.lanes_out)} out" for a in roadmap.arms)
         raise MapError(f"the junction at node {centre_ref} has no way through: no inbound lane connects to an "
-                       f"outbound one (arms: {arms})")
+                       f"outbound one (arms: {listed})")
     return roadmap
 
 
@@ -371,7 +377,7 @@ def _attach_signals_and_crossings(g: _Graph, data: OsmData, frame: LocalFrame,
                 k, outward_forward = on_way[ref]
                 if (direction == "forward") == outward_forward:
                     continue  # controls traffic leaving this junction
-                candidates = [k]
+                candidates: Sequence[int] = [k]
             else:
                 candidates = range(len(specs))
             best = min(((along(specs[k], p)[::-1], k) for k in candidates if specs[k].lanes_in), default=None)

@@ -169,7 +169,7 @@ def _lane(i: int, la: Any, n_arms: int, w: str) -> Lane:
     if not width > 0:
         raise MapError(f"{w}.width must be positive, got {width}")
     return Lane(id=i, arm=arm, direction=direction,
-                index=_num(_need(la, "index", w), f"{w}.index", 0, 1000, integer=True),
+                index=int(_num(_need(la, "index", w), f"{w}.index", 0, 1000, integer=True)),
                 width=width, centreline=_pts(_need(la, "centreline", w), f"{w}.centreline"))
 
 

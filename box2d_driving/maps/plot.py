@@ -42,7 +42,7 @@ def plot_map(roadmap: RoadMap, path: str | Path, title: str | None = None) -> Pa
     for line in roadmap.stop_lines:
         ax.plot(line.segment[:, 0], line.segment[:, 1], color="k", lw=3, zorder=4)
     for head in roadmap.signals:
-        ax.scatter(*head.position, s=70, marker="s" if not head.inferred else "D",
+        ax.scatter(head.position[0], head.position[1], s=70, marker="s" if not head.inferred else "D",
                    color=GROUP_COLOURS[head.group % len(GROUP_COLOURS)], edgecolor="k", zorder=5)
     for arm in roadmap.arms:
         end = arm.centreline[-1]

@@ -59,7 +59,7 @@ class RolloutRecorder:
     def table(self) -> dict[str, np.ndarray]:
         floats = OPTIONAL_COLUMNS + self.extra_columns
         names = COLUMNS + floats
-        cols = list(zip(*self.rows)) if self.rows else [[] for _ in names]
+        cols: list = list(zip(*self.rows)) if self.rows else [[] for _ in names]
         out = {name: np.asarray(col, dtype=float if name in floats else None)
                for name, col in zip(names, cols)}
         for name in ("episode", "car", "decision", "approach"):
@@ -109,7 +109,7 @@ def _num(value: Optional[float]) -> float:
 
 def save_table(table: dict[str, np.ndarray], path: Path) -> None:
     """A rollout table as a compressed ``.npz`` (plain arrays only)."""
-    np.savez_compressed(path, **table)
+    np.savez_compressed(path, **table)  # type: ignore[arg-type]  # numpy's stub types the keywords as its flags
 
 
 def load_table(path: Path) -> dict[str, np.ndarray]:

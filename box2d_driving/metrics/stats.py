@@ -62,7 +62,7 @@ class Estimate:
     clipped: bool = False  # the t-interval reached past the metric's range and was cut there
 
     def format(self, digits: int = 3) -> str:
-        if self.low is None:
+        if self.low is None or self.high is None:
             return f"{self.mean:.{digits}f} {ONE_SEED}"
         if self.clipped:  # asymmetric once cut: both ends
             return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"

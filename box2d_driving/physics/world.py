@@ -98,17 +98,17 @@ class DrivingWorld:
         cfg = self.config
         self.layout = layout
         self.release()
-        self.world = b2World(gravity=(0, 0), doSleep=False, contactListener=self.contacts)
+        self.world = world = b2World(gravity=(0, 0), doSleep=False, contactListener=self.contacts)
         n = len(layout.cars)
         self.n_cars = n
 
         # Every edge fixture shares one tag (nothing needs an edge's index); plain-float pairs
         # set the same vertices as numpy rows would, without a tuple per row
         self.edge_segments = np.asarray(layout.edges, dtype=float).reshape(-1, 2, 2)
-        self._edge_body = self.world.CreateStaticBody()
+        self._edge_body = edge_body = world.CreateStaticBody()
         for a, b in self.edge_segments.tolist():
             self._edge_shape.vertices = [a, b]
-            fx = self._edge_body.CreateFixture(self._edge_def)
+            fx = edge_body.CreateFixture(self._edge_def)
             fx.userData = EDGE_TAG
             self._fixtures.append(fx)
 
@@ -194,6 +194,9 @@ class DrivingWorld:
         (:meth:`_plan_motion`), then Box2D runs the steps with those velocities, and a car halts
         on the step of its first contact or stops on the step it reaches its goal."""
         k_steps, dt = self.config.substeps, self.config.dt
+        world = self.world
+        if world is None:
+            raise RuntimeError("advance() before reset(): no world to step")
         moving = self.status == ACTIVE
         self.accel = np.where(moving, accel, 0.0)
         s_out, v_out, arrive, heading, velocity, always, never = self._plan_motion(moving)
@@ -237,8 +240,8 @@ class DrivingWorld:
                 if w != spin[i]:
                     bodies[i].angularVelocity = w
                     spin[i] = w
-            self.world.Step(dt, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
-            self.world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
+            world.Step(dt, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
+            world.Step(0.0, _VELOCITY_ITERATIONS, _POSITION_ITERATIONS)
             # a car leaves the step loop's lists when it halts (first contact) or arrives
             done_now = []
             if self.contacts.events:

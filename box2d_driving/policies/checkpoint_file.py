@@ -105,11 +105,15 @@ def read_tensors(path: Union[str, Path], framework: str) -> tuple[Path, dict[str
     size = check_header(path, data)
     try:
         meta = json.loads(data[8:8 + size]).get("__metadata__") or {}
+        tensors: dict[str, Any]
         if framework == "pt":
-            from safetensors.torch import load
+            from safetensors.torch import load as load_torch
+
+            tensors = load_torch(data)
         else:
-            from safetensors.numpy import load
-        tensors = load(data)
+            from safetensors.numpy import load as load_numpy
+
+            tensors = load_numpy(data)
     except Exception as exc:  # corrupt or truncated file
         raise CheckpointError(f"{path}: unreadable checkpoint ({exc})") from None
     check_metadata(path, meta)

@@ -179,7 +179,7 @@ def _head_size(space: spaces.Space) -> int:
         return int(space.n)
     if isinstance(space, spaces.MultiDiscrete):
         return int(np.sum(space.nvec))
-    return int(np.prod(space.shape))
+    return int(np.prod(space.shape or ()))
 
 
 class MlpActor:
@@ -191,7 +191,7 @@ class MlpActor:
         names = [f"mlp_extractor.policy_net.{2 * k}" for k in range(hidden)] + ["action_net"]
         self.layers = linear_layers(weights, names)
         self.action_space = action_space
-        width = int(np.prod(observation_space.shape)) if observation_space is not None else None
+        width = int(np.prod(observation_space.shape or ())) if observation_space is not None else None
         for name, (w, b) in zip(names, self.layers):  # each layer reads what the one before gives
             if w.ndim != 2 or (width is not None and w.shape[1] != width) or b.shape != (w.shape[0],):
                 raise ValueError(f"{name} is {w.shape} with bias {b.shape}; the layer before gives {width}")

@@ -114,7 +114,7 @@ def _record(env: Any, policy: Any, episodes: int, video: Optional[Path], frames_
             writer.close()
             tmp.unlink(missing_ok=True)
         raise
-    if writer is not None:
+    if writer is not None and video is not None:
         writer.close()
         os.replace(tmp, video)  # the finished video appears at once, never half-written
     return Recording(count, episodes, video, frames_dir, drawing / max(count, 1))

@@ -20,6 +20,7 @@ import pygame
 
 from box2d_driving.physics.world import ARRIVED, COLLIDED
 from box2d_driving.road.geometry import rectangle_corners
+from box2d_driving.road.layout import Layout
 from box2d_driving.road.lights import GREEN, RED, YELLOW
 from box2d_driving.render.scene import Scene
 
@@ -88,15 +89,15 @@ class Viewer:
         self.surface = pygame.Surface((config.width, config.height))
         self.window: Optional[pygame.Surface] = None
         self.clock: Optional[pygame.time.Clock] = None
-        self._view_for = None
+        self._view_for: Optional[Layout] = None
 
     # -- coordinates --------------------------------------------------------------------------
     def _fit(self, scene: Scene) -> None:
         """Scale and offset so the whole map fits the frame (world y up, pixels y down); a road
         much longer than the frame is wide is shown a stretch at a time (:meth:`_follow`)."""
         lay = scene.layout
-        pts = [np.asarray(p) for p in lay.drivable] + [np.asarray(lay.edges).reshape(-1, 2)]
-        pts = np.vstack([p for p in pts if len(p)])
+        parts = [np.asarray(p) for p in lay.drivable] + [np.asarray(lay.edges).reshape(-1, 2)]
+        pts = np.vstack([p for p in parts if len(p)])
         lo, hi = pts.min(axis=0) - self.config.margin, pts.max(axis=0) + self.config.margin
         w, h = self.config.width, self.config.height
         size = hi - lo
@@ -153,9 +154,11 @@ class Viewer:
         for poly in lay.crosswalks:
             self._poly(CROSSWALK, poly, 2)
         for a, b in np.asarray(lay.edges).reshape(-1, 2, 2):
-            pygame.draw.line(s, EDGE, *self.to_pixels(np.array([a, b])).tolist(), 2)
+            start, end = self.to_pixels(np.array([a, b])).tolist()
+            pygame.draw.line(s, EDGE, start, end, 2)
         for a, b in np.asarray(lay.stop_lines).reshape(-1, 2, 2):
-            pygame.draw.line(s, STOP_LINE, *self.to_pixels(np.array([a, b])).tolist(), 3)
+            start, end = self.to_pixels(np.array([a, b])).tolist()
+            pygame.draw.line(s, STOP_LINE, start, end, 3)
         if scene.light_values is not None:
             palette = light_colours(scene.stop_value)
             for point, value in zip(self.light_positions(scene), scene.light_values):
@@ -167,8 +170,8 @@ class Viewer:
             pygame.draw.lines(s, colour, False, self.to_pixels(car.path.points).tolist(), 1)
             gx, gy = self.to_pixels(car.path.points[-1])
             pygame.draw.circle(s, colour, (gx, gy), max(3, int(0.8 * self.scale)), 2)
-        if self.show_lidar and scene.rays is not None:
-            self._draw_lidar(scene)
+        if self.show_lidar and scene.rays is not None and scene.dropped is not None:
+            self._draw_lidar(scene, scene.rays, scene.dropped)
         for p, size in zip(scene.ped_positions, scene.ped_sizes):
             self._poly(PEDESTRIAN, rectangle_corners(p[0], p[1], 0.0, size, size))
         for i in range(len(scene.positions)):
@@ -179,6 +182,8 @@ class Viewer:
     def light_positions(self, scene: Scene) -> np.ndarray:
         """Where each light is drawn: beyond the right end of its stop line (m)."""
         lights = scene.layout.lights
+        if lights is None:
+            return np.zeros((0, 2))
         right = np.stack([lights.directions[:, 1], -lights.directions[:, 0]], axis=1)
         lines = np.asarray(scene.layout.stop_lines).reshape(-1, 2, 2)
         if len(lines) == len(lights):
@@ -215,11 +220,11 @@ class Viewer:
         centre = self.to_pixels(np.asarray(pos))
         pygame.draw.line(self.surface, (255, 255, 255), centre.tolist(), nose.tolist(), 2)
 
-    def _draw_lidar(self, scene: Scene) -> None:
-        n_rays = scene.rays.shape[1]
+    def _draw_lidar(self, scene: Scene, all_rays: np.ndarray, all_dropped: np.ndarray) -> None:
+        n_rays = all_rays.shape[1]
         angles = np.arange(n_rays) * (2 * math.pi / n_rays)
         for i in np.flatnonzero(scene.status == 0):
-            rays, dropped = scene.rays[i], scene.dropped[i]
+            rays, dropped = all_rays[i], all_dropped[i]
             origin = scene.positions[i]
             dist = np.where(np.isfinite(rays), rays, scene.lidar_range)
             th = scene.headings[i] + angles
@@ -273,7 +278,8 @@ class Viewer:
         pygame.event.pump()
         self.window.blit(surface, (0, 0))
         pygame.display.flip()
-        self.clock.tick(self.fps)
+        if self.clock is not None:
+            self.clock.tick(self.fps)
         return None
 
     def close(self) -> None:

@@ -6,6 +6,7 @@ All coordinates are metres in the world frame; headings are radians counter-cloc
 from __future__ import annotations
 
 import math
+from typing import overload
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,8 +193,12 @@ def rectangles_overlap(a: np.ndarray, b: np.ndarray) -> bool:
     return True
 
 
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
-    """Wrap to ``[-pi, pi)``."""
+@overload
+def wrap_angle(angle: float) -> float: ...
+@overload
+def wrap_angle(angle: np.ndarray) -> np.ndarray: ...
+def wrap_angle(angle):
+    """Wrap to ``[-pi, pi)`` (a number stays a number, an array an array)."""
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 

@@ -144,7 +144,7 @@ def light_values(time: np.ndarray, groups: np.ndarray, half_period: np.ndarray, 
     return phase_value(phase, half_period, yellow)
 
 
-def phase_value(phase: np.ndarray, half_period: float, yellow: float) -> np.ndarray:
+def phase_value(phase: np.ndarray, half_period: float | np.ndarray, yellow: float | np.ndarray) -> np.ndarray:
     """Value of a group-0 light at ``phase`` seconds into its ``2T`` cycle."""
     phase = np.asarray(phase, dtype=np.float64)
     t = half_period
