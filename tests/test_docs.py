@@ -50,18 +50,58 @@ def test_the_readmes_links_into_the_docs_land_on_a_heading():
     assert not broken, f"README links to no heading: {broken}"
 
 
-def test_the_docs_site_builds_in_strict_mode(tmp_path):
-    """Warnings fail the build: a broken internal link or anchor, a page left out of the
-    navigation, an API reference that does not resolve."""
+@pytest.fixture(scope="module")
+def built_site(tmp_path_factory):
+    """The docs site built in strict mode: warnings (a broken internal link or anchor, a page left
+    out of the navigation, an API reference that does not resolve) fail the build."""
     pytest.importorskip("mkdocs")
     pytest.importorskip("mkdocstrings")
-    out = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+    site = tmp_path_factory.mktemp("docs") / "site"
+    out = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],
                          cwd=ROOT, capture_output=True, text=True, timeout=HANG)
     assert out.returncode == 0, out.stderr[-3000:]
-    page = (tmp_path / "site" / "scenarios" / "intersection" / "index.html").read_text(encoding="utf-8")
+    return site
+
+
+def test_the_docs_site_builds_in_strict_mode(built_site):
+    page = (built_site / "scenarios" / "intersection" / "index.html").read_text(encoding="utf-8")
     # the settings table is generated from the config dataclass: its fields and their meanings
     assert "<code>lidar_noise</code>" in page and "share of rays dropped" in page
-    assert (tmp_path / "site" / "reference" / "envs" / "index.html").exists()
+    assert (built_site / "reference" / "envs" / "index.html").exists()
+
+
+@pytest.mark.e2e  # a browser per page: about a minute, in CI's second step
+def test_every_page_of_the_site_loads_in_a_browser_without_errors(built_site):
+    """The built site as a person sees it: every page opened in headless Chromium from a local
+    server, with no console error, no request the server answers with an error (a missing image,
+    script or style) and no link to a file of the site that is not there."""
+    from tests.browser import CHROMIUM, browse_site
+
+    if CHROMIUM is None:
+        pytest.skip("no Chromium here (.ci/run installs it with apt-get where the machine allows)")
+    report = browse_site(built_site)
+    assert report.pages >= 30, report
+    assert not report.console_errors, "\n".join(report.console_errors[:20])
+    assert not report.failed_requests, report.failed_requests[:20]
+    assert not report.broken_links, report.broken_links[:20]
+
+
+def test_the_browser_check_sees_a_script_error_a_missing_image_and_a_dead_link(tmp_path):
+    from tests.browser import CHROMIUM, browse_site
+
+    if CHROMIUM is None:
+        pytest.skip("no Chromium here (.ci/run installs it with apt-get where the machine allows)")
+    (tmp_path / "ok").mkdir()
+    (tmp_path / "ok" / "index.html").write_text("<html><body>fine</body></html>")
+    (tmp_path / "favicon.ico").write_bytes(b"")  # asked for by the browser itself
+    (tmp_path / "index.html").write_text('<html><body>'
+                                         '<img src="missing.png"><a href="ok/">ok</a><a href="gone/">gone</a>'
+                                         "<script>notDefinedAnywhere();</script></body></html>")
+    report = browse_site(tmp_path)
+    assert report.pages == 2
+    assert len(report.console_errors) == 1 and "notDefinedAnywhere" in report.console_errors[0]
+    assert report.failed_requests == ["404 /missing.png"]
+    assert sorted(link.split(": ")[1] for link in report.broken_links) == ["gone/", "missing.png"]
 
 
 def test_the_own_scenario_tutorial_runs_as_written(tmp_path, monkeypatch, capsys):
