@@ -21,7 +21,37 @@ def command(name: str) -> Optional[Callable[[list[str]], int]]:
     offers it. Raises ``ImportError`` when the command's package is there but its dependencies
     (the train extra) are not."""
     found = [ep for ep in entry_points(group=COMMANDS) if ep.name == name]
-    return found[0].load() if found else None
+    if not found:
+        return None
+    check_training_package()
+    return found[0].load()
+
+
+def check_training_package() -> None:
+    """Refuse a ``training`` package other than this install's: a user's own ``training/``
+    folder earlier on the import path (the current folder, for a script) would otherwise be
+    imported in its place and fail somewhere deep inside. Ours sits beside ``box2d_driving``, in
+    a checkout and in ``site-packages`` alike."""
+    import importlib.util
+    import sys
+
+    ours = Path(__file__).resolve().parents[1] / "training"
+    loaded = sys.modules.get("training")
+    if loaded is not None:
+        where = getattr(loaded, "__file__", None)
+    else:
+        try:
+            spec = importlib.util.find_spec("training")
+        except (ImportError, ValueError):
+            return
+        where = None if spec is None else spec.origin
+    if where is None:
+        return  # not installed (or a namespace without files): the callers say what to install
+    found = Path(where).resolve().parent
+    if found != ours:
+        raise CommandMissing(f"needs box2d-driving's training package ({ours}), but the one Python finds first is "
+                             f"{found}: a folder of yours named training shadows it; run from another folder or "
+                             "rename yours")
 
 
 class CommandMissing(LookupError):
@@ -63,6 +93,7 @@ def api(name: str) -> Callable[..., Any]:
     try:
         found = [ep for ep in entry_points(group=API) if ep.name == name]
         if found:
+            check_training_package()
             return found[0].load()
     except ImportError as exc:
         raise CommandMissing(f"needs the train extra ({INSTALL}): {exc}") from None

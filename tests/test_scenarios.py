@@ -211,3 +211,20 @@ def test_training_defaults_are_declared_once():
     from training.behaviours.scripts import config_from
 
     assert config_from("intersection-v0", ScriptArgs()).ent_coef == TrainConfig().ent_coef
+
+
+def test_a_users_own_training_package_is_named_not_imported_in_ours(tmp_path):
+    import subprocess
+    import sys
+
+    (tmp_path / "training").mkdir()
+    (tmp_path / "training" / "__init__.py").write_text("raise RuntimeError('the user package ran')\n")
+    python = ("import box2d_driving\n"
+              "try:\n    box2d_driving.load_policy('traffic_lights_4cars', backend='torch')\n"
+              "except Exception as exc:\n    print(type(exc).__name__, exc)\n")
+    out = subprocess.run([sys.executable, "-c", python], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert out.stdout.startswith("CommandMissing needs box2d-driving's training package"), out.stdout + out.stderr
+    assert str(tmp_path / "training") in out.stdout and "the user package ran" not in out.stdout + out.stderr
+    cli = subprocess.run([sys.executable, "-m", "box2d_driving", "train", "lights", "--help"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert cli.returncode == 2 and "a folder of yours named training shadows it" in cli.stderr, cli.stderr
