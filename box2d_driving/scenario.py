@@ -1,7 +1,6 @@
 """The record of one scenario (:class:`Scenario`); :mod:`box2d_driving.scenarios` registers
 and finds them."""
 
-
 from __future__ import annotations
 
 import importlib
@@ -9,8 +8,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional, Union
 
 from box2d_driving.config import ConfigError
+from box2d_driving.metrics.rules import OUTCOMES, outcomes
 
-OUTCOMES = ("success_rate", "collision_rate")  # every curve's first two metrics
 Ref = Union[str, Callable[..., Any]]  # a callable or class, or its "module:name"
 
 
@@ -115,8 +114,6 @@ class Scenario:
 
     def measure(self, table: dict, config: Any) -> dict[str, float]:
         """Success and collision rates and ``rule_metrics`` of one block of episodes."""
-        from box2d_driving.metrics.rules import outcomes
-
         out = outcomes(table)
         if self.rule_metrics is not None:
             out.update(self.resolve("rule_metrics")(table, config))

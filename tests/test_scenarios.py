@@ -228,3 +228,9 @@ def test_a_users_own_training_package_is_named_not_imported_in_ours(tmp_path):
     cli = subprocess.run([sys.executable, "-m", "box2d_driving", "train", "lights", "--help"], cwd=tmp_path,
                          capture_output=True, text=True, timeout=300)
     assert cli.returncode == 2 and "a folder of yours named training shadows it" in cli.stderr, cli.stderr
+
+
+def test_a_baseline_that_is_no_scripted_policy_is_refused_at_registration(fresh_registry):
+    with pytest.raises(ConfigError, match=r"baselines \['bold'\] are not scripted policies"):
+        register(Scenario("mine-v0", IntersectionEnv, "d", baselines=("random", "bold")))
+    assert "mine-v0" not in box2d_driving.registry()
