@@ -80,3 +80,22 @@ def test_the_committed_runs_read():
     runs = load_original_runs(COMMITTED)
     assert runs and all(r.epochs_done <= r.epochs for r in runs)
     assert {r.lidar_noise for r in runs} <= {0.25, 1.0}
+
+
+def test_training_curves_are_read_from_each_runs_log_and_drawn(tmp_path):
+    runs_dir, figures = tmp_path / "runs", tmp_path / "figures"
+    _run(runs_dir, 0.25, 0, 0.1)
+    _run(runs_dir, 1.0, 0, None, done=2)
+    (runs_dir / "noise0.25_seed0" / "progress.csv").write_text(
+        "epoch,joint_steps,car_decisions,episodes,episode_return,entropy,kl,stop_iter,seconds\n"
+        "1,32000,110000,1280,-1.5,2.5,0.1,19.0,200\n2,32000,111000,1281,-0.5,2.4,0.1,19.0,201\n")
+    runs = load_original_runs(runs_dir)
+    assert runs[0].curve == ((32000, -1.5), (64000, -0.5))  # joint steps so far, the epoch's mean return
+    assert runs[1].curve == ()  # no log kept: no line
+    text = "\n".join(arbiter_section(runs, figures, "images/results"))
+    assert "![The original trainer's training curves](images/results/original_training.png)" in text
+    assert (figures / "original_training.png").stat().st_size > 0
+    (runs_dir / "noise0.25_seed0" / "progress.csv").unlink()
+    figures2 = tmp_path / "none"
+    assert "training curves" not in "\n".join(arbiter_section(load_original_runs(runs_dir), figures2))
+    assert not figures2.exists()

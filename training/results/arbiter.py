@@ -13,8 +13,9 @@ fewer than two seeds at each end.
 
 from __future__ import annotations
 
+import csv
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
@@ -22,12 +23,14 @@ from training.common.markdown import anchor, row, separator
 from training.results.data import ResultsError
 from box2d_driving.metrics.stats import mean_ci
 
-__all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "OriginalRun", "arbiter_cell", "arbiter_section", "load_original_runs"]
+__all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "OriginalRun", "arbiter_cell", "arbiter_section", "load_original_runs",
+           "training_curve_figure"]
 
 ORIGINAL_RUNS = Path("assets/original")
 ARBITER_TITLE = "The paper's own code, in its own world"
 LOW, HIGH = 0.25, 1.0  # the paper's noise runs at the two ends (75 and 50 epochs)
 METRIC = "red_light_violation_rate"
+CURVE_FIGURE = "original_training.png"
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,9 @@ class OriginalRun:
     joint_steps: int
     car_decisions: int
     report: Optional[dict[str, Any]]
+    # per epoch, from the run's progress.csv: joint steps so far and the mean return of the episodes
+    # that ended in it (the trainer's own log; empty where the run kept none)
+    curve: tuple[tuple[int, float], ...] = field(default=(), compare=False)
 
     @property
     def evaluated_epochs(self) -> Optional[int]:
@@ -62,10 +68,58 @@ def load_original_runs(folder: Path = ORIGINAL_RUNS) -> list[OriginalRun]:
             report = json.loads(report_path.read_text()) if report_path.exists() else None
             runs.append(OriginalRun(here.name, float(spec["env_kwargs"]["lidar_noise"]), int(spec["seed"]),
                                     int(spec["epochs"]), int(state["epochs_done"]), int(state["joint_steps"]),
-                                    int(state["car_decisions"]), report))
+                                    int(state["car_decisions"]), report, _training_curve(here / "progress.csv")))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise ResultsError(f"{here}: not a readable original run ({exc})") from None
     return sorted(runs, key=lambda r: (r.lidar_noise, r.seed))
+
+
+def _training_curve(path: Path) -> tuple[tuple[int, float], ...]:
+    """(joint steps so far, mean episode return) per epoch of a run's ``progress.csv``."""
+    if not path.exists():
+        return ()
+    with path.open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    out, steps = [], 0
+    for r in rows:
+        steps += int(r["joint_steps"])
+        out.append((steps, float(r["episode_return"])))
+    return tuple(out)
+
+
+def training_curve_figure(runs: list[OriginalRun], path: Path) -> bool:
+    """The runs' training curves (mean episode return per epoch against joint steps, one line per
+    run, coloured by LiDAR noise), written to ``path``; False where no run logged one."""
+    drawn = [r for r in runs if r.curve]
+    if not drawn:
+        return False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colours = {noise: plt.get_cmap("tab10")(k) for k, noise in enumerate(sorted({r.lidar_noise for r in drawn}))}
+    fig, ax = plt.subplots(figsize=(7.0, 4.0))
+    for r in drawn:
+        steps, returns = zip(*r.curve)
+        ax.plot([s / 1e6 for s in steps], returns, color=colours[r.lidar_noise], lw=1.2,
+                ls="-" if r.epochs_done == r.epochs else "--",
+                label=f"noise {_noise(r.lidar_noise)}, seed {r.seed} ({r.epochs_done} of {r.epochs} epochs)")
+    ax.set_xlabel("joint steps (millions; 32,000 per epoch)")
+    ax.set_ylabel("mean episode return in the epoch")
+    ax.set_title("The paper's own trainer, 4 cars: training curves")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def _noise(value: float) -> str:
+    """A noise level as the page writes it (1.0, 0.25)."""
+    return f"{value:.1f}" if value == int(value) else f"{value:g}"
 
 
 def _evaluated(runs: list[OriginalRun], noise: float) -> dict[int, float]:
@@ -102,8 +156,10 @@ def arbiter_cell(runs: list[OriginalRun]) -> str:
     return f"**{verdict}** ([{ARBITER_TITLE}](#{anchor(ARBITER_TITLE)})): {words}"
 
 
-def arbiter_section(runs: list[OriginalRun]) -> list[str]:
-    """The page's section on the original trainer's runs: the table of runs and the verdict."""
+def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel: str = "images/results") -> list[str]:
+    """The page's section on the original trainer's runs: the table of runs, their training
+    curves (drawn into ``figures``, linked as ``rel``/..., where ``figures`` is given) and the
+    verdict."""
     parts = [f"## {ARBITER_TITLE}", "",
              "sdriving 0.1.0's own trainer (`agents/ppo_distributed/ppo.py`, in one process: see "
              "[paper_world.md](paper_world.md)) on the original command for each noise level (4 cars; 75 epochs of "
@@ -123,10 +179,14 @@ def arbiter_section(runs: list[OriginalRun]) -> list[str]:
             half = {k: v.get("half_width") for k, v in (r.report.get("intervals") or {}).items()}
             rates = [f"{r.report[k]:.3f}" + (f" ± {half[k]:.3f}" if half.get(k) is not None else "")
                      for k in (METRIC, "success_rate", "collision_rate")]
-        noise = f"{r.lidar_noise:.1f}" if r.lidar_noise == int(r.lidar_noise) else f"{r.lidar_noise:g}"
-        parts.append(row([f"`{r.name}`", noise, str(r.seed), f"{r.epochs_done} of {r.epochs}",
+        parts.append(row([f"`{r.name}`", _noise(r.lidar_noise), str(r.seed), f"{r.epochs_done} of {r.epochs}",
                           f"{r.joint_steps:,}", f"{r.car_decisions:,}",
                           "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *rates]))
     verdict, words = noise_verdict(runs)
     parts += ["", f"**The noise claim, by the paper's own code: {verdict}.** {words[:1].upper()}{words[1:]}.", ""]
+    if figures is not None and training_curve_figure(runs, figures / CURVE_FIGURE):
+        parts += [f"![The original trainer's training curves]({rel}/{CURVE_FIGURE})", "",
+                  "*Each run's mean episode return per epoch, from the trainer's own log (`progress.csv`), "
+                  "against joint steps; dashed: a run still short of its budget. A return, not a rule: the "
+                  "violations above are measured on report episodes at the evaluated epoch.*", ""]
     return parts

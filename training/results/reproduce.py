@@ -102,7 +102,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
                   "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
-    parts += arbiter_section(runs)
+    parts += arbiter_section(runs, figures, rel.as_posix())
     parts[intro:intro] = _claims_part(found_sections, arbiter_cell(runs))
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
