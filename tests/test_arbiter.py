@@ -95,6 +95,13 @@ def test_training_curves_are_read_from_each_runs_log_and_drawn(tmp_path):
     text = "\n".join(arbiter_section(runs, figures, "images/results"))
     assert "![The original trainer's training curves](images/results/original_training.png)" in text
     assert (figures / "original_training.png").stat().st_size > 0
+    assert runs[0].violations == ()
+    (runs_dir / "noise0.25_seed0" / "curve.csv").write_text(
+        "epoch,joint_steps,episodes,first_seed,red_light_violation_rate,success_rate,collision_rate\n"
+        "5,160000,100,1000000000,0.40,0.8,0.2\n10,320000,100,1000000000,0.20,0.9,0.1\n")
+    runs = load_original_runs(runs_dir)
+    assert runs[0].violations == ((160000, 0.4), (320000, 0.2))
+    assert "selection episodes" in "\n".join(arbiter_section(runs, figures, "images/results"))
     (runs_dir / "noise0.25_seed0" / "progress.csv").unlink()
     figures2 = tmp_path / "none"
     assert "training curves" not in "\n".join(arbiter_section(load_original_runs(runs_dir), figures2))

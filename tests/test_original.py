@@ -243,3 +243,40 @@ def test_a_finished_run_carried_without_its_full_weights_is_scored_from_its_last
     assert latest_weights(run) == run / "actors" / "epoch_0075.safetensors"
     (run / "state.json").write_text("{")  # unreadable: the full weights asked for, reported missing
     assert latest_weights(run) == run / "weights.safetensors"
+
+
+def test_a_curve_scores_every_kept_actor_once_on_one_set_of_selection_episodes(tmp_path, monkeypatch, capsys):
+    from training.common.seeds import SELECTION
+
+    run = tmp_path / "run"
+    (run / "actors").mkdir(parents=True)
+    (run / "run.json").write_text(json.dumps({"trainer": {"steps_per_epoch": 32000}}))
+    for epoch in (5, 10):
+        (run / "actors" / f"epoch_{epoch:04d}.safetensors").write_bytes(b"x")
+    scored = []
+
+    def fake_score(run_dir, weights, episodes, first_seed):  # the sdriving worker's part, stood in for
+        scored.append((weights.name, episodes, first_seed))
+        epoch = int(weights.stem.split("_")[1])
+        return {"red_light_violation_rate": 0.5 - epoch / 100, "success_rate": 0.9, "collision_rate": 0.1}
+
+    monkeypatch.setattr(cli, "score_actor", fake_score)
+    monkeypatch.setattr(cli, "require_venv", lambda: None)
+    assert cli.main(["curve", "--run", str(run), "--episodes", "3"]) == 0
+    assert scored == [("epoch_0005.safetensors", 3, SELECTION.start), ("epoch_0010.safetensors", 3, SELECTION.start)]
+    (run / "actors" / "epoch_0015.safetensors").write_bytes(b"x")
+    assert cli.main(["curve", "--run", str(run), "--episodes", "3"]) == 0
+    assert [s[0] for s in scored[2:]] == ["epoch_0015.safetensors"]  # the epochs drawn are kept, not redrawn
+    import csv
+
+    rows = list(csv.DictReader((run / "curve.csv").open()))
+    assert [(int(r["epoch"]), int(r["joint_steps"])) for r in rows] == [(5, 160000), (10, 320000), (15, 480000)]
+    assert float(rows[1]["red_light_violation_rate"]) == pytest.approx(0.4)
+    before = (run / "curve.csv").read_text()
+    capsys.readouterr()
+    assert cli.main(["curve", "--run", str(run), "--episodes", "4"]) == 2  # other episodes: another curve
+    assert cli.main(["curve", "--run", str(run), "--first-seed", "1500000000"]) == 2  # a report seed
+    assert cli.main(["curve", "--run", str(tmp_path)]) == 2  # not a run folder
+    err = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(err) == 3 and "one set of episodes" in err[0] and "run.json is missing" in err[2]
+    assert (run / "curve.csv").read_text() == before

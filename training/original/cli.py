@@ -5,7 +5,10 @@
 * ``original train --lidar-noise P --seed S --out DIR``: the original command for that noise
   level (:mod:`training.original.commands`), run by sdriving's own ``ppo_distributed`` trainer in
   one process (``sdriving_worker.py``); ``--time-limit`` stops after the last epoch that fits, and
-  ``--resume`` continues a folder from its last epoch.
+  ``--resume`` continues a folder from its last epoch;
+* ``original evaluate --run DIR``: a run's policy on report episodes, scored by our metric code;
+* ``original curve --run DIR``: every actor the run kept, on the same selection episodes, one CSV
+  row per epoch (a learning curve; selection seeds, since reading a curve is choosing).
 
 The run folder holds ``run.json`` (the settings), ``weights.safetensors`` (actor, critic, Adam
 states, torch's random state), ``state.json`` (epochs, joint steps, car-decisions) and
@@ -14,15 +17,17 @@ states, torch's random state), ``state.json`` (epochs, joint steps, car-decision
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from typing import Optional, Sequence
 
 from training.common.cli_args import OneLineParser, error, prog_name
-from training.common.seeds import REPORT, SeedError
+from training.common.seeds import REPORT, SELECTION, SeedError
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
 from training.original.compare import DRIVERS
 
@@ -144,6 +149,70 @@ def latest_weights(run: Path) -> Path:
     return run / "actors" / f"epoch_{done:04d}.safetensors"
 
 
+CURVE_COLUMNS = ("epoch", "joint_steps", "episodes", "first_seed", "red_light_violation_rate", "success_rate",
+                 "collision_rate")
+
+
+def score_actor(run: Path, weights: Path, episodes: int, first_seed: int) -> dict:
+    """:func:`score_table` of ``weights`` (a run's actor) driving the run's original world for
+    ``episodes`` episodes from ``first_seed`` (sdriving's own environment, through the worker)."""
+    from box2d_driving.metrics.rollouts import load_table
+
+    with tempfile.TemporaryDirectory() as tmp:
+        table = Path(tmp) / "rollouts.npz"
+        subprocess.run([str(venv_python()), str(WORKER), "rollout", str(run / "run.json"), "--driver", "trained",
+                        "--weights", str(weights), "--episodes", str(episodes), "--first-seed", str(first_seed),
+                        "--out", str(table)], check=True, stderr=subprocess.DEVNULL)
+        return score_table(load_table(table))
+
+
+def _curve(args) -> int:
+    out = args.out or args.run / "curve.csv"
+    try:
+        if args.episodes < 1:
+            raise OriginalError(f"--episodes must be >= 1, got {args.episodes}")
+        SELECTION.episodes(args.episodes, args.first_seed)
+        if not (args.run / "run.json").is_file():
+            raise OriginalError(f"--run {args.run}: run.json is missing (not an original run folder)")
+        actors = {int(p.stem.split("_")[1]): p for p in (args.run / "actors").glob("epoch_*.safetensors")}
+        if not actors:
+            raise OriginalError(f"--run {args.run}: no kept actors (actors/epoch_NNNN.safetensors)")
+        rows = _curve_rows(out)
+        other = [r for r in rows if (int(r["episodes"]), int(r["first_seed"])) != (args.episodes, args.first_seed)]
+        if other:
+            raise OriginalError(f"--out {out}: its rows were drawn on {other[0]['episodes']} episodes from seed "
+                                f"{other[0]['first_seed']}; a curve keeps one set of episodes (choose another --out)")
+        steps = int(json.loads((args.run / "run.json").read_text())["trainer"]["steps_per_epoch"])
+        require_venv()
+    except (OriginalError, SeedError, OSError, ValueError, KeyError) as exc:
+        return error(str(exc))
+    done = {int(r["epoch"]) for r in rows}
+    for epoch in sorted(set(actors) - done):
+        m = score_actor(args.run, actors[epoch], args.episodes, args.first_seed)
+        rows.append({"epoch": epoch, "joint_steps": epoch * steps, "episodes": args.episodes,
+                     "first_seed": args.first_seed, **{k: m[k] for k in CURVE_COLUMNS[4:]}})
+        _write_curve(out, sorted(rows, key=lambda r: int(r["epoch"])))  # whole, after every actor: resumable
+        print(f"epoch {epoch}: " + ", ".join(f"{k} {float(m[k]):.3f}" for k in CURVE_COLUMNS[4:]), flush=True)
+    print(f"{out}: {len(rows)} epochs ({len(rows) - len(done)} new)")
+    return 0
+
+
+def _curve_rows(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _write_curve(path: Path, rows: list[dict]) -> None:
+    tmp = path.with_name(path.name + ".partial")
+    with tmp.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=CURVE_COLUMNS)
+        writer.writeheader()
+        writer.writerows({k: r[k] for k in CURVE_COLUMNS} for r in rows)
+    os.replace(tmp, path)
+
+
 def _evaluate(args) -> int:
     from box2d_driving.metrics.rollouts import load_table
 
@@ -218,11 +287,20 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help=f"first report seed (default: {REPORT.start})")
     e.add_argument("--out", type=Path, required=True,
                    help="metrics JSON to write (must not exist); the rollout table goes beside it (.npz)")
+    k = sub.add_parser("curve", help="every kept actor of a run on the same selection episodes (a learning curve)")
+    k.add_argument("--run", type=Path, required=True, help="an original train run folder")
+    k.add_argument("--episodes", type=int, default=100, help="selection episodes per actor (default: 100)")
+    k.add_argument("--first-seed", type=int, default=SELECTION.start,
+                   help=f"first selection seed (default: {SELECTION.start})")
+    k.add_argument("--out", type=Path, default=None,
+                   help="CSV to write; epochs already in it are kept, not redrawn (default: RUN/curve.csv)")
     args = parser.parse_args(argv)
     if args.command == "setup":
         return setup()
     if args.command == "evaluate":
         return _evaluate(args)
+    if args.command == "curve":
+        return _curve(args)
     if args.command == "compare":
         return _compare(args)
     try:

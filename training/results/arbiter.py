@@ -49,6 +49,9 @@ class OriginalRun:
     # per epoch, from the run's progress.csv: joint steps so far and the mean return of the episodes
     # that ended in it (the trainer's own log; empty where the run kept none)
     curve: tuple[tuple[int, float], ...] = field(default=(), compare=False)
+    # per kept actor, from the run's curve.csv (``original curve``): joint steps and red-light
+    # violations on selection episodes
+    violations: tuple[tuple[int, float], ...] = field(default=(), compare=False)
 
     @property
     def evaluated_epochs(self) -> Optional[int]:
@@ -68,7 +71,8 @@ def load_original_runs(folder: Path = ORIGINAL_RUNS) -> list[OriginalRun]:
             report = json.loads(report_path.read_text()) if report_path.exists() else None
             runs.append(OriginalRun(here.name, float(spec["env_kwargs"]["lidar_noise"]), int(spec["seed"]),
                                     int(spec["epochs"]), int(state["epochs_done"]), int(state["joint_steps"]),
-                                    int(state["car_decisions"]), report, _training_curve(here / "progress.csv")))
+                                    int(state["car_decisions"]), report, _training_curve(here / "progress.csv"),
+                                    _violations_curve(here / "curve.csv")))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise ResultsError(f"{here}: not a readable original run ({exc})") from None
     return sorted(runs, key=lambda r: (r.lidar_noise, r.seed))
@@ -87,9 +91,19 @@ def _training_curve(path: Path) -> tuple[tuple[int, float], ...]:
     return tuple(out)
 
 
+def _violations_curve(path: Path) -> tuple[tuple[int, float], ...]:
+    """(joint steps, red-light violations) per kept actor of a run's ``curve.csv``."""
+    if not path.exists():
+        return ()
+    with path.open(newline="") as f:
+        return tuple((int(r["joint_steps"]), float(r[METRIC])) for r in csv.DictReader(f))
+
+
 def training_curve_figure(runs: list[OriginalRun], path: Path) -> bool:
     """The runs' training curves (mean episode return per epoch against joint steps, one line per
-    run, coloured by LiDAR noise), written to ``path``; False where no run logged one."""
+    run, coloured by LiDAR noise) and, where runs have one, their kept actors' red-light
+    violations on selection episodes beside them; written to ``path``; False where no run logged
+    a training curve."""
     drawn = [r for r in runs if r.curve]
     if not drawn:
         return False
@@ -99,7 +113,9 @@ def training_curve_figure(runs: list[OriginalRun], path: Path) -> bool:
     import matplotlib.pyplot as plt
 
     colours = {noise: plt.get_cmap("tab10")(k) for k, noise in enumerate(sorted({r.lidar_noise for r in drawn}))}
-    fig, ax = plt.subplots(figsize=(7.0, 4.0))
+    measured = [r for r in drawn if r.violations]
+    fig, axes = plt.subplots(1, 2 if measured else 1, figsize=(11.0 if measured else 7.0, 4.0), squeeze=False)
+    ax = axes[0][0]
     for r in drawn:
         steps, returns = zip(*r.curve)
         ax.plot([s / 1e6 for s in steps], returns, color=colours[r.lidar_noise], lw=1.2,
@@ -110,6 +126,18 @@ def training_curve_figure(runs: list[OriginalRun], path: Path) -> bool:
     ax.set_title("The paper's own trainer, 4 cars: training curves")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
+    if measured:
+        ax = axes[0][1]
+        for r in measured:
+            steps, values = zip(*r.violations)
+            ax.plot([s / 1e6 for s in steps], values, "o-", color=colours[r.lidar_noise], lw=1.2, ms=3,
+                    label=f"noise {_noise(r.lidar_noise)}, seed {r.seed}")
+        ax.set_xlabel("joint steps (millions)")
+        ax.set_ylabel("red-light violations")
+        ax.set_title("kept actors on selection episodes")
+        ax.set_ylim(0, None)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -186,7 +214,9 @@ def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel
     parts += ["", f"**The noise claim, by the paper's own code: {verdict}.** {words[:1].upper()}{words[1:]}.", ""]
     if figures is not None and training_curve_figure(runs, figures / CURVE_FIGURE):
         parts += [f"![The original trainer's training curves]({rel}/{CURVE_FIGURE})", "",
-                  "*Each run's mean episode return per epoch, from the trainer's own log (`progress.csv`), "
-                  "against joint steps; dashed: a run still short of its budget. A return, not a rule: the "
-                  "violations above are measured on report episodes at the evaluated epoch.*", ""]
+                  "*Left: each run's mean episode return per epoch, from the trainer's own log "
+                  "(`progress.csv`), against joint steps; dashed: a run still short of its budget. Right, where "
+                  "drawn: the actors a run kept, each on the same selection episodes (`box2d-driving original "
+                  "curve`; selection seeds, so that reading the curve chooses nothing on report episodes). The "
+                  "violations in the table are measured on report episodes at the evaluated epoch.*", ""]
     return parts
