@@ -136,6 +136,7 @@ def training_curve_figure(runs: list[OriginalRun], path: Path) -> bool:
         ax.set_ylabel("red-light violations")
         ax.set_title("kept actors on selection episodes")
         ax.set_ylim(0, None)
+        ax.set_xlim(axes[0][0].get_xlim())  # the same joint steps as the training curves beside it
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
