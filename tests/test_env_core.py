@@ -66,7 +66,8 @@ def test_instances_stepped_together_step_exactly_as_alone(name, env_id, override
 
 
 def test_together_with_the_box2d_lidar_backend():
-    assert _run("crosswalk-v0", {"lidar_backend": "box2d", "num_cars": 3}, decisions=25, instances=2) >= 0
+    # every decision of both ways compared inside _run (too few decisions here for an episode to end)
+    _run("crosswalk-v0", {"lidar_backend": "box2d", "num_cars": 3}, decisions=25, instances=2)
 
 
 def test_one_instance_of_the_many_scenes_lidar_is_the_single_scene_kernel():
