@@ -20,7 +20,13 @@ def command(name: str) -> Optional[Callable[[list[str]], int]]:
     """The ``main(argv)`` of the plugged-in command ``name``, or None where no installed package
     offers it. Raises ``ImportError`` when the command's package is there but its dependencies
     (the train extra) are not."""
-    found = [ep for ep in entry_points(group=COMMANDS) if ep.name == name]
+    return _load(COMMANDS, name)
+
+
+def _load(group: str, name: str) -> Optional[Callable[..., Any]]:
+    """The object entry point ``name`` of ``group`` names (after :func:`check_training_package`),
+    or None where no installed package offers it; an ``ImportError`` of its module propagates."""
+    found = [ep for ep in entry_points(group=group) if ep.name == name]
     if not found:
         return None
     check_training_package()
@@ -91,10 +97,9 @@ def api(name: str) -> Callable[..., Any]:
     """The function ``name`` the training package offers in the group :data:`API`, or
     :class:`CommandMissing` saying what to install."""
     try:
-        found = [ep for ep in entry_points(group=API) if ep.name == name]
-        if found:
-            check_training_package()
-            return found[0].load()
+        found = _load(API, name)
     except ImportError as exc:
         raise CommandMissing(f"needs the train extra ({INSTALL}): {exc}") from None
-    raise CommandMissing(f"needs the train extra ({INSTALL})")
+    if found is None:
+        raise CommandMissing(f"needs the train extra ({INSTALL})")
+    return found

@@ -67,13 +67,12 @@ def _add(scenario: Scenario, replace: bool = False) -> Scenario:
         raise ConfigError(f"register: env id {scenario.env_id!r} is taken (by {old.env!r}); pass replace=True "
                           "to replace it")
     _REGISTERED[scenario.env_id] = scenario
-    if scenario.single_agent is not None:
-        _register_gym_id(scenario, replace=replace)
+    _register_gym_id(scenario, replace=replace)
     return scenario
 
 
 def _register_gym_id(scenario: Scenario, replace: bool = False) -> None:
-    """Register ``scenario``'s single-agent Gymnasium id (the env is
+    """Register ``scenario``'s single-agent Gymnasium id, if it has one (the env is
     :class:`box2d_driving.single_agent.SingleAgentDrivingEnv`); an id Gymnasium has already is
     kept unless ``replace``."""
     spec = scenario.single_agent

@@ -39,7 +39,6 @@ EGO = "car_0"
 SHIPPED = SHIPPED_POLICIES_DIR  # assets/policies in a checkout, the package's copy in a wheel
 
 
-
 def single_agent_ids() -> dict[str, tuple[str, Optional[str], str]]:
     """Gymnasium id -> (multi-agent env id, shipped background policy, scripted fall-back), from
     the scenario records that have a single-agent version (:mod:`box2d_driving.scenarios`)."""
