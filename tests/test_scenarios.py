@@ -213,6 +213,24 @@ def test_training_defaults_are_declared_once():
     assert config_from("intersection-v0", ScriptArgs()).ent_coef == TrainConfig().ent_coef
 
 
+@pytest.mark.parametrize("env_id", scenarios.scenarios())
+def test_a_behaviour_trains_its_scenarios_default_world(env_id):
+    """`make(ID)` and `train NAME` (and so a sweep) start from the same cars and LiDAR: the
+    behaviour's CLI defaults are read from the scenario's config, not declared again."""
+    from box2d_driving import plugins
+    from training.sweeps.spec import script_module
+
+    record = scenario(env_id)
+    if record.trainer is None:
+        pytest.skip(f"{record.env_id} has no trainer")
+    assert record.trainer in plugins.behaviours()
+    module = script_module(record.trainer)
+    assert module.ENV_ID == record.env_id
+    config = box2d_driving.make(record.env_id).config
+    args = module.Args()
+    assert (args.num_cars, args.lidar_noise) == (config.num_cars, config.lidar_noise)
+
+
 def test_a_users_own_training_package_is_named_not_imported_in_ours(tmp_path):
     import subprocess
     import sys

@@ -40,6 +40,8 @@ class IntersectionSplineConfig(IntersectionConfig):
     """Spline-junction defaults.
 
     Attributes:
+        num_cars: 8, the paper's lanes experiment (cars only settle on a side when the junction is busy).
+        lidar_noise: 0.5, the same experiment's LiDAR (half the rays dropped each decision).
         lane_fraction: the planned route runs on the road axis (0).
         spline_offsets: waypoint offset sizes as fractions of ``W/2``, each offered to the right
             and to the left.
@@ -48,6 +50,8 @@ class IntersectionSplineConfig(IntersectionConfig):
         spline_obs_scale: stage-0 observations are metres divided by this.
     """
 
+    num_cars: int = 8
+    lidar_noise: float = 0.5
     lane_fraction: float = 0.0
     spline_offsets: tuple[float, ...] = (0.0, 1 / 3, 2 / 3)
     spline_action: str = "per_waypoint"

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+from box2d_driving.envs.crosswalk import CrosswalkConfig
 from training.behaviours.algorithms import run_script
 from training.behaviours.scripts import ScriptArgs
 
@@ -25,7 +26,7 @@ class Args(ScriptArgs):
     crosswalk_in_satnav: the sat-nav also tells how far ahead the crosswalk is (not in the paper)
     """
 
-    num_cars: int = 4
+    num_cars: int = CrosswalkConfig.num_cars  # the scenario's, declared once in its config
     out: str = "runs/crosswalk"
     crosswalk_in_satnav: bool = False
 

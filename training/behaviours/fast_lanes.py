@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+from box2d_driving.envs.highway_spline import HighwaySplineConfig
 from training.behaviours.algorithms import run_script
 from training.behaviours.scripts import BilevelArgs
 
@@ -25,7 +26,7 @@ ENV_ID = "highway-spline-v0"
 class Args(BilevelArgs):
     """Train cars to choose their lateral position and drive on highway-spline-v0."""
 
-    num_cars: int = 10
+    num_cars: int = HighwaySplineConfig.num_cars  # the scenario's, declared once in its config
     out: str = "runs/fast_lanes"
 
 

@@ -31,8 +31,8 @@ class Args(BilevelArgs):
         default) or joint (one 216-way choice, as the paper's code)
     """
 
-    num_cars: int = 8
-    lidar_noise: float = 0.5
+    num_cars: int = IntersectionSplineConfig.num_cars  # the scenario's, declared once in its config
+    lidar_noise: float = IntersectionSplineConfig.lidar_noise
     out: str = "runs/lanes"
     spline_action: str = IntersectionSplineConfig.spline_action
 

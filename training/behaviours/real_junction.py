@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+from box2d_driving.envs.real_junction import RealJunctionConfig
 from training.behaviours.algorithms import run_script
 from training.behaviours.scripts import ScriptArgs
 
@@ -31,7 +32,7 @@ class Args(ScriptArgs):
     map: one shipped map name or a map JSON file (default: all shipped maps, one per episode)
     """
 
-    num_cars: int = 8
+    num_cars: int = RealJunctionConfig.num_cars  # the scenario's, declared once in its config
     out: str = "runs/real_junction"
     communication: bool = False
     comm_fallback: str = "zero"

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
-from box2d_driving.config import ConfigError
+from box2d_driving.config import ConfigError, DrivingConfig
 from box2d_driving.presets import preset_overrides
 from training.trainers.bilevel import BilevelConfig
 from training.trainers.presets import training_preset
@@ -72,8 +72,8 @@ class CommonArgs:
         slot-decisions); overrides --timesteps
     """
 
-    num_cars: int = 4
-    lidar_noise: float = 0.0
+    num_cars: int = DrivingConfig.num_cars
+    lidar_noise: float = DrivingConfig.lidar_noise
     seed: int = TrainConfig.seed
     quick: bool = False
     out: str = "runs/run"

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Optional
 
+from box2d_driving.envs.intersection import IntersectionConfig
 from training.behaviours.algorithms import run_script
 from training.behaviours.scripts import ScriptArgs
 
@@ -22,7 +23,7 @@ ENV_ID = "intersection-v0"
 class Args(ScriptArgs):
     """Train the traffic-light rule on intersection-v0."""
 
-    num_cars: int = 4
+    num_cars: int = IntersectionConfig.num_cars  # the scenario's, declared once in its config
     out: str = "runs/traffic_lights"
 
 
