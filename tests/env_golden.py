@@ -48,7 +48,7 @@ CASES = (
     ("intersection-8-noiseless", "intersection-v0", {"num_cars": 8}),
     ("highway", "highway-v0", {}),
     ("crosswalk", "crosswalk-v0", {}),
-    ("intersection-spline", "intersection-spline-v0", {"num_cars": 4, "lidar_noise": 0.0}),  # pinned: recorded at 4 cars
+    ("intersection-spline", "intersection-spline-v0", {"num_cars": 4, "lidar_noise": 0.0}),  # as recorded
     ("highway-spline", "highway-spline-v0", {}),
     ("real-junction", "real-junction-v0", {}),
     ("real-junction-messages", "real-junction-v0", {"communication": True, "lidar_noise": 0.25}),
