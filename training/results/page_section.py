@@ -21,19 +21,22 @@ IN_GRID = "(grid)"
 
 @dataclass(frozen=True)
 class Headline:
-    """A row of the README's results table: one grid point of a rule and the metrics shown.
+    """A headline of a rule: one grid point and the metrics shown; the README's results table shows
+    the headlines marked ``in_readme`` (a few lines: the largest run of each of the paper's claims).
 
     Attributes:
         rule: what the row shows, in words.
         setting: the scenario and grid point, in words.
         point: grid values (as typed in the sweep's ``--grid``) the row's trials have.
         metrics: metric columns shown, labelled as in the section's table.
+        in_readme: a row of the README's short table (otherwise only on the results page).
     """
 
     rule: str
     setting: str
     point: tuple[tuple[str, str], ...] = ()
     metrics: tuple[Metric, ...] = ()
+    in_readme: bool = False
 
 
 @dataclass(frozen=True)
@@ -59,7 +62,7 @@ class Section:
             ``compare_with`` and the grid points not learnt).
         shipped: the shipped policy animated in the section (a folder in assets/policies).
         gif_size: the animation's frame size in pixels.
-        headlines: its rows in the README's results table.
+        headlines: its headline grid points (those marked ``in_readme`` are the README's rows).
         compare_with: (another section's key, its grid point) whose trials this section's are set
             against in a statement (same metrics, intervals apart or not).
         paper_budget: what the paper's own runs of this rule trained (from the original code's

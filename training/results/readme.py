@@ -1,6 +1,6 @@
-"""The README's results table (``box2d-driving reproduce --readme README.md``): each rule's
-headline grid points over training seeds, written between two marker lines of the README so that
-the rest of it is left as it is."""
+"""The README's results table (``box2d-driving reproduce --readme README.md``): the headline
+grid points marked ``in_readme`` (the largest run of each of the paper's claims) over training
+seeds, written between two marker lines of the README so that the rest of it is left as it is."""
 
 from __future__ import annotations
 
@@ -20,15 +20,17 @@ README_START = "<!-- results over training seeds: written by box2d-driving repro
 README_END = "<!-- end of results over training seeds -->"
 
 
-def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md") -> str:
-    """The README's results table: each rule's headline grid points as mean ± 95 % half-width over
-    training seeds, with the number of seeds and a link to the rule's section of ``page``."""
+def readme_table(summaries: list[dict[str, Any]], page: str = "docs/results.md", every_headline: bool = False) -> str:
+    """The README's results table: the headlines marked ``in_readme`` as mean ± 95 % half-width over
+    training seeds, with the number of seeds and a link to the rule's section of ``page`` (where
+    every other headline and grid point is); with ``every_headline``, every rule's headlines (the
+    results page's own table, ``page=""`` for links within it)."""
     header = ["rule", "setting", "ours on report episodes: mean ± 95 % half-width over training seeds", "seeds",
               "details"]
     lines = [row(header), separator(len(header))]
     for section in SECTIONS:
         labels = dict(section.metrics)
-        for h in section.headlines:
+        for h in (h for h in section.headlines if h.in_readme or every_headline):
             g = group_at(section, summaries, list(h.metrics), h.point)
             if g is not None:
                 result = "; ".join(f"{labels.get(m, m)} {_headline_value(g.estimates[m])}" for m in h.metrics)

@@ -103,13 +103,22 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
     parts += arbiter_section(runs, figures, rel.as_posix())
-    parts[intro:intro] = _claims_part(found_sections, arbiter_cell(runs))
+    parts[intro:intro] = _claims_part(found_sections, arbiter_cell(runs)) + _glance_part(summaries)
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
     tmp.write_text(text)
     tmp.replace(out)
     return text
+
+
+def _glance_part(summaries: list[dict[str, Any]]) -> list[str]:
+    """Every rule's headline grid points in one table (the README shows the few marked for it)."""
+    return ["## Every headline at a glance", "",
+            "Each rule's headline grid points, as mean ± 95 % half-width over training seeds (an interval in "
+            "brackets where it is cut at a share's range); the README's results table shows the largest run of "
+            "each of the paper's claims from this table.", "",
+            readme_table(summaries, page="", every_headline=True), ""]
 
 
 def _page_intro() -> list[str]:

@@ -51,7 +51,7 @@ SECTIONS: tuple[Section, ...] = (
             shipped="traffic_lights_4cars_noise05",
             headlines=(Headline("stop at red lights", "`intersection-v0`, 4 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "4")),
-                                ("red_light_violation_rate", "success_rate", "collision_rate")),
+                                ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),
                        Headline("lone car ignores the light", "1 car, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "1")), ("red_light_violation_rate",)),
                        Headline("8 cars from scratch", "8 cars, LiDAR noise 0.5",
@@ -161,7 +161,7 @@ SECTIONS: tuple[Section, ...] = (
             headlines=(Headline("denser traffic, 16 M decisions",
                                 "8 cars, LiDAR noise 0.5, 16 M decisions (an eighth of the paper's 128 M) from the "
                                 "4-car policy", (),
-                                ("red_light_violation_rate", "success_rate", "collision_rate")),)),
+                                ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
     Section("lanes", "Lanes", "lanes", (),
             LANES_METRICS,
             "The paper's figure 'Lanes emerge with more agents' (its caption): at a low density of agents the "
@@ -209,10 +209,11 @@ SECTIONS: tuple[Section, ...] = (
                  # the README shows this run, not the 4.8 M one: as many seeds, and every lane measure had
                  # stopped moving at both car counts
                  headlines=(Headline("lanes, 16 M decisions", "8 cars, LiDAR noise 0.5, 500 rounds (16 M decisions)",
-                                     (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
+                                     (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate"),
+                                     in_readme=True),
                             Headline("4 cars (the paper: no lanes)",
                                      "4 cars, LiDAR noise 0.5, 500 rounds (16 M decisions)",
-                                     (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED)))),
+                                     (("num_cars", "4"),), ("lanes.majority_share", ONE_SIDED), in_readme=True))),
     Section("lanes-noise", "Lanes at the paper's LiDAR noise levels", "lanes",
             (("rounds", "150"), ("lidar_noise", IN_GRID)),
             LANES_METRICS,
@@ -263,7 +264,7 @@ SECTIONS: tuple[Section, ...] = (
             headlines=(Headline("right of way, safe distance",
                                 "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate",
-                                 "collision_rate")),)),
+                                 "collision_rate"), in_readme=True),)),
     right_of_way("right-of-way-paper-32M", "Right of way and safe distance, the paper's budget (32 M decisions)",
             (("timesteps", "32000000"),),
             f"{SWEEP} real-junction --seeds 3 --timesteps 32000000 --set num_cars=8 collision_reward=-3 "
@@ -338,7 +339,8 @@ SECTIONS: tuple[Section, ...] = (
             headlines=tuple(Headline("turn signals, 12 cars, 32 M decisions",
                                      f"`real-junction-v0`, 12 cars, 1-bit message, LiDAR noise {noise}, 32 M decisions",
                                      (("lidar_noise", noise),),
-                                     ("communication.speaker_consistency_bits", PEARSON, SUCCESS_LOST_UNHEARD))
+                                     ("communication.speaker_consistency_bits", PEARSON, SUCCESS_LOST_UNHEARD),
+                                     in_readme=True)
                             for noise in ("0", "0.75"))),
     Section("fast-lanes", "Fast lanes", "fast-lanes", (),
             ((FAST_LANES_R, "Pearson(rating, lateral), size"),
@@ -357,7 +359,7 @@ SECTIONS: tuple[Section, ...] = (
                                dots=("fast_lanes.pearson_r", "each seed, signed (below 0: fast cars on the right)")),
             shipped="fast_lanes_10cars", gif_size=(640, 200),
             headlines=(Headline("fast lanes", "`highway-spline-v0`, 10 cars", (),
-                                (FAST_LANES_R, "success_rate")),)),
+                                (FAST_LANES_R, "success_rate"), in_readme=True),)),
     Section("pedestrians", "Slowing down for pedestrians", "crosswalk", (),
             (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
              ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
@@ -387,7 +389,8 @@ SECTIONS: tuple[Section, ...] = (
             shipped="crosswalk_4cars_satnav_collision6", gif_size=(640, 200),
             headlines=(Headline("slow down for pedestrians",
                                 "`crosswalk-v0`, 4 cars, crosswalk in the sat-nav, collision reward -6", (),
-                                ("pedestrian_collision_rate", "safe_stopping_share", "success_rate")),)),
+                                ("pedestrian_collision_rate", "safe_stopping_share", "success_rate"),
+                                in_readme=True),)),
 )
 
 
