@@ -84,5 +84,8 @@ def test_shipped_policies_load_by_name_and_a_folder_of_several_says_which():
     with pytest.raises(CheckpointError,
                        match=r"holds no policy of its own but 1 in sub-folders \(noise05\): load one of them"):
         load_trained(SHIPPED_POLICIES_DIR / "real_junction_comm_8cars")
+    with pytest.raises(CheckpointError, match=r"^real_junction_comm_8cars holds no policy of its own but 1 in "
+                       r"sub-folders \(noise05\): load one of them, e.g. real_junction_comm_8cars/noise05$"):
+        load_trained("real_junction_comm_8cars")  # by its shipped name: answered with names
     with pytest.raises(CheckpointError, match="no checkpoint at no_such_policy"):
         load_trained("no_such_policy")

@@ -53,6 +53,13 @@ class Estimate:
     n: int
     values: tuple[float, ...]
 
+    @property
+    def interval(self) -> tuple[float, float]:
+        """``(low, high)``; a :class:`ValueError` where there is none (fewer than 2 values)."""
+        if self.low is None or self.high is None:
+            raise ValueError(f"no interval from {self.n} value(s)")
+        return self.low, self.high
+
     def contains(self, x: float) -> Optional[bool]:
         """Whether ``x`` lies in the interval (None without an interval)."""
         if self.low is None or self.high is None:

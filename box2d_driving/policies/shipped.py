@@ -57,15 +57,17 @@ def resolve_policy_path(path: Union[str, Path]) -> Path:
     sub-folders is refused naming them (:class:`CheckpointError`)."""
     from box2d_driving.policies.checkpoint_file import CheckpointError
 
-    path = Path(path)
+    path = shown = Path(path)  # shown: how the error names it (a shipped name stays a name)
     if not path.exists() and len(path.parts) <= 2:
         try:
             path = shipped_policy(path.as_posix())
         except KeyError:
-            pass
+            group = SHIPPED_POLICIES_DIR / path
+            if not path.is_absolute() and group.is_dir():  # a shipped folder of several policies
+                path = group
     if path.is_dir() and not is_policy_folder(path):
         inside = sorted(p.name for p in path.iterdir() if p.is_dir() and is_policy_folder(p))
         if inside:
-            raise CheckpointError(f"{path} holds no policy of its own but {len(inside)} in sub-folders "
-                                  f"({', '.join(inside)}): load one of them, e.g. {path / inside[0]}")
+            raise CheckpointError(f"{shown} holds no policy of its own but {len(inside)} in sub-folders "
+                                  f"({', '.join(inside)}): load one of them, e.g. {(shown / inside[0]).as_posix()}")
     return path

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from training.behaviours.scripts import BilevelArgs, ScriptArgs, bilevel_config_from, config_from
+from training.behaviours.scripts import BilevelArgs, CommonArgs, ScriptArgs, bilevel_config_from, config_from
 from training.common.cli_args import parse, prog_name
 from training.trainers.trainer import RunError
 
@@ -81,7 +81,7 @@ def algorithm_of(args_class: type) -> Algorithm:
                     f"({', '.join(a.args.__name__ for a in ALGORITHMS)})")
 
 
-def run_script(env_id: str, args_class: type, argv: Optional[list[str]], doc: str) -> int:
+def run_script(env_id: str, args_class: type[CommonArgs], argv: Optional[list[str]], doc: str) -> int:
     """A behaviour's ``box2d-driving train NAME``: parse ``argv`` into ``args_class``, train with
     its algorithm, print a summary; the exit status (2: bad input, 128 + N: stopped by signal N
     with the run saved)."""

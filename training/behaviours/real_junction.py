@@ -13,7 +13,7 @@ runs/real_junction/eval`` (FIFO share, safe-distance share and scatter, communic
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Any, Optional
 
 from box2d_driving.envs.real_junction import RealJunctionConfig
 from training.behaviours.algorithms import run_script
@@ -39,7 +39,7 @@ class Args(ScriptArgs):
     map: Optional[str] = None
 
     def env_overrides(self) -> dict:
-        extra = {"communication": self.communication}
+        extra: dict[str, Any] = {"communication": self.communication}
         if self.comm_fallback != "zero":  # runs without it keep their recorded overrides
             extra["comm_fallback"] = self.comm_fallback
         if self.map is not None:

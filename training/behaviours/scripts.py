@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, cast
 
 from box2d_driving.config import ConfigError, DrivingConfig
 from box2d_driving.presets import preset_overrides
@@ -121,7 +121,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         overrides["remove_collided"] = True
     cfg = TrainConfig(
         env_id=env_id, env_overrides=overrides,
-        timesteps=timesteps if timesteps is not None else args.timesteps, seed=args.seed,
+        timesteps=timesteps if timesteps is not None else cast(ScriptArgs, args).timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
         minibatch_by_step=args.minibatch_by_step,
         critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,

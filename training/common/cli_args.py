@@ -6,7 +6,7 @@ import argparse
 import dataclasses
 import sys
 import typing
-from typing import Any, Optional, Sequence, TypeVar
+from typing import Any, Optional, Sequence, TypeVar, cast
 
 from box2d_driving.cli_parser import OneLineParser
 
@@ -35,10 +35,15 @@ def parse(cls: type[T], argv: Optional[Sequence[str]] = None, description: str =
         docs.update(_field_docs(klass.__doc__ or ""))
     parser = OneLineParser(prog=prog_name(), description=description)
     hints = typing.get_type_hints(cls)
-    for f in dataclasses.fields(cls):
+    for f in dataclasses.fields(cast(Any, cls)):
         flag = "--" + f.name.replace("_", "-")
         kind = hints[f.name]
-        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
+        if f.default is not dataclasses.MISSING:
+            default = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            default = f.default_factory()
+        else:  # a programming error in an arguments class, not a user's
+            raise TypeError(f"{cls.__name__}.{f.name}: a command-line field needs a default")
         doc = docs.get(f.name, "")
         help_text = doc if "default" in doc else f"{doc} (default: {default})"
         if kind is bool or kind == Optional[bool]:  # Optional: None when neither flag is given

@@ -59,7 +59,7 @@ def kept_checkpoints(run: Path) -> list[dict[str, Any]]:
     if is_bilevel_run(run):
         config = json.loads((run / "config.json").read_text())
         per_round = int(config["accel_updates_per_round"]) * int(config["accel"]["batch_decisions"])
-        found = [{"round": int(re.findall(r"\d+", p.stem)[0]), "file": p}
+        found: list[dict[str, Any]] = [{"round": int(re.findall(r"\d+", p.stem)[0]), "file": p}
                  for p in run.glob("checkpoints/round_*_accel.safetensors")]
         for f in found:
             f["decisions"] = f["round"] * per_round

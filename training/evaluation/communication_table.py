@@ -128,8 +128,8 @@ def _print_tables(rows: list[tuple[float, dict, str]]) -> None:
             print(f"| {level} | {seed} | {t['pearson_route_turn_bit']:.3f} | {t['movement_bit_mi_bits']:.4f} | "
                   f"{share['right']:.3f} | {share['straight']:.3f} | {share['left']:.3f} |")
     trend = [(name, value) for name, value in TREND if _all_have(rows, value)]
-    noise = np.array([r[0] for r in rows])
-    levels = np.unique(noise)
+    noise_levels = np.array([r[0] for r in rows])
+    levels = np.unique(noise_levels)
     if len(levels) < len(rows):
         print()
         print("Per noise level over its runs, mean +- std "
@@ -149,7 +149,7 @@ def _print_tables(rows: list[tuple[float, dict, str]]) -> None:
     print("| measure | runs | Spearman rho | p (rises) |")
     print("|---|---:|---:|---:|")
     for name, value in trend:
-        t = rank_trend(noise, [value(r[1]["communication"]) for r in rows])
+        t = rank_trend(noise_levels, np.array([value(r[1]["communication"]) for r in rows]))
         print(f"| {name} | {t['n']} | {t['spearman']:.3f} | {t['p_rises']:.3f} |")
 
 

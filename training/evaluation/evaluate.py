@@ -19,7 +19,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import box2d_driving
 from box2d_driving.metrics.intervals import RATES, rate_intervals
@@ -83,6 +83,8 @@ def evaluate(args: Args) -> dict:
 
 
 def _evaluate_into(out: Path, args: Args) -> dict:
+    assert args.seed is not None  # evaluate() set it to the first report seed
+    seed = args.seed
     extra = {k: v for k, v in (("num_cars", args.num_cars), ("lidar_noise", args.lidar_noise))
              if v is not None}
     if args.remove_collided is not None:
@@ -92,7 +94,7 @@ def _evaluate_into(out: Path, args: Args) -> dict:
         def make_env(**kw):
             return box2d_driving.make(env_id, **extra, **kw)
         env = make_env()
-        policy = make_policy(args.checkpoint, env, seed=args.seed)
+        policy = make_policy(args.checkpoint, env, seed=seed)
         source = {"policy": args.checkpoint}
     else:
         import torch
@@ -110,16 +112,16 @@ def _evaluate_into(out: Path, args: Args) -> dict:
         run_dir = path if path.is_dir() else path.parent
         source = {"checkpoint": str(path), "trained_on": policy.config["env_overrides"]}
     t0 = time.perf_counter()
-    table = run_episodes(env, policy, args.episodes, seed=args.seed)
+    table = run_episodes(env, policy, args.episodes, seed=seed)
     seconds = time.perf_counter() - t0
     save_table(table, out / "rollouts.npz")
-    metrics = report_for(env_id)(table, env, policy, out, args.episodes, args.seed, make_env)
+    metrics = report_for(env_id)(table, env, policy, out, args.episodes, seed, make_env)
     add_collisions(metrics, table, out)
     # how far each rate may move on another block of episodes: 95 % half-widths, episodes as clusters
     metrics["intervals_95"] = {name: i["half_width"] for name, i in
                                rate_intervals(table, tuple(r for r in RATES if r in metrics)).items()}
     metrics.update(source)
-    metrics.update(episodes=args.episodes, seed=args.seed, seed_set=REPORT.name, deterministic=not args.stochastic,
+    metrics.update(episodes=args.episodes, seed=seed, seed_set=REPORT.name, deterministic=not args.stochastic,
                    env_id=env_id, env_config={
                        "num_cars": env.config.num_cars, "lidar_noise": env.config.lidar_noise,
                        "remove_collided": env.config.remove_collided},
@@ -137,12 +139,12 @@ def _evaluate_into(out: Path, args: Args) -> dict:
     if args.video > 0:
         from box2d_driving.render.video import record
 
-        drawn = {"render_mode": "rgb_array"}  # the evaluated settings, drawn
+        drawn: dict[str, Any] = {"render_mode": "rgb_array"}  # the evaluated settings, drawn
         if args.checkpoint not in SCRIPTED and metrics.get("stop_value") in (0.0, 1.0):
             # a trained policy: the value it stopped on in these episodes is drawn red
             drawn["render_stop_value"] = float(metrics["stop_value"])
         video_env = make_env(**drawn)
-        record(video_env, policy, episodes=args.video, video=out / "episodes.mp4", seed=args.seed)
+        record(video_env, policy, episodes=args.video, video=out / "episodes.mp4", seed=seed)
     return metrics
 
 

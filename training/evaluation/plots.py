@@ -124,16 +124,16 @@ def junction_light_histogram(table: dict[str, np.ndarray], entries: dict[str, np
     plt = _plt()
     key = {(e, c): light for e, c, light in zip(entries["episode"], entries["car"], entries["light"])}
     inside = np.flatnonzero(table["in_junction"])
-    pts, go = [], []
+    points, went = [], []
     for i in inside:
         k = (table["episode"][i], table["car"][i])
         if k in key:
-            pts.append((table["x"][i], table["y"][i]))
-            go.append(np.isclose(key[k], go_value))
+            points.append((table["x"][i], table["y"][i]))
+            went.append(np.isclose(key[k], go_value))
     fig, ax = plt.subplots(figsize=(5, 4.5))
-    if pts:
-        pts = np.array(pts)
-        go = np.array(go, dtype=float)
+    if points:
+        pts = np.array(points)
+        go = np.array(went, dtype=float)
         lim = np.abs(pts).max()
         edges = np.linspace(-lim, lim, bins + 1)
         total, _, _ = np.histogram2d(pts[:, 0], pts[:, 1], bins=[edges, edges])

@@ -81,7 +81,7 @@ def fast_lanes_report(table: dict, env: Any, policy: Any, out: Path, episodes: i
                       make_env: Callable[..., Any]) -> dict:
     """Outcomes and fast-lane measures (lateral position against a car's speed rating) and their
     plot."""
-    metrics = outcome_rates(table)
+    metrics: dict[str, Any] = outcome_rates(table)
     metrics["fast_lanes"] = fast_lane_metrics(table, env.config.road_width)
     plots.lateral_over_time(table, env.config.road_width, out / "lateral_by_rating.png")
     return metrics

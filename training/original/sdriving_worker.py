@@ -32,6 +32,7 @@ import random
 import sys
 import time
 import types
+from typing import Any, cast
 
 WEIGHTS = "weights.safetensors"
 STATE = "state.json"
@@ -122,7 +123,7 @@ def save_carry(folder: str, trainer, state: dict) -> None:
     tensors["rng.torch"] = torch.get_rng_state()
     if trainer.env.cached_actions is not None:  # the env's smoothness term reads it across resets
         tensors["env.cached_actions"] = trainer.env.cached_actions.detach().clone().contiguous()
-    kind, keys, pos, has_gauss, gauss = np.random.get_state()
+    kind, keys, pos, has_gauss, gauss = cast(tuple[str, Any, int, int, float], np.random.get_state())
     py_version, py_state, py_gauss = random.getstate()
     state = dict(state, numpy_rng={"kind": kind, "keys": keys.tolist(), "pos": int(pos),
                                    "has_gauss": int(has_gauss), "gauss": float(gauss)},
@@ -253,7 +254,7 @@ def train(folder: str, time_limit_s: float) -> int:
         save_carry(folder, trainer, state)
         every = run.get("snapshot_every", SNAPSHOT_EVERY)
         if every and (state["epochs_done"] % every == 0 or state["epochs_done"] == run["epochs"]):
-            save_actor(folder, trainer, state["epochs_done"])
+            save_actor(folder, trainer, int(state["epochs_done"]))
         print(f"epoch {state['epochs_done']}/{run['epochs']}: {decisions} car-decisions, {episodes} episodes, "
               f"return {row['episode_return']:.3f}, {seconds:.0f} s", flush=True)
     return 0
@@ -293,13 +294,17 @@ def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: st
     env = REGISTRY[run_spec["env"]](**run_spec["env_kwargs"])
     levels = env.action_list[:, -1].numpy()
     n_act = len(levels)
-    actor = _actor(weights, env) if driver == "trained" else None
-    columns = {name: [] for name in (
+    actor: Any = None
+    if driver == "trained":
+        if weights is None:
+            raise ValueError("the trained driver needs its weights file")
+        actor = _actor(weights, env)
+    columns: dict[str, list] = {name: [] for name in (
         "episode", "car", "decision", "x", "y", "heading", "speed", "acceleration", "light", "in_junction",
         "lane_offset", "distance_to_goal", "arrived", "collided", "reward", "approach", "rating",
         "stop_line_distance", "pedestrian_distance", "crosswalk_distance", "bit_sent", "collided_with",
         "collision_partner", "partner_halted", "lidar_returns", "lidar_nearest")}
-    car_hits = {}
+    car_hits: dict[str, Any] = {}
     original_check = env.vehicle_collision_check
 
     def recording_check(vehicle):  # which new collisions were with another car
@@ -378,7 +383,7 @@ def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: st
             if nxt is not None:  # None once every car is done (its last rows read the world itself)
                 obs, lidar = nxt
     table = {name: np.asarray(values) for name, values in columns.items()}
-    np.savez_compressed(out, **table)
+    np.savez_compressed(out, **table)  # type: ignore[arg-type]  # numpy's stub types the keywords as its flags
 
 
 def main(argv=None) -> int:

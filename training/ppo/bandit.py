@@ -37,8 +37,8 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
 
     def __init__(self, env_fns: Sequence[Callable[[], Any]], accel_policy: AccelPolicy,
                  normalise: bool = True) -> None:
-        self.envs = [fn() for fn in env_fns]
-        first = self.envs[0]
+        self.instances = [fn() for fn in env_fns]  # the spline envs (``envs``)
+        first = self.instances[0]
         if not hasattr(first, "plan"):
             raise ValueError(f"{type(first).__name__} has no spline stage (use a *-spline-v0 env)")
         self.agents = list(first.possible_agents)
@@ -46,19 +46,24 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
         self._car = {a: i for i, a in enumerate(self.agents)}
         self.accel_policy = accel_policy
         self.normalise = normalise
-        super().__init__(len(self.envs) * self.n_cars, first.spline_observation_space,
+        super().__init__(len(self.instances) * self.n_cars, first.spline_observation_space,
                          first.spline_action_space)
         self._obs = np.zeros((self.num_envs,) + first.spline_observation_space.shape, dtype=np.float32)
         self._actions: Optional[np.ndarray] = None
 
+    @property
+    def envs(self) -> list:
+        """The spline env instances, one per ``n_cars`` slots."""
+        return self.instances
+
     def _plan(self, k: int, seed: Optional[int]) -> None:
-        obs0 = self.envs[k].plan(seed)
+        obs0 = self.instances[k].plan(seed)
         n = self.n_cars
         self._obs[k * n:(k + 1) * n] = np.stack([obs0[a] for a in self.agents])
 
     # -- VecEnv API ---------------------------------------------------------------------------
     def reset(self) -> np.ndarray:
-        for k in range(len(self.envs)):
+        for k in range(len(self.instances)):
             self._plan(k, self._seeds[k * self.n_cars])
         self._reset_seeds()
         self._reset_options()
@@ -69,7 +74,7 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
 
     def step_wait(self):
         returns, outcome, lane_sum, lane_count = self._inner_episodes(
-            self._actions.reshape((len(self.envs), self.n_cars) + self.action_space.shape))
+            self._actions.reshape((len(self.instances), self.n_cars) + self.action_space.shape))
         rewards = returns.copy()
         if self.normalise:
             rewards = (returns - returns.mean()) / (returns.std() + 1e-8)
@@ -79,7 +84,7 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
                       "collided": bool(outcome[s, 1]), "junction_lane_position": float(lane[s]),
                       "terminal_observation": self._obs[s].copy(), "TimeLimit.truncated": False}
                      for s in range(self.num_envs)]
-        for k in range(len(self.envs)):
+        for k in range(len(self.instances)):
             self._plan(k, None)
         return self._obs.copy(), rewards.astype(np.float32), np.ones(self.num_envs, dtype=bool), infos_out
 
@@ -100,19 +105,19 @@ class SplineBanditVecEnv(CarSlots, VecEnv):
         lane_count = np.zeros(self.num_envs)
         outcome = np.zeros((self.num_envs, 2), dtype=bool)  # arrived, collided
         obs_now: list[np.ndarray] = []  # per instance: its live cars' observations, in agent order
-        for k, env in enumerate(self.envs):
+        for k, env in enumerate(self.instances):
             obs, infos = env.reset(options={"use_plan": True, "spline_actions": actions[k]})
             obs_now.append(np.stack([obs[a] for a in env.agents]))
             self._lane_stats(k, [self._car[a] for a in infos], list(infos.values()), lane_sum, lane_count)
-        n_actions = self.envs[0].action_space(self.agents[0]).n
+        n_actions = self.instances[0].action_space(self.agents[0]).n
         while True:
-            live = [k for k, env in enumerate(self.envs) if env.agents]
+            live = [k for k, env in enumerate(self.instances) if env.agents]
             if not live:
                 break
             acts = np.asarray(self.accel_policy(np.concatenate([obs_now[k] for k in live])))
             counts = [len(obs_now[k]) for k in live]
             raws = [checked_actions(a, n_actions) for a in np.split(acts, np.cumsum(counts)[:-1])]
-            for k, d in zip(live, step_instances([self.envs[k] for k in live], raws)):
+            for k, d in zip(live, step_instances([self.instances[k] for k in live], raws)):
                 slots = k * n + d.cars
                 returns[slots] += d.rewards
                 ended = np.ones(len(d.cars), dtype=bool) if d.truncated else d.terminated

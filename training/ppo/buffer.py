@@ -31,7 +31,7 @@ import numpy as np
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.type_aliases import RolloutBufferSamples
 
-from training.ppo.original_update import normalise_per_car
+from training.ppo.original_update import KLWatch, normalise_per_car
 from training.ppo.slots import TeamLayout
 
 
@@ -44,7 +44,7 @@ class MaskedRolloutBuffer(RolloutBuffer):
         self.layout = layout
         self.group_size = group_size
         self.per_car_advantages = per_car_advantages  # normalise per car index over the update
-        self.kl_watch = None  # a training.ppo.original_update.KLWatch, for the paper's KL rule
+        self.kl_watch: Optional[KLWatch] = None  # for the paper's KL rule
         super().__init__(*args, **kwargs)
 
     def reset(self) -> None:

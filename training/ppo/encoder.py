@@ -26,7 +26,7 @@ The result equals the convolution (same sums, other order: within float rounding
 from __future__ import annotations
 
 from contextlib import contextmanager
-from typing import Iterator, Sequence
+from typing import Iterator, Sequence, cast
 
 import torch as th
 import torch.nn.functional as F
@@ -38,6 +38,8 @@ from box2d_driving.policies.numpy_actor import CHANNELS, KERNEL, POOLED
 class CircularConv1d(nn.Conv1d):
     """1-D convolution with wrap-around padding (the LiDAR is a ring). The reference
     implementation (:meth:`LidarEncoder.reference`); :func:`encode` computes the same faster."""
+
+    bias: th.Tensor  # always made with a bias (nn.Conv1d's default), which encode reads
 
     def __init__(self, in_channels: int, out_channels: int, kernel: int) -> None:
         super().__init__(in_channels, out_channels, kernel)
@@ -70,15 +72,15 @@ class LidarEncoder(nn.Module):
     # and a rollout's forward pass reads each layer every decision)
     @property
     def layer1(self) -> CircularConv1d:
-        return self.conv._modules["0"]
+        return cast(CircularConv1d, self.conv._modules["0"])
 
     @property
     def layer2(self) -> CircularConv1d:
-        return self.conv._modules["2"]
+        return cast(CircularConv1d, self.conv._modules["2"])
 
     @property
     def pooled(self) -> int:
-        return self.conv._modules["4"].output_size
+        return cast(int, cast(nn.AdaptiveAvgPool1d, self.conv._modules["4"]).output_size)
 
     def forward(self, obs: th.Tensor) -> th.Tensor:
         return encode([self], obs)[0]
@@ -96,7 +98,7 @@ def block_size(n_rays: int) -> int:
     return next(p for p in (5, 4, 2, 1) if n_rays % p == 0)
 
 
-_INDEX_CACHE: dict[tuple[int, ...], th.Tensor] = {}
+_INDEX_CACHE: dict[tuple[object, ...], th.Tensor] = {}
 
 
 def _toeplitz_index(out_ch: int, in_ch: int, kernel: int, block: int) -> th.Tensor:
@@ -198,7 +200,7 @@ def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
         taps = (hidden @ th.block_diag(*([conv2.weight[0]] * block))).reshape(b, r, kernel)
         # output ray p reads hidden ray p + k - pad with tap k: roll tap k by pad - k and sum
         # (unbind, not indexing: its gradient is one stack, not a zero-filled copy per tap)
-        out = sum(th.roll(tap, pad - k, dims=1) for k, tap in enumerate(taps.unbind(-1)))
+        out = cast(th.Tensor, sum(th.roll(tap, pad - k, dims=1) for k, tap in enumerate(taps.unbind(-1))))
         outs.append(out + conv2.bias)
     out = th.stack(outs, dim=1).relu_()  # (B, E, R)
     pooled = F.adaptive_avg_pool1d(out, first.pooled)  # (B, E, 25)

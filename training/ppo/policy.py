@@ -23,10 +23,12 @@ import numpy as np
 import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.type_aliases import PyTorchObs
 from torch import nn
 
 from box2d_driving.policies.numpy_actor import HIDDEN
 from training.ppo.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
+from training.ppo.original_update import KLWatch
 
 CRITICS = ("mean", "own+mean", "own")
 
@@ -138,9 +140,12 @@ class CTDENetwork(nn.Module):
 class CTDEPolicy(ActorCriticPolicy):
     """Decentralised actor, centralised mean-latent critic (SB3 ``ActorCriticPolicy``)."""
 
+    # SB3 types this as its MlpExtractor and lets a subclass build its own (_build_mlp_extractor)
+    mlp_extractor: CTDENetwork  # type: ignore[assignment]
+
     def __init__(self, *args: Any, obs_dim: int, n_cars: int, history: int, n_rays: int,
                  n_satnav: int, critic: str = "mean", **kwargs: Any) -> None:
-        self.ctde_kwargs = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
+        self.ctde_kwargs: dict[str, Any] = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
                                 n_satnav=n_satnav, critic=critic)
         super().__init__(*args, **kwargs)
 
@@ -152,7 +157,7 @@ class CTDEPolicy(ActorCriticPolicy):
         data.update(self.ctde_kwargs)
         return data
 
-    kl_watch = None  # a training.ppo.original_update.KLWatch when the paper's KL rule is on
+    kl_watch: Optional[KLWatch] = None  # when the paper's KL rule is on
     # rollouts take the lean forward pass below (False: SB3's own, e.g. to compare the two)
     lean_rollouts = True
 
@@ -175,9 +180,10 @@ class CTDEPolicy(ActorCriticPolicy):
         else:
             actions = th.multinomial(probs, 1, True).T.reshape(-1)
         log_prob = logits.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
-        return actions.reshape((-1, *self.action_space.shape)), values, log_prob
+        return actions, values, log_prob  # (rows,): a Discrete action is one number
 
-    def evaluate_actions(self, obs: th.Tensor, actions: th.Tensor):
+    def evaluate_actions(self, obs: PyTorchObs, actions: th.Tensor
+                         ) -> tuple[th.Tensor, th.Tensor, Optional[th.Tensor]]:
         values, log_prob, entropy = super().evaluate_actions(obs, actions)
         if self.kl_watch is not None:  # PPO's update: the KL of this minibatch, before its step
             self.kl_watch.measure(log_prob)

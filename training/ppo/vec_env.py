@@ -39,12 +39,16 @@ from training.ppo.slots import TeamLayout, checked_actions, clear_slot, slot_obs
 from training.ppo.workers import WorkerSlots, worker_processes, worker_runs
 
 
-class CarSlots:
+class CarSlots(VecEnv):
     """The ``VecEnv`` plumbing shared by every one-slot-per-car vector env: slot ``k * N + i`` is
     car ``i`` of instance ``self.envs[k]`` (needs ``envs`` and ``n_cars``)."""
 
-    envs: list
     n_cars: int
+
+    @property
+    def envs(self) -> list:
+        """The env instances, one per ``n_cars`` slots (given by the class this is mixed into)."""
+        raise NotImplementedError
 
     def close(self) -> None:
         for e in self.envs:

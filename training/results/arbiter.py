@@ -172,11 +172,12 @@ def noise_verdict(runs: list[OriginalRun]) -> tuple[str, str]:
         return "no interval yet", f"{ends}; an interval needs two seeds run at both ends"
     diff = mean_ci([high[s] - low[s] for s in paired], bounds=(-1.0, 1.0))
     words = (f"{ends}; paired by seed ({len(paired)} seeds), high minus low noise {diff.format()}")
-    if diff.high < 0:
+    low_end, high_end = diff.interval
+    if high_end < 0:
         return "reproduced", words + ": fewer violations with more noise, as in the paper"
-    if diff.low > 0:
+    if low_end > 0:
         return "opposite", words + ": more violations with more noise, unlike the paper"
-    return "not detected", words + f": no fall detected; the interval allows a fall of up to {-diff.low:.3f}"
+    return "not detected", words + f": no fall detected; the interval allows a fall of up to {-low_end:.3f}"
 
 
 def arbiter_cell(runs: list[OriginalRun]) -> str:

@@ -110,9 +110,10 @@ def settle_words(needed: list[Optional[int]], most: int = 200) -> str:
     """``seeds_to_settle`` of one or more grid points in words: "about 28 seeds", "about 12-28
     seeds per grid point", or "more than 200 seeds" where any point would need more; ``needed``
     must not be empty."""
-    if any(k is None for k in needed):
+    known = [k for k in needed if k is not None]
+    if len(known) < len(needed):
         return f"more than {most} seeds"
-    low, high = min(needed), max(needed)
+    low, high = min(known), max(known)
     return f"about {low} seeds" if low == high else f"about {low}-{high} seeds per grid point"
 
 

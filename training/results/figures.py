@@ -85,7 +85,7 @@ def bars_figure(metric: Metric, label: str, dots: Optional[tuple[Metric, str]] =
         fig, ax = plt.subplots(figsize=(max(4.0 if dots is None else 5.5, 1.2 * len(groups) + 2), 3.8))
         for i, g in enumerate(groups):
             e = g.estimates[metric]
-            err = [[e.mean - e.low], [e.high - e.mean]] if e.low is not None else None
+            err = [[e.mean - e.low], [e.high - e.mean]] if e.low is not None and e.high is not None else None
             ax.bar(i, e.mean, yerr=err, capsize=4, color="tab:blue", alpha=0.7)
             values = g.estimates[dots[0]].values if dots is not None else e.values
             ax.scatter([i] * len(values), values, color="black", s=12, zorder=3)

@@ -49,6 +49,7 @@ def joined_note(section: Section, paths: list[str], joined: list[Group]) -> str:
     """Where the table's rows from ``section.joins`` (``joined``) come from (``paths``: their summaries)."""
     if not paths:
         return ""
+    assert section.joins is not None  # only sections that join another have joined rows
     key, option = section.joins
     title = section_by_key(key).title
     values = ", ".join(dict.fromkeys(g.point[option] for g in joined))

@@ -51,6 +51,8 @@ def write_gif(section: Section, path: Path, seed: int = REPORT.start) -> Path:
     from box2d_driving.render.video import record
     from training.runs.inference import load_policy
 
+    if section.shipped is None:
+        raise ResultsError(f"{section.key}: no shipped policy to draw")
     policy = load_policy(SHIPPED / section.shipped)
     env = policy.make_env(render_mode="rgb_array", render_size=section.gif_size)
     record(env, policy, episodes=1, video=path, seed=seed, overwrite=True)
@@ -204,12 +206,12 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
         section.figure(shown, keys, figures / name, baseline)
         parts += [f"![{section.title}]({(rel / name).as_posix()})", ""]
     if curves is not None:
-        shown = [(m, label) for m, label in section.metrics if isinstance(m, str)] + list(section.curve_extra)
+        followed = [(m, label) for m, label in section.metrics if isinstance(m, str)] + list(section.curve_extra)
         name = f"{section.key}_curves.png"
-        curve_figure(curves, keys, shown, figures / name)
+        curve_figure(curves, keys, followed, figures / name)
         parts += [f"**Learning curves** (`{curves_path(summary['path'])}`; selection seeds from "
                   f"{int(curves[0]['first_seed']):,}{curve_coverage(curves, trials, keys)}):", ""]
-        parts += plateau_lines(curves, keys, shown) + [""]
+        parts += plateau_lines(curves, keys, followed) + [""]
         parts += [f"![{section.title}: learning curves]({(rel / name).as_posix()})", ""]
     failed = [r for r in trials if r.get("status") in ("error", "stopped")]
     if failed:

@@ -39,7 +39,8 @@ def _unlearnt(g: Group) -> bool:
 def apart(a: Estimate, b: Estimate) -> int:
     """How ``b`` lies against ``a`` by their intervals: 1 above and apart, -1 below and apart, 0
     overlapping."""
-    return 1 if b.low > a.high else -1 if b.high < a.low else 0
+    (a_low, a_high), (b_low, b_high) = a.interval, b.interval
+    return 1 if b_low > a_high else -1 if b_high < a_low else 0
 
 
 def paper_comparison(paper_values: Sequence[PaperValue], groups: list[Group]) -> list[str]:
@@ -84,7 +85,7 @@ def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
     return {-1: "fewer violations with more cars, intervals apart, as in the paper.",
             1: "more violations with more cars, intervals apart, unlike the paper.",
             0: f"the intervals overlap: no difference detected; they allow a fall of up to "
-               f"{max(0.0, fewer.high - more.low):.3f}."}[apart(fewer, more)]
+               f"{max(0.0, fewer.interval[1] - more.interval[0]):.3f}."}[apart(fewer, more)]
 
 
 def by_verdict(subject: str, readings: list[tuple[str, str, str]]) -> list[str]:
@@ -165,15 +166,16 @@ def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, p
     paired = len(diffs) >= 2  # the same seeds at both levels: a paired test
     if paired:
         d, p = mean_ci(diffs), t_test_p(diffs, 0.0)
-        seen = 0 if d.low <= 0.0 <= d.high else (1 if d.mean > 0 else -1)
+        d_low, d_high = d.interval
+        seen = 0 if d_low <= 0.0 <= d_high else (1 if d.mean > 0 else -1)
         how = (f"paired by seed ({len(diffs)} seeds), high minus low {name} {d.mean:+.3f} ± "
-               f"{(d.high - d.low) / 2:.3f}, p = {p:.3f}")
+               f"{(d_high - d_low) / 2:.3f}, p = {p:.3f}")
         moved, unmoved, more = f", {how}", f" detected ({how})", seeds_needed(diffs)
-        allows = d.high if paper > 0 else -d.low  # the largest effect the paper's way the interval keeps
+        allows = d_high if paper > 0 else -d_low  # the largest effect the paper's way the interval keeps
     else:
         seen = apart(a, b)
         moved, unmoved, more = ", intervals apart", " detected", ""
-        allows = b.high - a.low if paper > 0 else a.high - b.low
+        allows = b.interval[1] - a.interval[0] if paper > 0 else a.interval[1] - b.interval[0]
     expected = ("rise" if paper > 0 else "fall") if paper else "change"
     if seen:
         verdict = ("rises" if seen > 0 else "falls") + moved + (
@@ -326,11 +328,12 @@ def above_statement(metric: Metric, label: str, above: str, below: str, level: f
             # a straddle says how many seeds the seeds' distance from the level would need
             straddle = (f"the interval straddles {level_text}: neither shown"
                         f"{seeds_needed([v - level for v in e.values])}.")
+            low, high = e.interval
             if paper:
-                verdict = f"{above}." if e.low > level else f"{below}." if e.high < level else straddle
+                verdict = f"{above}." if low > level else f"{below}." if high < level else straddle
             else:
-                verdict = (f"{above}, as in the paper." if e.low > level else
-                           f"{below}, unlike the paper." if e.high < level else straddle)
+                verdict = (f"{above}, as in the paper." if low > level else
+                           f"{below}, unlike the paper." if high < level else straddle)
             lines.append(f"- {label} ({_where(g.point)}): {e.format()}: {verdict}")
         if paper and lines:
             lines.append(f"- {paper}")
@@ -351,7 +354,9 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
         verdict = more_cars_verdict(ref, e)
         these = "these trials" if not g.point else f"these trials at {_where(g.point)}"
         # the two rows' seeds were not trained in pairs: Welch's two-sample test
-        p = welch_p(e.values, ref.values)  # both rows have 2+ seeds here (an interval each)
+        p = welch_p(e.values, ref.values)
+        if p is None:  # not reached: both rows have 2+ seeds here (an interval each)
+            continue
         test = f" (Welch's t-test p = {p:.3f}"
         if apart(ref, e) == 0:
             if p < 0.05:
@@ -398,8 +403,9 @@ def scripted_baseline_statement(metrics: tuple[tuple[Metric, str], ...], paper: 
                 if not drivers or e is None or e.high is None:
                     continue
                 episodes = next(iter(scored.values()))[1]
-                beyond = [d for d, v in drivers.items() if (e.low > v if paper > 0 else e.high < v)]
-                behind = [d for d, v in drivers.items() if (e.high < v if paper > 0 else e.low > v)]
+                low, high = e.interval
+                beyond = [d for d, v in drivers.items() if (low > v if paper > 0 else high < v)]
+                behind = [d for d, v in drivers.items() if (high < v if paper > 0 else low > v)]
                 them = ", ".join(f"{d} {v:.3f}" for d, v in drivers.items())
                 if shown:
                     them += " (for comparison, " + ", ".join(f"{d} {v:.3f}" for d, v in shown.items()) + ")"

@@ -8,7 +8,7 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Any, Callable, Optional
 
 import numpy as np
 from stable_baselines3 import PPO
@@ -29,7 +29,9 @@ class RolloutMetrics(BaseCallback):
     before the rollout, ``time/rollout_agent_steps_per_s`` is collection only); logged to
     CSV/TensorBoard; progress bar."""
 
-    def __init__(self, out: Path, total: int, wall_offset: float, agent_steps_offset: int,
+    model: PPO  # SB3 types it as any algorithm; this callback is given to PPO runs (bilevel's included)
+
+    def __init__(self, out: Path, total: float, wall_offset: float, agent_steps_offset: int,
                  checkpoint_every: int, max_seconds: float = math.inf, show_bar: bool = True,
                  stop: Optional[GracefulStop] = None,
                  on_checkpoint: Optional[Callable[[dict], None]] = None) -> None:
@@ -42,7 +44,7 @@ class RolloutMetrics(BaseCallback):
         self.wall_offset, self.agent_steps = wall_offset, agent_steps_offset
         self.checkpoint_every = checkpoint_every
         self.updates = 0
-        self.bar = None
+        self.bar: Any = None  # a tqdm bar from the start of training
 
     def _on_training_start(self) -> None:
         from tqdm import tqdm

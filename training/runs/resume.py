@@ -84,7 +84,7 @@ def resume_point(out: Path) -> Optional[ResumePoint]:
         if run_state is None:
             stateless = stateless or path
             continue
-        best = ResumePoint(ckpt, decisions, run_state["wall_s"], run_state["agent_steps"])
+        best = ResumePoint(ckpt, decisions, run_state["wall_s"], int(run_state["agent_steps"]))
     if best is None and stateless is not None:
         raise RunError(f"--resume: {out / 'state.json'} is missing or is not {stateless.name}'s (a checkpoint "
                        f"written before the run's state was kept in it needs the state.json saved with it)")

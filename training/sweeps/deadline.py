@@ -77,15 +77,17 @@ class Deadline:
         once. The watcher ends when the block does. :class:`SweepError` outside the main thread
         (:meth:`check_thread`)."""
         self.check_thread()
-        before = signal.getsignal(STOP_SIGNAL)
+        stop_signal = STOP_SIGNAL
+        assert stop_signal is not None  # after_minutes refuses a platform without it
+        before = signal.getsignal(stop_signal)
         done = threading.Event()
 
         def watch() -> None:
             # wake at the deadline, then every poll_s until Ray Tune's handler is there
             while not done.wait(self.poll_s if self.passed() else min(self.poll_s, self.left_s())):
-                if self.passed() and signal.getsignal(STOP_SIGNAL) is not before:
+                if self.passed() and signal.getsignal(stop_signal) is not before:
                     self.fired = True
-                    os.kill(os.getpid(), STOP_SIGNAL)
+                    os.kill(os.getpid(), stop_signal)
                     return
 
         watcher = threading.Thread(target=watch, name="sweep-deadline", daemon=True)

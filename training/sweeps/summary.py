@@ -155,6 +155,6 @@ def write_summary_files(folder: Path, stem: str, sweep: dict[str, Any], rows: li
         writer.writerows(rows)
     tmp.replace(folder / f"{stem}.csv")
 
-def first_line(text: str) -> str:
+def first_line(text: object) -> str:
     lines = [ln for ln in str(text).strip().splitlines() if ln.strip()]
     return lines[-1][:300] if lines else ""

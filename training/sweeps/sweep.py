@@ -51,7 +51,11 @@ PROGRESS_METRIC = "success_rate"
 def trial_spec(config: dict[str, Any], trials: Optional[dict[str, dict]]) -> dict[str, Any]:
     """The trial's description: looked up by the name Ray Tune's config holds (sweeps started by
     an earlier release kept the whole description in the config)."""
-    return config["trial"] if "trial" in config else trials[config["name"]]
+    if "trial" in config:
+        return config["trial"]
+    if trials is None:
+        raise SweepError(f"trial {config.get('name')!r}: no trial descriptions to look it up in")
+    return trials[config["name"]]
 
 
 def run_trial(config: dict[str, Any], trials: Optional[dict[str, dict]] = None) -> None:
@@ -131,7 +135,7 @@ def evaluate_run(run: Path, episodes: int) -> dict[str, Any]:
 try:  # Ray Tune is the sweep extra; without it the module still imports and says what to install
     from ray.tune import Callback as _TuneCallback
 except ImportError:  # pragma: no cover - exercised by the no-Ray test
-    _TuneCallback = object
+    _TuneCallback = object  # type: ignore[misc, assignment]  # a base class that is never used without Ray
 
 
 class SummaryCallback(_TuneCallback):
@@ -294,7 +298,7 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
         print("--time-limit reached: the sweep stopped as on Ctrl-C (run the same command again to continue)",
               file=sys.stderr)
     rows = {}
-    for result in results:
+    for result in (results[i] for i in range(len(results))):  # ResultGrid: indexable, not typed iterable
         if not result.config:  # a trial that never started (the sweep was stopped first)
             continue
         trial = trial_spec(result.config, trials)

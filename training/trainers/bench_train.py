@@ -45,9 +45,10 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Any, Optional, Sequence, cast
 
 import torch as th
+from gymnasium import spaces
 
 from box2d_driving.bench import machine
 from stable_baselines3.common.callbacks import BaseCallback
@@ -105,9 +106,10 @@ class TrainBenchRow:
 class _Clock(BaseCallback):
     """Splits wall time into rollouts and updates; counts live agent-steps after the warm-up."""
 
-    def __init__(self, warmup: int) -> None:
+    def __init__(self, warmup: int, env_timer: "_TimedStep") -> None:
         super().__init__()
         self.warmup = warmup
+        self.env_timer = env_timer
         self.rollouts = 0
         self.t_start: Optional[float] = None
         self.rollout_s = 0.0
@@ -122,7 +124,7 @@ class _Clock(BaseCallback):
     def _on_rollout_start(self) -> None:
         if self.timing and self.t_start is None:
             self.t_start = time.perf_counter()
-            self.training_env.env_wait_s = 0.0
+            self.env_timer.seconds = 0.0
         self._t = time.perf_counter()
 
     def _on_step(self) -> bool:
@@ -138,18 +140,18 @@ class _Clock(BaseCallback):
 
 
 class _TimedStep:
-    """Accumulates the time a vector env spends in ``step_wait`` (on the env object)."""
+    """Accumulates in ``seconds`` the time a vector env spends in ``step_wait``."""
 
-    def __init__(self, venv) -> None:
+    def __init__(self, venv: Any) -> None:
         inner = venv.step_wait
-        venv.env_wait_s = 0.0
+        self.seconds = 0.0
 
-        def timed():
+        def timed() -> Any:
             t0 = time.perf_counter()
             try:
                 return inner()
             finally:
-                venv.env_wait_s += time.perf_counter() - t0
+                self.seconds += time.perf_counter() - t0
 
         venv.step_wait = timed
 
@@ -212,7 +214,7 @@ def limit_rate(config: TrainConfig, warmup_steps: int, steps: int) -> float:
         venv.seed(config.seed)
         venv.reset()
         rng = np.random.default_rng(config.seed)
-        n = int(venv.action_space.n)
+        n = int(cast(spaces.Discrete, venv.action_space).n)
         for _ in range(warmup_steps):
             venv.step(rng.integers(n, size=venv.num_envs))
         live = 0
@@ -230,7 +232,7 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
     th.set_num_threads(torch_threads(config))
     venv = make_vec_env(config)
     try:
-        _TimedStep(venv)
+        env_timer = _TimedStep(venv)
         model = build_model(config, venv)
         set_minibatching(model, config, venv.n_cars)
         venv.seed(config.seed)
@@ -238,15 +240,16 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
             from stable_baselines3.common.logger import configure
 
             model.set_logger(configure(tmp, []))
-            clock = _Clock(warmup)
+            clock = _Clock(warmup, env_timer)
             per_update = model.n_steps * venv.num_envs
             model.learn(per_update * (warmup + updates), callback=clock)
+            assert clock.t_start is not None  # set at the first timed rollout
             wall = time.perf_counter() - clock.t_start
             flops, update_s, bound_s = update_flops(model)
             n_steps = model.n_steps
     finally:
         venv.close()
-    env_s = venv.env_wait_s
+    env_s = env_timer.seconds
     inference_s, learn_s = max(0.0, clock.rollout_s - env_s), max(0.0, wall - clock.rollout_s)
     per_step = 1000.0 / max(1, clock.steps)
     limit = limit_rate(config, n_steps * warmup, clock.steps)

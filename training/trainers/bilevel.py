@@ -127,7 +127,10 @@ class BanditStats(BaseCallback):
     """Returns, outcomes and junction lane sides of the bandit samples of one spline update."""
 
     def _on_rollout_start(self) -> None:
-        self.returns, self.arrived, self.collided, self.lanes = [], [], [], []
+        self.returns: list[float] = []
+        self.arrived: list[bool] = []
+        self.collided: list[bool] = []
+        self.lanes: list[float] = []
 
     def _on_step(self) -> bool:
         for info in self.locals["infos"]:

@@ -27,7 +27,7 @@ import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Callable, Optional, cast
 
 import torch as th
 from stable_baselines3 import PPO
@@ -256,9 +256,12 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
     if actor_only:  # the paper's KL rule: buffer, policy and optimiser share one watch
+        assert config.target_kl is not None  # TrainConfig refuses kl_stop="actor" without one
         watch = KLWatch(config.target_kl)
-        model.rollout_buffer.kl_watch = model.policy.kl_watch = model.policy.optimizer.watch = watch
-        model.policy.optimizer.actor_params = model.policy.actor_parameters()
+        buffer, policy = cast(MaskedRolloutBuffer, model.rollout_buffer), cast(CTDEPolicy, model.policy)
+        optimizer = cast(ActorStopAdam, policy.optimizer)
+        buffer.kl_watch = policy.kl_watch = optimizer.watch = watch
+        optimizer.actor_params = policy.actor_parameters()
     return model
 
 
@@ -369,7 +372,7 @@ def _learn(config: TrainConfig, out: Path, point: Optional[ResumePoint], venv: S
 
 def set_minibatching(model: PPO, config: TrainConfig, n_cars: int) -> None:
     """Apply ``config.minibatch_by_step`` to a built or loaded model (it is not saved with it)."""
-    model.rollout_buffer.group_size = n_cars if config.minibatch_by_step else 1
+    cast(MaskedRolloutBuffer, model.rollout_buffer).group_size = n_cars if config.minibatch_by_step else 1
 
 
 def load_weights(model: PPO, checkpoint: Path) -> None:
@@ -385,7 +388,7 @@ def load_weights(model: PPO, checkpoint: Path) -> None:
         raise RunError(f"--init-from: {path} has a different network (critic variant?)")
     bad = [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad:
-        env = model.get_env().probe.env
+        env = cast(SlotVecEnv, model.get_env()).probe.env
         try:
             theirs = widen_state_dict(mine, theirs, src_fields=source_fields(path.parent),
                                       dst_fields=env.observation_layout.satnav_fields,
