@@ -20,7 +20,7 @@ from urllib.parse import unquote, urljoin, urlparse
 
 CHROMIUM = next((found for name in ("chromium", "chromium-browser", "google-chrome")
                  if (found := shutil.which(name))), None)
-PAGE_SECONDS = 60  # a page that takes longer to load is reported, not waited on for ever
+PAGE_SECONDS = 600  # a hang guard: a page loads in seconds, a busy host makes it slower, never this slow
 # Chromium logs page console messages to stderr as [...:INFO:CONSOLE:line] "message", source: url
 # (older releases: CONSOLE(line))
 _CONSOLE = re.compile(r':(?:INFO|WARNING|ERROR):CONSOLE[:(]\d+\)?\] "(.*)", source: (\S*)')

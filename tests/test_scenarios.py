@@ -13,6 +13,7 @@ from box2d_driving.envs.intersection import IntersectionEnv
 from box2d_driving.metrics.rollouts import run_episodes
 from box2d_driving.policies.scripted import make_policy
 from box2d_driving.scenarios import Scenario, SingleAgent, register, scenario
+from tests.helpers import HANG
 
 SHIPPED = ("intersection-v0", "highway-v0", "crosswalk-v0", "intersection-spline-v0", "highway-spline-v0",
            "real-junction-v0")
@@ -240,11 +241,11 @@ def test_a_users_own_training_package_is_named_not_imported_in_ours(tmp_path):
     python = ("import box2d_driving\n"
               "try:\n    box2d_driving.load_policy('traffic_lights_4cars', backend='torch')\n"
               "except Exception as exc:\n    print(type(exc).__name__, exc)\n")
-    out = subprocess.run([sys.executable, "-c", python], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    out = subprocess.run([sys.executable, "-c", python], cwd=tmp_path, capture_output=True, text=True, timeout=HANG)
     assert out.stdout.startswith("CommandMissing needs box2d-driving's training package"), out.stdout + out.stderr
     assert str(tmp_path / "training") in out.stdout and "the user package ran" not in out.stdout + out.stderr
     cli = subprocess.run([sys.executable, "-m", "box2d_driving", "train", "lights", "--help"], cwd=tmp_path,
-                         capture_output=True, text=True, timeout=300)
+                         capture_output=True, text=True, timeout=HANG)
     assert cli.returncode == 2 and "a folder of yours named training shadows it" in cli.stderr, cli.stderr
 
 
