@@ -19,7 +19,8 @@ def _always(action):
 
 
 def test_bandit_reward_is_the_inner_episode_return_and_every_slot_is_done():
-    make = lambda: box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")  # noqa: E731
+    def make():
+        return box2d_driving.make("intersection-spline-v0", num_cars=4, spline_action="joint")
     bandit = SplineBanditVecEnv([make, make], _always(12), normalise=False)
     bandit.seed(7)
     obs0 = bandit.reset()
@@ -81,7 +82,8 @@ class _PerInstanceBandit(SplineBanditVecEnv):
 @pytest.mark.parametrize("env_id, overrides, n_actions", [
     ("intersection-spline-v0", {"num_cars": 4, "lidar_noise": 0.5}, 13), ("highway-spline-v0", {"num_cars": 5}, 25)])
 def test_bandit_steps_all_instances_together_exactly_as_each_on_its_own(env_id, overrides, n_actions):
-    make = lambda: box2d_driving.make(env_id, **overrides)  # noqa: E731
+    def make():
+        return box2d_driving.make(env_id, **overrides)
     batched = SplineBanditVecEnv([make] * 5, _looks(n_actions), normalise=False)
     reference = _PerInstanceBandit([make] * 5, _looks(n_actions), normalise=False)
     for bandit in (batched, reference):
@@ -102,7 +104,8 @@ def test_bandit_steps_all_instances_together_exactly_as_each_on_its_own(env_id, 
 
 
 def test_bandit_normalised_rewards_are_standardised():
-    make = lambda: box2d_driving.make("highway-spline-v0", num_cars=5)  # noqa: E731
+    def make():
+        return box2d_driving.make("highway-spline-v0", num_cars=5)
     bandit = SplineBanditVecEnv([make, make], _always(20), normalise=True)
     bandit.seed(0)
     bandit.reset()

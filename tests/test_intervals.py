@@ -22,7 +22,9 @@ def test_cars_that_fail_together_widen_the_interval_beyond_the_binomial():
     episodes = np.repeat(np.arange(200), 8)
     together = np.repeat(rng.random(200) < 0.3, 8)  # a whole episode fails or not
     apart = rng.random(1600) < 0.3  # every car on its own
-    binomial = lambda p, n: math.sqrt(p * (1 - p) / n)  # noqa: E731
+    def binomial(p, n):
+        return math.sqrt(p * (1 - p) / n)
+
     s1, se1, _ = clustered_share(together, episodes)
     s2, se2, _ = clustered_share(apart, episodes)
     assert se1 == pytest.approx(binomial(s1, 200), rel=0.02)  # 200 independent draws, not 1,600

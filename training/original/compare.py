@@ -95,11 +95,14 @@ def comparison_rows(ours: dict[str, np.ndarray], original: dict[str, np.ndarray]
             for name in a if name in b]
 
 
+def _cell(e: dict[str, Any]) -> str:
+    return f"{e['value']:.3f} ± {e['half_width']:.3f} ({e['units']})"
+
+
 def format_rows(driver: str, rows: Sequence[dict[str, Any]]) -> str:
     lines = [f"| {driver} | original | ours | agree |", "|---|---|---|---|"]
     for r in rows:
-        cell = lambda e: f"{e['value']:.3f} ± {e['half_width']:.3f} ({e['units']})"  # noqa: E731
-        lines.append(f"| {r['statistic']} | {cell(r['original'])} | {cell(r['ours'])} | "
+        lines.append(f"| {r['statistic']} | {_cell(r['original'])} | {_cell(r['ours'])} | "
                      f"{'yes' if r['agree'] else '**no**'} |")
     return "\n".join(lines)
 
