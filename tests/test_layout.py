@@ -117,3 +117,24 @@ def test_an_old_module_path_runs_with_python_m_and_light_modules_do_not_load_tor
     light = subprocess.run([sys.executable, "-c", "import sys, training.common.seeds; print('torch' in sys.modules)"],
                            cwd=ROOT, capture_output=True, text=True, timeout=HANG)
     assert light.stdout.strip() == "False", light.stderr[-2000:]
+
+
+def test_the_world_imports_box2d_through_one_module_and_warns_about_nothing():
+    """box2d-py's SWIG bindings warn at import on Python 3.11+ (three DeprecationWarnings with
+    tracebacks in every docs build and test run); the world imports Box2D only through
+    ``box2d_driving.physics.box2d_py``, which keeps those three quiet and nothing else."""
+    import subprocess
+    import sys
+
+    importers = [p.relative_to(ROOT).as_posix() for p in (ROOT / "box2d_driving").rglob("*.py")
+                 if any(isinstance(node, (ast.Import, ast.ImportFrom))
+                        and "Box2D" in ([a.name for a in node.names] if isinstance(node, ast.Import) else [node.module])
+                        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))))]
+    assert importers == ["box2d_driving/physics/box2d_py.py"]
+    script = ("import box2d_driving\n"
+              "env = box2d_driving.make('intersection-v0', num_cars=2)\n"
+              "env.reset(seed=0)\n"
+              "env.step({a: 0 for a in env.agents})\n")
+    ran = subprocess.run([sys.executable, "-W", "error::DeprecationWarning", "-c", script], cwd=ROOT,
+                         capture_output=True, text=True, timeout=HANG)
+    assert ran.returncode == 0, ran.stderr[-2000:]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from Box2D import b2ContactListener
+from box2d_driving.physics.box2d_py import b2ContactListener
 
 # Body kinds stored in fixture userData as (kind, index). Every road edge shares one tag,
 # EDGE_TAG: nothing needs an edge's index, and a real junction has hundreds of edges.

@@ -13,7 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from Box2D import b2BodyDef, b2EdgeShape, b2FixtureDef, b2PolygonShape, b2World, b2_dynamicBody
+from box2d_driving.physics.box2d_py import (b2_dynamicBody, b2BodyDef, b2EdgeShape, b2FixtureDef, b2PolygonShape,
+                                             b2World)
 
 from box2d_driving.config import DrivingConfig
 from box2d_driving.physics.contacts import (

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from Box2D import b2RayCastCallback
+from box2d_driving.physics.box2d_py import b2RayCastCallback
 from numba import njit
 
 from box2d_driving.physics.contacts import PEDESTRIAN
