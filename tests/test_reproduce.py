@@ -430,3 +430,14 @@ def test_a_page_is_never_written_from_no_summaries(tmp_path, capsys, folder):
     code = reproduce.main(["--summaries", str(tmp_path / folder), "--out", str(page)])
     assert code == 2 and "no s" in capsys.readouterr().err
     assert page.read_text() == "the committed page"
+
+
+def test_the_claims_tables_budget_is_in_the_originals_units_too():
+    """Our largest run beside the paper's, in decisions, joint steps and the original's epochs of
+    32,000 joint steps (our slot-decisions are joint steps x cars)."""
+    from training.results.claims import SectionResult, _budget
+
+    result = SectionResult("Denser traffic", "500 epochs", "16,000,000 decisions", [], [], None, [],
+                           ran=(16_000_000,), paper_joint_steps=16_000_000, cars=8)
+    assert _budget(result) == ("16.0 M decisions per trial = 2.00 M joint steps of 8 cars (62.5 epochs of 32,000), "
+                               "12 % of the paper's 16 M (500 epochs)")

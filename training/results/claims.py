@@ -20,6 +20,7 @@ from training.results.curves import (PLATEAU_TOLERANCE, TOO_NOISY, late_changes,
                                      settle_words)
 from training.results.data import Group
 from training.common.markdown import all_of, anchor, row, separator
+from training.original.commands import TrainerSettings
 from training.results.sections import section
 from box2d_driving.metrics.stats import ONE_SEED
 
@@ -87,9 +88,10 @@ def _budget(result: SectionResult) -> str:
     asked = "" if "decisions" in result.budget else f" ({result.budget})"
     share = ""
     if result.paper_joint_steps and result.cars:  # our slot-decisions are joint steps x cars
-        joint = max(result.ran) / result.cars
-        share = (f" = {joint / 1e6:.2f} M joint steps of {result.cars} cars, "
-                 f"{100 * joint / result.paper_joint_steps:.0f} % of the paper's {result.paper_joint_steps / 1e6:g} M")
+        joint, epoch = max(result.ran) / result.cars, TrainerSettings.steps_per_epoch
+        share = (f" = {joint / 1e6:.2f} M joint steps of {result.cars} cars ({joint / epoch:.1f} epochs of "
+                 f"{epoch:,}), {100 * joint / result.paper_joint_steps:.0f} % of the paper's "
+                 f"{result.paper_joint_steps / 1e6:g} M ({result.paper_joint_steps / epoch:,g} epochs)")
     return f"{ran} decisions per trial{asked}{share}"
 
 
