@@ -35,7 +35,7 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
     page = tmp_path / "docs" / "results.md"
     assert main([str(grid), str(paper), "--out", str(page)]) == 0
     text = page.read_text()
-    mine = text.split("## Stopping at red lights, at the paper's settings")[1].split("\n## ")[0]
+    mine = text.split("## Stopping at red lights, the noise grid at 2.4 M decisions")[1].split("\n## ")[0]
     grid_part = text.split("## Stopping at red lights\n")[1].split("\n## ")[0]
     assert "| 1.0 | 3 | 0.062" in mine and "0.062" not in grid_part  # the more specific section only
     assert "falls, paired by seed (3 seeds)" in mine
@@ -57,7 +57,7 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
                                 "agent_steps": d * 0.7, "episodes": 100, "first_seed": SELECTION.start,
                                 "success_rate": 0.9, "collision_rate": 0.1, "red_light_violation_rate": v})
     assert main([str(grid), str(paper), "--out", str(page)]) == 0
-    mine = page.read_text().split("## Stopping at red lights, at the paper's settings")[1].split("\n## ")[0]
+    mine = page.read_text().split("## Stopping at red lights, the noise grid at 2.4 M decisions")[1].split("\n## ")[0]
     assert "the learning curves below" in mine and f"selection seeds from {SELECTION.start:,}" in mine
     line = next(x for x in mine.splitlines() if x.startswith("- red-light violations, change over the last 50 %"))
     assert "the last 1.28 M decisions" in line
@@ -81,7 +81,7 @@ def test_the_paper_settings_sweep_has_its_own_section_and_its_learning_curves(tm
     lines = path.read_text().splitlines()
     path.write_text("\n".join(x for x in lines if "noise=1.0_seed=2," not in x) + "\n")
     assert main([str(grid), str(paper), "--out", str(page)]) == 0
-    mine = page.read_text().split("## Stopping at red lights, at the paper's settings")[1].split("\n## ")[0]
+    mine = page.read_text().split("## Stopping at red lights, the noise grid at 2.4 M decisions")[1].split("\n## ")[0]
     assert ("; 5 of the 6 finished trials (lights_lidar_noise=0.25_seed=0, lights_lidar_noise=0.25_seed=1, "
             "lights_lidar_noise=0.25_seed=2, lights_lidar_noise=1.0_seed=0, lights_lidar_noise=1.0_seed=1): the "
             "others ran where their checkpoints were not kept):") in mine
@@ -137,7 +137,7 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
     page = tmp_path / "docs" / "results.md"
     assert main([str(short), str(paper), "--out", str(page)]) == 0
     text = page.read_text()
-    mine = text.split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    mine = text.split("## Lanes, 4.8 M decisions (150 rounds)")[1].split("\n## ")[0]
     grid = text.split("## Lanes\n")[1].split("\n## ")[0]
     assert "| 4 | 3 | 0.620" in mine and "0.620" not in grid and "| 2 | 3 | 0.520" in grid
     assert "0.992" in mine and "0.992" not in grid  # the 150-round 8-car trials: the more specific section only
@@ -169,7 +169,7 @@ def test_lanes_at_the_papers_budget_have_their_own_section(tmp_path):
                                 "lanes.mean_abs_lane_position": 0.3,
                                 "lanes.one_sided_offset": 0.3 if n == 8 else 0.1 + 0.01 * k})
     assert main([str(short), str(paper), "--out", str(page)]) == 0
-    mine = page.read_text().split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    mine = page.read_text().split("## Lanes, 4.8 M decisions (150 rounds)")[1].split("\n## ")[0]
     line = next(x for x in mine.splitlines() if x.startswith("- one-sided offset, change over the last 50 %"))
     assert "num_cars 8 0.000 ± 0.000 (stopped moving)" in line and "num_cars 4 0.0" in line and "(still rising)" in line
 
@@ -184,7 +184,7 @@ def test_lanes_with_the_papers_joint_path_choice_have_their_own_section(tmp_path
     assert main([str(paper), str(joint), "--out", str(page)]) == 0
     text = page.read_text()
     mine = text.split("## Lanes with the paper's single 216-way path choice")[1].split("\n## ")[0]
-    theirs = text.split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    theirs = text.split("## Lanes, 4.8 M decisions (150 rounds)")[1].split("\n## ")[0]
     assert "| 4 | 3 | 0.520" in mine and "0.520" not in theirs  # each sweep in its own section only
     assert "| 4 | 3 | 0.980" in theirs and "0.980" not in mine
     assert "crossings on the majority side: num_cars=4 0.520" in mine and "The paper: lanes with 8 cars" in mine
@@ -222,7 +222,7 @@ def test_lanes_at_other_noise_levels_are_joined_by_the_noise_05_trials_and_compa
     assert main([str(paper), str(noise), "--out", str(page)]) == 0
     text = page.read_text()
     mine = text.split("## Lanes at the paper's LiDAR noise levels")[1].split("\n## ")[0]
-    at_05 = text.split("## Lanes, at the paper's smallest budget")[1].split("\n## ")[0]
+    at_05 = text.split("## Lanes, 4.8 M decisions (150 rounds)")[1].split("\n## ")[0]
     # the noise 0 / 1.0 trials are only in their own section; the 0.5 rows join it, named as such
     assert "0.325" not in at_05 and "lanes-noise01.json" not in at_05
     assert "lanes-paper.json" in mine and "paired by seed" in mine

@@ -57,13 +57,13 @@ SECTIONS: tuple[Section, ...] = (
                        Headline("8 cars from scratch", "8 cars, LiDAR noise 0.5",
                                 (("lidar_noise", "0.5"), ("num_cars", "8")),
                                 ("red_light_violation_rate", "success_rate", "collision_rate")))),
-    Section("traffic-lights-paper", "Stopping at red lights, at the paper's settings", "lights",
+    Section("traffic-lights-paper", "Stopping at red lights, the noise grid at 2.4 M decisions", "lights",
             (("init_from", "false"), ("num_cars", "4")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
             f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 6 --timesteps 2400000 --set num_cars=4 "
             "--out runs/sweep-lights-paper",
-            setting="Each trial trains 4 cars from scratch at the paper's settings: LiDAR noise 0.25, 0.5, 0.75 "
+            setting="Each trial trains 4 cars from scratch at the paper's noise levels: LiDAR noise 0.25, 0.5, 0.75 "
                     "and 1.0 (the share of LiDAR rays dropped at every decision: at 1.0 the cars see no other car "
                     "and have only "
                     "the light, their own speed and their route), entropy 0.01, 75 updates of 32,000 car-decisions "
@@ -134,13 +134,14 @@ SECTIONS: tuple[Section, ...] = (
             "With more cars, fewer cars enter on red.",
             f"{SWEEP} lights --seeds 3 --timesteps 2400000 --set num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lights-8cars-paper",
-            setting="The denser-traffic fine-tune above, for 2.4 M decisions (the paper's 4-car budget; its 8-car "
-                    "runs fine-tuned for 16 M), with learning curves; compare it with the 4-car noise-0.5 row at "
-                    "the paper's settings, which trained as many decisions from scratch.",
+            setting="The denser-traffic fine-tune above, for 2.4 M decisions (the paper's 4-car epoch count as "
+                    "updates of 32,000 car-decisions, a quarter of its 4-car joint steps; its 8-car runs "
+                    "fine-tuned for 500 epochs, 16 M joint steps), with learning curves; compare it with the 4-car "
+                    "noise-0.5 row of the noise grid, which trained as many decisions from scratch.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
             paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8),
-    Section("denser-traffic-paper", "Denser traffic, at the paper's budget (8 cars, 16 M decisions)", "lights",
+    Section("denser-traffic-paper", "Denser traffic, 16 M decisions (8 cars)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"), ("timesteps", "16000000")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
@@ -150,11 +151,11 @@ SECTIONS: tuple[Section, ...] = (
             setting="The denser-traffic fine-tune above for 500 updates of 32,000 car-decisions (16 M), the "
                     "paper's 8-car epoch count but an eighth of its 128 M car-decisions (its epochs are 32,000 "
                     "joint steps of every car, arrived cars staying), with learning curves; compare it with the "
-                    "4-car noise-0.5 row at the paper's "
-                    "settings (2.4 M decisions from scratch, the paper's 4-car budget). The trials run one after "
-                    "the other, so a summary holds the seeds finished so far. Seeds 5-7 were added after the "
-                    "first five: their violations against the 4-car row's left the intervals overlapping at a "
-                    "spread that put the seeds needed at about 10 per row.",
+                    "4-car noise-0.5 row of the noise grid (2.4 M decisions from scratch, the paper's 4-car "
+                    "epoch count as updates). The trials run one after the other, so a summary holds the seeds "
+                    "finished so far. Seeds 5-7 were added after the first five: their violations against the "
+                    "4-car row's left the intervals overlapping at a spread that put the seeds needed at about "
+                    "10 per row.",
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             compare_with=("traffic-lights-paper", (("lidar_noise", "0.5"),)),
             paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8, seeds_before_look=5,
@@ -183,24 +184,26 @@ SECTIONS: tuple[Section, ...] = (
                                 (("num_cars", "8"),), ("lanes.majority_share", ONE_SIDED, "success_rate")),
                        Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
                                 ("lanes.majority_share", ONE_SIDED)))),
-    lanes_4_vs_8("lanes-paper", "Lanes, at the paper's smallest budget", (("rounds", "150"),),
+    lanes_4_vs_8("lanes-paper", "Lanes, 4.8 M decisions (150 rounds)", (("rounds", "150"),),
                  f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=150 "
                  "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--out runs/sweep-lanes-paper",
                  setting="The lanes run above with the paper's car counts (4 and 8) for 150 bilevel rounds, each "
-                         "one acceleration update of 32,000 decisions (4.8 M in all, the paper's 150 epochs) and two "
+                         "one acceleration update of 32,000 decisions (4.8 M in all: the paper's 150 epochs counted as "
+                         "updates, an eighth of their car-decisions with 8 cars) and two "
                          "path updates of 2,048 car samples (the paper: 1,200 spline episodes per epoch), at LiDAR "
                          "noise 0.5, with learning curves. Seeds 0-2 ran first; a fourth seed (3) was added here "
                          "and at noise 0 and 1.0 (below) because two intervals straddled the 0.1 line with three. "
                          + ONE_SIDED_WORDS),
-    lanes_4_vs_8("lanes-paper-16M", "Lanes, half the paper's largest budget (16 M decisions)",
+    lanes_4_vs_8("lanes-paper-16M", "Lanes, 16 M decisions (500 rounds)",
                  (("rounds", "500"),),
                  f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=500 "
                  "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-paper-16M",
-                 setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, the same training seeds) "
-                         "for 500 bilevel rounds instead of 150: 16 M decisions per trial, half the paper's "
-                         "largest lanes budget (1,000 epochs), with learning curves, because at 4.8 M the one-sided "
+                 setting="The 150-round lanes run above (4 and 8 cars, LiDAR noise 0.5, the same training seeds) "
+                         "for 500 bilevel rounds instead of 150: 16 M decisions per trial (half the paper's "
+                         "largest lanes epoch count, 1,000, taken as updates: a sixteenth of its car-decisions with "
+                         "8 cars), with learning curves, because at 4.8 M the one-sided "
                          "offset was still too noisy to call settled. The trials run one after the other, both "
                          "car counts per seed, so a summary holds the trials finished so far. A fourth seed was "
                          "added after the first three: their curves left the one-sided offset too noisy to call "
@@ -223,7 +226,7 @@ SECTIONS: tuple[Section, ...] = (
             f"{SWEEP} lanes --grid num_cars=8,4 lidar_noise=0,1.0 --seeds 4 --set rounds=150 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-noise01",
-            setting="The paper-budget lanes run above (150 bilevel rounds, 4.8 M decisions) at LiDAR noise 0 "
+            setting="The 150-round lanes run above (150 bilevel rounds, 4.8 M decisions) at LiDAR noise 0 "
                     "(perfect perception) and 1.0 (every ray dropped: the cars see no other car), 4 and 8 cars, "
                     "the same training seeds as at noise 0.5; the trials run one after the other, so a summary "
                     "holds the trials finished so far. " + ONE_SIDED_WORDS,
@@ -248,7 +251,7 @@ SECTIONS: tuple[Section, ...] = (
                  "spline_updates_per_round=2 spline_action=joint "
                  "init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
-                 setting="The paper-budget lanes run above (4 and 8 cars, LiDAR noise 0.5, 150 bilevel rounds, "
+                 setting="The 150-round lanes run above (4 and 8 cars, LiDAR noise 0.5, 150 bilevel rounds, "
                          "4.8 M decisions) with one change: the path policy picks among the 216 paths with one "
                          "216-way softmax, as the paper's code does, instead of one 6-way choice per waypoint (our "
                          "default, which finds a side within a few rounds). The same training seeds; the trials "
@@ -265,7 +268,7 @@ SECTIONS: tuple[Section, ...] = (
                                 "`real-junction-v0` (Helsinki junctions), 8 cars, collision reward -3", (),
                                 ("right_of_way.fifo_share", "safety_distance.safe_share", "success_rate",
                                  "collision_rate"), in_readme=True),)),
-    right_of_way("right-of-way-paper-32M", "Right of way and safe distance, the paper's budget (32 M decisions)",
+    right_of_way("right-of-way-paper-32M", "Right of way and safe distance, 32 M decisions",
             (("timesteps", "32000000"),),
             f"{SWEEP} real-junction --seeds 3 --timesteps 32000000 --set num_cars=8 collision_reward=-3 "
             "ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --cpus-per-trial 2 --max-concurrent 1 "
@@ -306,20 +309,21 @@ SECTIONS: tuple[Section, ...] = (
                     "(the paper: 32 M). The same training seeds run at every noise level, so the trend is "
                     "tested paired by seed; the trials run one after the other, a whole set of noise "
                     "levels per seed, so a summary holds the seeds finished so far."),
-    turn_signals_12_cars("communication-paper-16M", "Turn signals, 12 cars, half the paper's budget (16 M decisions)",
+    turn_signals_12_cars("communication-paper-16M", "Turn signals, 12 cars, 16 M decisions",
             (("timesteps", "16000000"),),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 6 --timesteps 16000000 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-16M",
             seeds_before_look=3,
-            setting="The 12-car turn-signal runs above trained 2.7 times as long: 16 M decisions per trial, half "
-                    "the paper's 32 M, from the same shipped 8-car base policy and with the same training "
+            setting="The 12-car turn-signal runs above trained 2.7 times as long: 16 M decisions per trial, 1.3 M "
+                    "joint steps of 12 cars against the paper's 32 M joint steps, from the same shipped 8-car base "
+                    "policy and with the same training "
                     "seeds, with learning curves (whether the message measures had stopped moving by 16 M). "
                     "The trials run one after the other, a whole set of noise levels per seed, so a summary "
                     "holds the trials finished so far. Seeds 0-2 ran first; seeds 3-5 were added because "
                     "with three the paired interval of |Pearson(heading change, bit)| straddled zero, at a "
                     "spread about six seeds would decide."),
-    turn_signals_12_cars("communication-paper-32M", "Turn signals, 12 cars, the paper's budget (32 M decisions)",
+    turn_signals_12_cars("communication-paper-32M", "Turn signals, 12 cars, 32 M decisions",
             (("timesteps", "32000000"),),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 4 --timesteps 32000000 "
             "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
@@ -335,7 +339,7 @@ SECTIONS: tuple[Section, ...] = (
                     "first; a fourth seed (3) was added because with three the paired interval of speaker "
                     "consistency (noise 0.75 minus noise 0) straddled zero, at a spread about four seeds "
                     "would decide.",
-            # the README shows the largest run of the paper's settings (the smaller sweeps stay on the page)
+            # the README shows the largest run of this claim (the smaller sweeps stay on the page)
             headlines=tuple(Headline("turn signals, 12 cars, 32 M decisions",
                                      f"`real-junction-v0`, 12 cars, 1-bit message, LiDAR noise {noise}, 32 M decisions",
                                      (("lidar_noise", noise),),
