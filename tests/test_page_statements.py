@@ -33,6 +33,9 @@ def test_mean_and_interval_match_a_hand_computation():
     sd = math.sqrt(((0.0) ** 2 + 0.02 ** 2 + 0.02 ** 2) / 2)
     assert e.mean == pytest.approx(0.10) and e.high - e.mean == pytest.approx(4.302653 * sd / math.sqrt(3))
     assert mean_ci([0.3]).low is None and mean_ci([]).n == 0 and mean_ci([1.0, float("nan")]).n == 1
+    assert e.interval == (e.low, e.high)  # what the verdicts compare; none from fewer than two values
+    with pytest.raises(ValueError, match="no interval from 1 value"):
+        mean_ci([0.3]).interval
     # the exact quantiles, not a table's rounded ones (nor the next tabulated one between rows)
     assert t95(2) == pytest.approx(4.302653, abs=1e-6) and t95(22) == pytest.approx(2.073873, abs=1e-6)
     assert t95(1000) == pytest.approx(1.962339, abs=1e-6) and t95(22) < t95(20)
