@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 from training.results.data import Group
+from training.original.commands import TrainerSettings
 from training.results.sections import Section, section as section_by_key
 
 __all__ = ["budget_note", "curve_coverage", "joined_note", "ran_budget", "ran_decisions", "trial_budget"]
@@ -24,7 +25,8 @@ def trial_budget(sweep: dict[str, Any]) -> str:
         budget = f"{sweep['timesteps']:,} decisions"
     elif sweep.get("fixed", {}).get("original_epochs"):
         epochs = int(sweep["fixed"]["original_epochs"])
-        budget = f"{epochs} epochs of 32,000 joint steps ({epochs * 32_000 / 1e6:g} M joint steps)"
+        epoch = TrainerSettings.steps_per_epoch
+        budget = f"{epochs} epochs of {epoch:,} joint steps ({epochs * epoch / 1e6:g} M joint steps)"
     elif sweep.get("fixed", {}).get("rounds"):
         budget = f"{sweep['fixed']['rounds']} bilevel rounds"
     else:

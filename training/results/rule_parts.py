@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from training.evaluation import figure_data as fd
+from training.original.commands import TrainerSettings
 from training.results.baselines import right_of_way_baselines, scripted_baselines
 from training.results.data import Difference, HistogramMean, PaperValue, Preferred, Size
 from training.results.figures import against_noise_figure, bars_figure, distribution_figure, gap_figure
@@ -88,7 +89,8 @@ DENSER_BUDGET = ("8 cars fine-tuned from the 4-car noise-0 policy for 500 epochs
                  "car-decisions), entropy 1e-4; a 12-car run was described, 1,000 epochs more (its listed command "
                  "says 8 cars)")
 # joint steps per trial of the paper's runs (epochs x 32,000): our trials' fraction of them
-LIGHTS_NOISE_JOINT_STEPS, DENSER_JOINT_STEPS = 75 * 32_000, 500 * 32_000
+_EPOCH = TrainerSettings.steps_per_epoch
+LIGHTS_NOISE_JOINT_STEPS, DENSER_JOINT_STEPS = 75 * _EPOCH, 500 * _EPOCH
 # the lanes rules' table columns, figure, statements (fewer cars against 8) and the paper's runs
 LANES_METRICS = (("lanes.majority_share", "crossings on the majority side"),
                  ("lanes.time_share_majority", "time on the majority side"),

@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Optional
 
 from training.evaluation import figure_data as fd
+from training.original.commands import TrainerSettings
 from training.results.baselines import light_blind_rates, lights_baselines, scripted_baselines
 from training.results.data import Baseline, Group, PaperValue
 from training.results.figures import bars_figure, distribution_figure, lights_figure
@@ -111,7 +112,7 @@ SECTIONS: tuple[Section, ...] = (
             statements=(LIGHTS_BASELINE_STATEMENT,),
             paper_budget="4 cars at LiDAR noise 1.0 for 50 epochs of 32,000 joint steps (1.6 M joint steps), "
                          "entropy 1e-4",
-            paper_joint_steps=50 * 32_000, cars=4),
+            paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
             LIGHTS_METRICS,
