@@ -46,8 +46,9 @@ def load_policy(path: Union[str, Path], backend: str = "numpy", deterministic: b
     """A trained policy (a run folder, its ``.safetensors`` file or a shipped policy's name) with
     ``act(observations) -> actions`` and ``make_env()``: run with numpy (``backend="numpy"``, the
     base install) or with torch and SB3 (``"torch"``, the train extra); both give the same actions.
-    ``backend="sb3"`` gives a plain ``stable_baselines3.PPO`` instead (``predict``, ``learn``,
-    ``save``; built from the run's config and weights, nothing unpickled)."""
+    ``backend="sb3"`` gives a ``stable_baselines3.PPO`` instead (``predict``, ``learn``, ``save``;
+    built from the run's config and weights, nothing unpickled; its class is a subclass whose
+    rollout loop overlaps env workers and learner, same rollouts as SB3's)."""
     if backend == "numpy":
         from box2d_driving.policies import load_trained
 

@@ -24,8 +24,8 @@ ROOT = Path(__file__).resolve().parent.parent
 KW = {"num_cars": 3, "horizon": 6}
 
 
-def _rollout(num_cpus: int, steps: int = 30, seed: int = 5):
-    venv = make_vec_env_from("intersection-v0", KW, 4, num_cpus)
+def _rollout(num_cpus: int, steps: int = 30, seed: int = 5, transport: str = "supersuit"):
+    venv = make_vec_env_from("intersection-v0", KW, 4, num_cpus, transport=transport)
     try:
         venv.seed(seed)
         obs = [venv.reset()]
@@ -52,6 +52,7 @@ def _same_infos(a, b):
 
 @pytest.mark.parametrize("num_cpus", [1, 2])
 def test_same_rollouts_whatever_the_number_of_workers(num_cpus):
+    """SuperSuit's transport hands over every info whole (tests/test_shared_workers.py: ours)."""
     local, workers = _rollout(0), _rollout(num_cpus)
     for a, b in zip(local[:3], workers[:3]):
         assert np.array_equal(a, b)
@@ -165,12 +166,14 @@ def test_close_ends_the_workers_and_a_forgotten_close_does_not_hang_the_interpre
     assert run.returncode == 0 and "done" in run.stdout, run.stderr
 
 
-def test_training_with_workers_matches_in_process_and_resumes(tmp_path):
+@pytest.mark.parametrize("transport", ["shared", "supersuit"])
+def test_training_with_workers_matches_in_process_and_resumes(tmp_path, transport):
     from tests.helpers import same_checkpoint_weights, tiny_train_config
     from training.trainers.trainer import train
 
     def cfg(num_cpus, timesteps=160):
-        return tiny_train_config(timesteps=timesteps, checkpoint_every=1, num_cpus=num_cpus, device="cpu")
+        return tiny_train_config(timesteps=timesteps, checkpoint_every=1, num_cpus=num_cpus, device="cpu",
+                                 transport=transport)
 
     train(cfg(0), tmp_path / "local")
     train(cfg(2), tmp_path / "workers")
@@ -191,11 +194,14 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
                   "--updates", "1", "--num-cpus", "0", "3", "--threads", "1", "2", "--device", "auto",
                   "--json", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert "| env workers | device |" in printed and "machine: " in printed and " cores" in printed
+    assert "| env workers | transport | overlap | device |" in printed
+    assert "machine: " in printed and " cores" in printed
     assert "cores" in json.loads(out.read_text())["machine"]  # a table says where it was measured
     rows = json.loads(out.read_text())["rows"]
     assert [(r["num_cpus"], r["worker_processes"], r["threads"]) for r in rows] == [
         (0, 0, 1), (0, 0, 2), (3, 2, 1), (3, 2, 2)]
+    # with workers: our transport and the overlapped loop by default; without, neither applies
+    assert [(r["transport"], r["overlap"]) for r in rows] == [("-", False)] * 2 + [("shared", True)] * 2
     assert "| 2 (of 3 asked) | " in printed  # 2 instances over 3 workers start 2 processes
     assert {r["device"] for r in rows} == {resolve_device("auto")}  # auto: the GPU if torch sees one
     for r in rows:
@@ -330,7 +336,7 @@ def test_worker_path_steps_as_supersuits_proc_concat_vec_and_returns_its_own_obj
     for a, b in zip(ours[3], theirs[3]):
         _same_infos(a, b)
 
-    venv = make_vec_env_from("intersection-v0", KW, 4, 2)
+    venv = make_vec_env_from("intersection-v0", KW, 4, 2, transport="supersuit")
     try:
         assert isinstance(venv._inner, vec_env.WorkerSlots)
         venv.seed(3)
@@ -345,7 +351,8 @@ def test_worker_path_steps_as_supersuits_proc_concat_vec_and_returns_its_own_obj
     assert not {id(i) for i in infos1} & {id(i) for i in infos2}
 
 
-def test_worker_env_inherited_by_a_forked_process_closes_quietly_there():
+@pytest.mark.parametrize("transport", ["supersuit", "shared"])
+def test_worker_env_inherited_by_a_forked_process_closes_quietly_there(transport):
     """A process forked while a worker vector env is alive (the next env's workers, when one process
     builds several) inherits a copy; closing that copy there must not touch the workers, which are
     not its children (SuperSuit's close fails multiprocessing's child-process assertion)."""
@@ -353,9 +360,9 @@ def test_worker_env_inherited_by_a_forked_process_closes_quietly_there():
 
     import training.ppo.vec_env as vec_env
 
-    venv = make_vec_env_from("intersection-v0", KW, 2, 1)
+    venv = make_vec_env_from("intersection-v0", KW, 2, 1, transport=transport)
     try:
-        assert isinstance(venv._inner, vec_env.WorkerSlots)
+        assert isinstance(venv._inner, vec_env.WorkerSlots if transport == "supersuit" else vec_env.SharedWorkers)
         child = mp.get_context("fork").Process(target=venv._inner.close)
         child.start()
         child.join(60)

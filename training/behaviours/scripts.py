@@ -59,6 +59,10 @@ class CommonArgs:
     threads: torch CPU threads (default: the cores the env worker processes leave free)
     num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way; the
         instances go in runs of ceil(n_envs / num_cpus), so 16 instances over 15 workers start 8 processes)
+    transport: how env worker processes hand each step to the learner: shared (shared memory, a car's full
+        info only at its end; the default) or supersuit (SuperSuit's ProcConcatVec); same rollouts either way
+    overlap: with env workers, step the next decision while the learner files the last one (same rollouts
+        and weights; --no-overlap: SB3's own rollout loop)
     device: where the networks run: auto (CUDA if torch sees a GPU), cpu or cuda
     max_minutes: stop once the run has trained this many wall-clock minutes (all sessions)
     init_from: start from this checkpoint's weights (e.g. fine-tune a 4-car policy with 8 cars)
@@ -86,6 +90,8 @@ class CommonArgs:
     minibatch_by_step: bool = TrainConfig.minibatch_by_step
     threads: Optional[int] = TrainConfig.threads
     num_cpus: int = TrainConfig.num_cpus
+    transport: str = TrainConfig.transport
+    overlap: bool = TrainConfig.overlap
     device: str = TrainConfig.device
     max_minutes: Optional[float] = TrainConfig.max_minutes
     init_from: Optional[str] = TrainConfig.init_from
@@ -124,7 +130,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         timesteps=timesteps if timesteps is not None else cast(ScriptArgs, args).timesteps, seed=args.seed,
         n_envs=args.n_envs, batch_decisions=args.batch_decisions, epochs=args.epochs,
         minibatch_by_step=args.minibatch_by_step,
-        critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, device=args.device,
+        critic=args.critic, threads=args.threads, num_cpus=args.num_cpus, transport=args.transport,
+        overlap=args.overlap, device=args.device,
         max_minutes=args.max_minutes,
         init_from=args.init_from,
         ent_coef=TrainConfig.ent_coef if args.ent_coef is None else args.ent_coef, preset=args.preset,

@@ -17,7 +17,7 @@ slot observation (``FlattenExtractor``), or during a PPO update by env step the 
 
 from __future__ import annotations
 
-from typing import Any, Optional
+from typing import Any, Optional, cast
 
 import numpy as np
 import torch as th
@@ -94,19 +94,45 @@ class CTDENetwork(nn.Module):
         team's mean. Packed update rows (:class:`training.ppo.buffer.MaskedRolloutBuffer` by env step)
         and whole instances of a rollout step come this way: both encoders run once, together,
         on the same rows, and the critic averages each group's encodings."""
+        latent_pi, pending = self._actor_first(own, group, alive)
+        return latent_pi, self.critic_latent(pending)
+
+    def _actor_first(self, own: th.Tensor, group: th.Tensor,
+                     alive: Optional[th.Tensor]) -> tuple[th.Tensor, tuple]:
+        """The actor's latent of grouped rows, and what :meth:`critic_latent` finishes the
+        critic's from (its encodings, computed with the actor's in one fused pass)."""
         actor_in, critic_in = encode([self.actor_encoder, self.critic_encoder], own)
-        latent_pi = self.actor_mlp(actor_in)
+        return self.actor_mlp(actor_in), ("grouped", critic_in, group, alive)
+
+    def actor_latent(self, features: th.Tensor) -> tuple[th.Tensor, tuple]:
+        """A rollout step in two halves: the actor's latent of ``features`` (slot observations or
+        packed rows) and a pending critic computation for :meth:`critic_latent`, which gives
+        exactly what :meth:`forward` gives as the critic's latent. The overlapped rollout loop
+        (:mod:`training.ppo.overlapped`) steps the envs between the two."""
+        d = self.obs_dim
+        if features.shape[1] == d + 1:
+            return self._actor_first(features[:, :d], features[:, d].long(), None)
+        slots = self._whole_instances(features)
+        if slots is not None:
+            return self._actor_first(features[:, :d], *slots)
+        return self.forward_actor(features), ("slots", features)
+
+    def critic_latent(self, pending: tuple) -> th.Tensor:
+        """The critic's latent of the rows :meth:`actor_latent` left ``pending``."""
+        if pending[0] == "slots":
+            return self.forward_critic(pending[1])
+        _, critic_in, group, alive = pending
         z = self.critic_proj(critic_in)
         if self.critic == "own":
-            return latent_pi, self.critic_mlp(z)
+            return self.critic_mlp(z)
         n_groups = int(group[-1]) + 1
         live = z if alive is None else z * alive[:, None]
         sums = z.new_zeros(n_groups, z.shape[1]).index_add_(0, group, live)
         counts = th.bincount(group, weights=alive, minlength=n_groups).to(z.dtype)
         mean = sums / counts.clamp(min=1)[:, None]
         if self.critic == "mean":  # one value per team: the MLP runs once per group
-            return latent_pi, self.critic_mlp(mean).index_select(0, group)
-        return latent_pi, self.critic_mlp(th.cat([z, mean.index_select(0, group)], dim=1))
+            return self.critic_mlp(mean).index_select(0, group)
+        return self.critic_mlp(th.cat([z, mean.index_select(0, group)], dim=1))
 
     def forward_actor(self, features: th.Tensor) -> th.Tensor:
         return self.actor_mlp(self.actor_encoder(features[:, : self.obs_dim]))
@@ -167,11 +193,21 @@ class CTDEPolicy(ActorCriticPolicy):
         object (its argument checks and wrappers cost about a fifth of the step's forward pass on
         64 rows): the logits are normalised, sampled from and read exactly as
         ``torch.distributions.Categorical`` does. Anything that needs gradients, and action spaces
-        other than one discrete choice, take SB3's path."""
-        if th.is_grad_enabled() or not self.lean_rollouts or not isinstance(self.action_space, spaces.Discrete):
+        other than one discrete choice, take SB3's path. Computed as :meth:`rollout_actions`
+        then :meth:`rollout_values`, the two halves the overlapped rollout loop calls apart."""
+        if not self.lean_forward_applies():
             return super().forward(obs, deterministic)
-        latent_pi, latent_vf = self.mlp_extractor(self.extract_features(obs))
-        values = self.value_net(latent_vf)
+        actions, log_prob, pending = self.rollout_actions(obs, deterministic)
+        return actions, self.rollout_values(pending), log_prob
+
+    def lean_forward_applies(self) -> bool:
+        """Whether :meth:`forward` takes the lean path (no gradients, one discrete choice)."""
+        return not th.is_grad_enabled() and self.lean_rollouts and isinstance(self.action_space, spaces.Discrete)
+
+    def rollout_actions(self, obs: th.Tensor, deterministic: bool = False) -> tuple[th.Tensor, th.Tensor, tuple]:
+        """The first half of the lean :meth:`forward`: actions and their log-probabilities (rows,),
+        and the pending critic work for :meth:`rollout_values` (no gradients)."""
+        latent_pi, pending = self.mlp_extractor.actor_latent(cast(th.Tensor, self.extract_features(obs)))
         logits = self.action_net(latent_pi)
         logits = logits - logits.logsumexp(dim=-1, keepdim=True)  # Categorical(logits=...) normalises so
         probs = th.softmax(logits, dim=-1)
@@ -180,7 +216,12 @@ class CTDEPolicy(ActorCriticPolicy):
         else:
             actions = th.multinomial(probs, 1, True).T.reshape(-1)
         log_prob = logits.gather(-1, actions.unsqueeze(-1)).squeeze(-1)
-        return actions, values, log_prob  # (rows,): a Discrete action is one number
+        return actions, log_prob, pending  # (rows,): a Discrete action is one number
+
+    def rollout_values(self, pending: tuple) -> th.Tensor:
+        """The second half of the lean :meth:`forward`: the values (rows, 1) of the step whose
+        actions :meth:`rollout_actions` drew."""
+        return self.value_net(self.mlp_extractor.critic_latent(pending))
 
     def evaluate_actions(self, obs: PyTorchObs, actions: th.Tensor
                          ) -> tuple[th.Tensor, th.Tensor, Optional[th.Tensor]]:

@@ -35,8 +35,12 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 from supersuit.vector import ConcatVecEnv
 from supersuit.vector.constructors import call_wrap
 
+from training.ppo.shared_workers import SharedWorkers
 from training.ppo.slots import TeamLayout, checked_actions, clear_slot, slot_observation_space, slot_rows
 from training.ppo.workers import WorkerSlots, worker_processes, worker_runs
+
+# How worker processes exchange each step with the learner (``--transport``).
+TRANSPORTS = ("shared", "supersuit")
 
 
 class CarSlots(VecEnv):
@@ -226,8 +230,10 @@ class SlotVecEnv(CarSlots, VecEnv):
 
     Built on SuperSuit: each instance is an :class:`InstanceSlots`, concatenated by SuperSuit's
     ``ConcatVecEnv`` (as :class:`ConcatSlots`) in the learner's process (``num_cpus=0``) or, split
-    as ``supersuit.concat_vec_envs_v1`` splits them, in ``num_cpus`` worker processes
-    (``ProcConcatVec``) that step their instances and write observations to shared memory. This
+    as ``supersuit.concat_vec_envs_v1`` splits them, in ``num_cpus`` worker processes that step
+    their instances: ``transport="shared"`` (:class:`training.ppo.shared_workers.SharedWorkers`:
+    every per-step array in shared memory, a car's full info only at its end) or ``"supersuit"``
+    (SuperSuit's ``ProcConcatVec``, which pickles every car's info each step). This
     adapter fixes what SuperSuit's SB3 wrapper gets wrong for us (each fix has a test in
     ``tests/test_vec_env.py``):
 
@@ -249,9 +255,12 @@ class SlotVecEnv(CarSlots, VecEnv):
     reports a car's own termination; :class:`InstanceSlots` pads finished cars itself.
     """
 
-    def __init__(self, env_fns: Sequence[Callable[[], Any]], num_cpus: int = 0) -> None:
+    def __init__(self, env_fns: Sequence[Callable[[], Any]], num_cpus: int = 0, transport: str = "shared") -> None:
         if isinstance(num_cpus, bool) or not isinstance(num_cpus, int) or num_cpus < 0:
             raise ValueError(f"num_cpus must be an integer >= 0, got {num_cpus!r}")
+        if transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {', '.join(TRANSPORTS)}, got {transport!r}")
+        self.transport = transport
         self.num_cpus = min(num_cpus, len(env_fns))
         self.worker_processes = worker_processes(len(env_fns), num_cpus)
         self.probe = InstanceSlots(env_fns[0], 0)  # spaces, layout and static attributes
@@ -264,7 +273,7 @@ class SlotVecEnv(CarSlots, VecEnv):
             if any(list(inst.agents) != self.agents for inst in self._inner.vec_envs):
                 raise ValueError("all env instances must have the same agents")
         else:
-            self._inner = _workers(fns, self.probe, self.num_cpus)
+            self._inner = _workers(fns, self.probe, self.num_cpus, transport)
         super().__init__(len(env_fns) * self.n_cars, *spaces_)
         self._seed_base: Optional[int] = None
         self.seed_range: Any = None  # a training.common.seeds.SeedRange every seed must lie in, if set
@@ -341,22 +350,28 @@ def _close_inner(inner: Any) -> None:
     inner.close()
 
 
-def _workers(fns: list, probe: InstanceSlots, num_cpus: int) -> Any:
+def _workers(fns: list, probe: InstanceSlots, num_cpus: int, transport: str = "shared") -> Any:
     """The instances over :func:`training.ppo.workers.worker_processes` worker processes, each
     stepping its run of instances as one :class:`ConcatSlots`; with one worker too (SuperSuit's
-    constructor keeps a single CPU in the learner's process, but the user asked for a worker)."""
+    constructor keeps a single CPU in the learner's process, but the user asked for a worker).
+    ``transport``: ``shared`` (:class:`training.ppo.shared_workers.SharedWorkers`) or ``supersuit``
+    (its ``ProcConcatVec``, as :class:`training.ppo.workers.WorkerSlots`)."""
     runs = worker_runs(fns, num_cpus)
+    if transport == "shared":
+        return SharedWorkers([call_wrap(ConcatSlots, run) for run in runs],
+                             [len(run) * probe.n_cars for run in runs], probe.layout.size)
     return WorkerSlots([call_wrap(ConcatSlots, run) for run in runs], probe.observation_space,
                        probe.action_space, len(fns) * probe.n_cars, probe.metadata)
 
 
 def make_vec_env_from(env_id: str, overrides: dict, n_envs: int, num_cpus: int = 0,
-                      spline_policy: Optional[Callable[[np.ndarray], np.ndarray]] = None) -> SlotVecEnv:
+                      spline_policy: Optional[Callable[[np.ndarray], np.ndarray]] = None,
+                      transport: str = "shared") -> SlotVecEnv:
     """``n_envs`` instances of a registered env as one :class:`SlotVecEnv` (module-level factory:
     worker processes receive it pickled). ``spline_policy`` becomes every spline scenario
     instance's path picker; with workers it must be callable there (see ``training.ppo.shared_policy``)."""
     factory = functools.partial(_make_env, env_id, overrides, spline_policy)
-    return SlotVecEnv([factory] * n_envs, num_cpus)
+    return SlotVecEnv([factory] * n_envs, num_cpus, transport)
 
 
 def _make_env(env_id: str, overrides: dict, spline_policy: Any = None) -> Any:
@@ -368,6 +383,7 @@ def _make_env(env_id: str, overrides: dict, spline_policy: Any = None) -> Any:
     return env
 
 
-def make_slot_vec_env(env_id: str, n_envs: int, num_cpus: int = 0, **overrides: Any) -> SlotVecEnv:
+def make_slot_vec_env(env_id: str, n_envs: int, num_cpus: int = 0, transport: str = "shared",
+                      **overrides: Any) -> SlotVecEnv:
     """``n_envs`` instances of a registered env as one :class:`SlotVecEnv`."""
-    return make_vec_env_from(env_id, overrides, n_envs, num_cpus)
+    return make_vec_env_from(env_id, overrides, n_envs, num_cpus, transport=transport)

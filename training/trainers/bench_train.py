@@ -55,6 +55,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from training.common.cli_args import OneLineParser
 from training.ppo.workers import worker_processes
+from training.ppo.vec_env import TRANSPORTS
 from training.trainers.trainer import (DEVICES, TrainConfig, build_model, make_vec_env, resolve_device,
                                        set_minibatching, torch_threads)
 
@@ -80,6 +81,10 @@ class TrainBenchRow:
         steps: vector-env steps in the timed updates (every instance one decision each).
         env_ms, inference_ms, update_ms: the three parts per vector-env step (ms).
         limit_agent_steps_per_s: the same vector env stepped with random actions, no learner.
+        transport: how the worker processes hand each step over (``shared`` or ``supersuit``;
+            ``-`` without workers).
+        overlap: whether the overlapped rollout loop ran (:mod:`training.ppo.overlapped`; only
+            with workers).
     """
 
     num_cpus: int
@@ -101,6 +106,8 @@ class TrainBenchRow:
     inference_ms: float = 0.0
     update_ms: float = 0.0
     limit_agent_steps_per_s: float = 0.0
+    transport: str = "-"
+    overlap: bool = False
 
 
 class _Clock(BaseCallback):
@@ -234,6 +241,7 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
     try:
         env_timer = _TimedStep(venv)
         model = build_model(config, venv)
+        overlap = model.overlaps(venv)
         set_minibatching(model, config, venv.n_cars)
         venv.seed(config.seed)
         with tempfile.TemporaryDirectory() as tmp:
@@ -262,7 +270,8 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         update_gflops=flops / update_s / 1e9, bound_gflops=flops / bound_s / 1e9,
         matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)),
         steps=clock.steps, env_ms=env_s * per_step, inference_ms=inference_s * per_step,
-        update_ms=learn_s * per_step, limit_agent_steps_per_s=limit)
+        update_ms=learn_s * per_step, limit_agent_steps_per_s=limit,
+        transport=config.transport if venv.worker_processes else "-", overlap=overlap)
 
 
 def worker_counts(cores: int) -> list[int]:
@@ -291,14 +300,16 @@ def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
 
 def format_table(rows: list[TrainBenchRow]) -> str:
     """The markdown table ``bench --train`` prints, one row per measured setting."""
-    lines = ["| env workers | device | torch threads | agent-steps/s (with updates) | limit: random actions, "
-             "no learner | of limit | env | inference | update | ms per env step: env / inference / update "
+    lines = ["| env workers | transport | overlap | device | torch threads | agent-steps/s (with updates) | "
+             "limit: random actions, no learner | of limit | env | inference | update | "
+             "ms per env step: env / inference / update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
-             "|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
+             "|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         workers = f"{r.worker_processes}" + ("" if r.worker_processes == r.num_cpus else f" (of {r.num_cpus} asked)")
         of_limit = f"{r.agent_steps_per_s / r.limit_agent_steps_per_s:.0%}" if r.limit_agent_steps_per_s else "n/a"
-        lines.append(f"| {workers} | {r.device} | {r.threads} | {r.agent_steps_per_s:,.0f} | "
+        lines.append(f"| {workers} | {r.transport} | {'yes' if r.overlap else 'no'} | {r.device} | {r.threads} | "
+                     f"{r.agent_steps_per_s:,.0f} | "
                      f"{r.limit_agent_steps_per_s:,.0f} | {of_limit} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
                      f"{r.env_ms:.2f} / {r.inference_ms:.2f} / {r.update_ms:.2f} | "
@@ -319,6 +330,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--warmup", type=int, default=1, help="untimed updates first (default 1)")
     p.add_argument("--updates", type=int, default=2, help="timed updates (default 2)")
     p.add_argument("--num-cpus", type=int, nargs="+", help="worker counts (default 0, 1, 2, 4, ... cores)")
+    p.add_argument("--transport", nargs="+", choices=TRANSPORTS, default=["shared"],
+                   help="how the env worker processes hand each step over, each a row per worker count above 0 "
+                        "(default shared; supersuit: SuperSuit's ProcConcatVec)")
+    p.add_argument("--overlap", nargs="+", choices=("on", "off"), default=["on"],
+                   help="the overlapped rollout loop (on, the default) or SB3's (off), each a row per worker "
+                        "count above 0")
     p.add_argument("--threads", type=int, nargs="+",
                    help="torch threads of the learner, each a row per worker count (default: as training "
                         "sets them, the cores the env worker processes leave free)")
@@ -347,16 +364,19 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     rows = []
     for device in devices:
         for n in counts:
-            for threads in args.threads or [None]:
-                cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
-                                  "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
-                                  batch_decisions=args.batch_decisions, num_cpus=n, device=device,
-                                  minibatch_by_step=args.minibatch_by_step, threads=threads)
-                row = bench_row(cfg, args.warmup, args.updates)
-                rows.append(row)
-                print(f"  workers {row.worker_processes:>2}, {device}, {row.threads} threads: "
-                      f"{row.agent_steps_per_s:,.0f} agent-steps/s (limit {row.limit_agent_steps_per_s:,.0f})",
-                      flush=True)
+            ways = [(t, o) for t in args.transport for o in args.overlap] if n else [(args.transport[0], "off")]
+            for transport, overlap in ways:
+                for threads in args.threads or [None]:
+                    cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
+                                      "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
+                                      batch_decisions=args.batch_decisions, num_cpus=n, transport=transport,
+                                      overlap=overlap == "on", device=device,
+                                      minibatch_by_step=args.minibatch_by_step, threads=threads)
+                    row = bench_row(cfg, args.warmup, args.updates)
+                    rows.append(row)
+                    print(f"  workers {row.worker_processes:>2} ({row.transport}, overlap {overlap}), {device}, "
+                          f"{row.threads} threads: {row.agent_steps_per_s:,.0f} agent-steps/s "
+                          f"(limit {row.limit_agent_steps_per_s:,.0f})", flush=True)
     print()
     print(format_table(rows))
     gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"

@@ -43,11 +43,12 @@ from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
 from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
+from training.ppo.overlapped import OverlappedPPO
 from training.common.seeds import MAX_RUN_SEED, TRAINING
 from training.runs.run_dir import RunError, append_logger, check_new, check_same_run, write_config
 from training.runs.progress import RolloutMetrics, save_checkpoint
 from training.ppo.original_update import ActorStopAdam, KLWatch
-from training.ppo.vec_env import SlotVecEnv, make_vec_env_from
+from training.ppo.vec_env import TRANSPORTS, SlotVecEnv, make_vec_env_from
 from training.ppo.workers import worker_processes
 from training.runs.weights import WeightsError, source_fields, widen_state_dict
 
@@ -79,6 +80,13 @@ class TrainConfig:
             The instances go in runs of ``ceil(n_envs / num_cpus)``, so a number that does not
             divide ``n_envs`` may start fewer (16 instances over 15 workers: 8 processes of 2).
             Rollouts are identical whatever the number, for the same seed and ``n_envs``.
+        transport: how worker processes exchange each step with the learner: ``shared`` (every
+            per-step array in shared memory, full infos only at a car's end;
+            :mod:`training.ppo.shared_workers`) or ``supersuit`` (SuperSuit's ``ProcConcatVec``:
+            every car's info pickled each step). Same rollouts either way.
+        overlap: with worker processes, the workers step the next decision while the learner
+            finishes the values and files the last one (:mod:`training.ppo.overlapped`); same
+            rollouts and weights as SB3's loop (False).
         device: where the networks run: ``auto`` (CUDA when torch sees a GPU), ``cpu`` or ``cuda``.
         max_minutes: stop (and checkpoint) once the run's total wall-clock time, across
             ``--resume``, reaches this; None for no limit. For equal-budget comparisons.
@@ -119,6 +127,8 @@ class TrainConfig:
     checkpoint_every: int = 10
     threads: Optional[int] = None
     num_cpus: int = 0
+    transport: str = "shared"
+    overlap: bool = True
     device: str = "auto"
     max_minutes: Optional[float] = None
     init_from: Optional[str] = None
@@ -155,6 +165,8 @@ class TrainConfig:
         if self.advantage_normalisation not in ADVANTAGE_NORMALISATIONS:
             raise ConfigError(f"TrainConfig: advantage_normalisation must be one of {ADVANTAGE_NORMALISATIONS}, "
                               f"got {self.advantage_normalisation!r}")
+        if self.transport not in TRANSPORTS:
+            raise ConfigError(f"TrainConfig: transport must be one of {TRANSPORTS}, got {self.transport!r}")
         if self.device not in DEVICES:
             raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
         if self.critic not in CRITICS:
@@ -228,13 +240,14 @@ def start_run_dir(out: Path, config: TrainConfig) -> None:
 def make_vec_env(config: TrainConfig, spline_policy: Any = None) -> SlotVecEnv:
     """The run's slot vector env: ``n_envs`` instances over ``num_cpus`` worker processes
     (``spline_policy``: the path picker of spline scenarios, as in ``make_vec_env_from``)."""
-    venv = make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy)
+    venv = make_vec_env_from(config.env_id, config.env_overrides, config.n_envs, config.num_cpus, spline_policy,
+                             transport=config.transport)
     venv.seed_range = TRAINING  # episodes held out for selection and reports are never trained on
     venv.bootstrap_truncation = config.bootstrap_truncation
     return venv
 
 
-def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
+def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
     """SB3 PPO with the centralised-critic policy on ``venv``, its rollout length and minibatch
     from ``config`` for the env's car count."""
     probe = venv.probe.env
@@ -243,7 +256,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
     actor_only = config.kl_stop == "actor"
     policy_kwargs = policy_kwargs_for(probe, config.critic)
     policy_kwargs.update(optimizer_class=ActorStopAdam, optimizer_kwargs={"eps": config.adam_eps})
-    model = PPO(
+    model = OverlappedPPO(
         CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
         n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
         gae_lambda=config.gae_lambda, clip_range=config.clip_range, clip_range_vf=config.clip_range_vf,
@@ -255,6 +268,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> PPO:
                                "per_car_advantages": config.advantage_normalisation == "per_car"},
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
+    model.overlap = config.overlap
     if actor_only:  # the paper's KL rule: buffer, policy and optimiser share one watch
         assert config.target_kl is not None  # TrainConfig refuses kl_stop="actor" without one
         watch = KLWatch(config.target_kl)
@@ -275,17 +289,20 @@ def read_train_config(path: Path) -> TrainConfig:
 
 def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
     """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
-    bonus and the number of env instances given now."""
+    bonus, the number of env instances and how they run (workers, transport, overlap, threads,
+    device) given now."""
     first = read_train_config(out / "config.json")
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
-                               threads=config.threads, num_cpus=config.num_cpus, device=config.device)
+                               threads=config.threads, num_cpus=config.num_cpus, device=config.device,
+                               transport=config.transport, overlap=config.overlap)
 
 
-def load_ppo(run: Path | str, env: Optional[Any] = None) -> PPO:
-    """A plain SB3 ``PPO`` from a run folder or a shipped policy (``model.safetensors`` and
-    ``config.json``): the model is built from the config and the weights, and where saved the
-    optimiser state and counters, are copied in; nothing is unpickled. ``env`` defaults to the
-    run's own :class:`SlotVecEnv`. The result can ``predict``, ``learn`` or ``save`` as any PPO."""
+def load_ppo(run: Path | str, env: Optional[Any] = None) -> OverlappedPPO:
+    """An SB3 ``PPO`` (:class:`OverlappedPPO`, whose rollouts overlap env workers and learner) from
+    a run folder or a shipped policy (``model.safetensors`` and ``config.json``): the model is built
+    from the config and the weights, and where saved the optimiser state and counters, are copied
+    in; nothing is unpickled. ``env`` defaults to the run's own :class:`SlotVecEnv`. The result can
+    ``predict``, ``learn`` or ``save`` as any PPO."""
     ckpt = read_checkpoint(Path(run))
     config = read_train_config(find_config(ckpt.path))
     model = build_model(config, env if env is not None else make_vec_env(config))
