@@ -56,7 +56,8 @@ class CommonArgs:
     minibatch_by_step: minibatches of whole env steps: the critic encodes each step's team once, about 1.7x
         faster training at equal sample efficiency (--no-minibatch-by-step: minibatches of single transitions,
         the default before)
-    threads: torch CPU threads (default: the cores the env worker processes leave free)
+    threads: torch CPU threads (default: while collecting rollouts the cores the env worker processes leave free,
+        during the update every core)
     num_cpus: worker processes stepping the envs (0: in the learner's process; same rollouts either way; the
         instances go in runs of ceil(n_envs / num_cpus), so 16 instances over 15 workers start 8 processes)
     transport: how env worker processes hand each step to the learner: shared (shared memory, a car's full

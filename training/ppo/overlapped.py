@@ -50,6 +50,11 @@ class OverlappedPPO(PPO):
     """SB3 ``PPO`` with the overlapped rollout loop of this module (``overlap = False``: SB3's)."""
 
     overlap: bool = True
+    # torch threads while collecting rollouts and during the update (None: as already set): the
+    # env workers wait for the next rollout while the learner updates, so the update can use
+    # their cores without the forward pass competing with them during the rollout
+    rollout_threads: Optional[int] = None
+    update_threads: Optional[int] = None
 
     def overlaps(self, env: VecEnv) -> bool:
         """Whether ``collect_rollouts`` on ``env`` takes the overlapped loop."""
@@ -58,10 +63,21 @@ class OverlappedPPO(PPO):
                 and isinstance(policy, CTDEPolicy) and policy.lean_rollouts
                 and isinstance(self.action_space, spaces.Discrete))
 
+    def train(self) -> None:
+        if self.update_threads is not None:
+            th.set_num_threads(self.update_threads)
+        super().train()
+
     def collect_rollouts(self, env: VecEnv, callback: BaseCallback, rollout_buffer: RolloutBuffer,
                          n_rollout_steps: int) -> bool:
+        if self.rollout_threads is not None:
+            th.set_num_threads(self.rollout_threads)
         if not self.overlaps(env):
             return super().collect_rollouts(env, callback, rollout_buffer, n_rollout_steps)
+        return self._collect_overlapped(env, callback, rollout_buffer, n_rollout_steps)
+
+    def _collect_overlapped(self, env: VecEnv, callback: BaseCallback, rollout_buffer: RolloutBuffer,
+                            n_rollout_steps: int) -> bool:
         assert self._last_obs is not None, "no observation to start the rollout from"
         self.policy.set_training_mode(False)
         rollout_buffer.reset()

@@ -57,7 +57,7 @@ from training.common.cli_args import OneLineParser
 from training.ppo.workers import worker_processes
 from training.ppo.vec_env import TRANSPORTS
 from training.trainers.trainer import (DEVICES, TrainConfig, build_model, make_vec_env, resolve_device,
-                                       set_minibatching, torch_threads)
+                                       set_minibatching, torch_threads, update_threads)
 
 
 @dataclass
@@ -69,7 +69,8 @@ class TrainBenchRow:
         worker_processes: the worker processes that ran: the instances go in runs of
             ``ceil(n_envs / num_cpus)``, so 16 instances over 15 workers are 8 processes of 2.
         device: torch device of the learner.
-        threads: torch threads.
+        threads: torch threads while collecting rollouts.
+        update_threads: torch threads during the update (by default every core: the workers wait).
         agent_steps_per_s: live agent-steps per wall-clock second over the timed updates.
         agent_steps: live agent-steps in the timed updates.
         seconds: wall clock of the timed updates (s).
@@ -108,6 +109,7 @@ class TrainBenchRow:
     limit_agent_steps_per_s: float = 0.0
     transport: str = "-"
     overlap: bool = False
+    update_threads: int = 0
 
 
 class _Clock(BaseCallback):
@@ -216,6 +218,7 @@ def limit_rate(config: TrainConfig, warmup_steps: int, steps: int) -> float:
     untimed ones: what the env side delivers without training."""
     import numpy as np
 
+    th.set_num_threads(torch_threads(config))  # as while collecting rollouts, not the update's
     venv = make_vec_env(config)
     try:
         venv.seed(config.seed)
@@ -271,7 +274,8 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)),
         steps=clock.steps, env_ms=env_s * per_step, inference_ms=inference_s * per_step,
         update_ms=learn_s * per_step, limit_agent_steps_per_s=limit,
-        transport=config.transport if venv.worker_processes else "-", overlap=overlap)
+        transport=config.transport if venv.worker_processes else "-", overlap=overlap,
+        update_threads=update_threads(config))
 
 
 def worker_counts(cores: int) -> list[int]:
@@ -300,7 +304,8 @@ def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
 
 def format_table(rows: list[TrainBenchRow]) -> str:
     """The markdown table ``bench --train`` prints, one row per measured setting."""
-    lines = ["| env workers | transport | overlap | device | torch threads | agent-steps/s (with updates) | "
+    lines = ["| env workers | transport | overlap | device | torch threads: rollout / update | "
+             "agent-steps/s (with updates) | "
              "limit: random actions, no learner | of limit | env | inference | update | "
              "ms per env step: env / inference / update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
@@ -308,7 +313,8 @@ def format_table(rows: list[TrainBenchRow]) -> str:
     for r in rows:
         workers = f"{r.worker_processes}" + ("" if r.worker_processes == r.num_cpus else f" (of {r.num_cpus} asked)")
         of_limit = f"{r.agent_steps_per_s / r.limit_agent_steps_per_s:.0%}" if r.limit_agent_steps_per_s else "n/a"
-        lines.append(f"| {workers} | {r.transport} | {'yes' if r.overlap else 'no'} | {r.device} | {r.threads} | "
+        lines.append(f"| {workers} | {r.transport} | {'yes' if r.overlap else 'no'} | {r.device} | "
+                     f"{r.threads} / {r.update_threads} | "
                      f"{r.agent_steps_per_s:,.0f} | "
                      f"{r.limit_agent_steps_per_s:,.0f} | {of_limit} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
@@ -337,8 +343,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="the overlapped rollout loop (on, the default) or SB3's (off), each a row per worker "
                         "count above 0")
     p.add_argument("--threads", type=int, nargs="+",
-                   help="torch threads of the learner, each a row per worker count (default: as training "
-                        "sets them, the cores the env worker processes leave free)")
+                   help="torch threads of the learner, rollouts and update alike, each a row per worker count "
+                        "(default: as training sets them: while collecting the cores the env worker processes "
+                        "leave free, during the update every core)")
     p.add_argument("--devices", "--device", nargs="+", choices=DEVICES,
                    help="devices (default: cpu, and cuda when torch sees a GPU; auto: the GPU when "
                         "torch sees one, else the CPU, as train --device auto)")
@@ -375,7 +382,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                     row = bench_row(cfg, args.warmup, args.updates)
                     rows.append(row)
                     print(f"  workers {row.worker_processes:>2} ({row.transport}, overlap {overlap}), {device}, "
-                          f"{row.threads} threads: {row.agent_steps_per_s:,.0f} agent-steps/s "
+                          f"{row.threads} / {row.update_threads} threads: {row.agent_steps_per_s:,.0f} agent-steps/s "
                           f"(limit {row.limit_agent_steps_per_s:,.0f})", flush=True)
     print()
     print(format_table(rows))

@@ -75,7 +75,8 @@ class TrainConfig:
         ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
         checkpoint_every: updates between checkpoints.
-        threads: torch CPU threads (None: the cores the env worker processes leave free).
+        threads: torch CPU threads (None: while collecting rollouts the cores the env worker
+            processes leave free, during the update every core, as the workers wait then).
         num_cpus: worker processes stepping the env instances (0: all in the learner's process).
             The instances go in runs of ``ceil(n_envs / num_cpus)``, so a number that does not
             divide ``n_envs`` may start fewer (16 instances over 15 workers: 8 processes of 2).
@@ -193,11 +194,18 @@ def resolve_device(device: str) -> str:
 
 
 def torch_threads(config: "TrainConfig") -> int:
-    """Torch threads for the learner: as configured, else the cores the env worker processes leave
-    free (the processes actually started: 16 instances over 15 workers are 8 processes of 2)."""
+    """Torch threads for the learner while it collects rollouts: as configured, else the cores the
+    env worker processes leave free (the processes actually started: 16 instances over 15 workers
+    are 8 processes of 2)."""
     if config.threads is not None:
         return config.threads
     return max(1, (os.cpu_count() or 1) - worker_processes(config.n_envs, config.num_cpus))
+
+
+def update_threads(config: "TrainConfig") -> int:
+    """Torch threads for the PPO update: as configured, else every core (the workers wait for the
+    next rollout meanwhile, so their cores are free)."""
+    return config.threads if config.threads is not None else max(1, os.cpu_count() or 1)
 
 
 def prepare_run_dir(out: Path, resume: bool, config: TrainConfig) -> Optional[ResumePoint]:
@@ -269,6 +277,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
     model.overlap = config.overlap
+    model.rollout_threads, model.update_threads = torch_threads(config), update_threads(config)
     if actor_only:  # the paper's KL rule: buffer, policy and optimiser share one watch
         assert config.target_kl is not None  # TrainConfig refuses kl_stop="actor" without one
         watch = KLWatch(config.target_kl)
