@@ -128,3 +128,32 @@ def test_unknown_transport_is_refused_by_name():
         make_vec_env_from("intersection-v0", KW, 2, 1, transport="pipes")
     with pytest.raises(ConfigError, match="transport"):
         TrainConfig(transport="pipes")
+
+
+def test_workers_started_by_spawn_step_as_forked_ones():
+    """The default start method is fork on Linux, spawn on macOS and Windows: the shared buffers
+    reach a spawned worker too, and its steps are the same."""
+    import functools
+
+    from supersuit.vector.constructors import call_wrap
+
+    from training.ppo.vec_env import ConcatSlots, InstanceSlots, _make_env
+
+    def run(start_method):
+        fns = [functools.partial(InstanceSlots, functools.partial(_make_env, "intersection-v0", KW), k)
+               for k in range(2)]
+        probe = fns[0]()
+        workers = SharedWorkers([call_wrap(ConcatSlots, fns)], [2 * probe.n_cars], probe.layout.size,
+                                start_method=start_method)
+        try:
+            obs, _ = workers.reset(options={"slot_seed_base": 7})
+            out = [obs]
+            for a in range(4):
+                workers.step_async(np.full(workers.num_envs, a, dtype=np.int64))
+                out.append(workers.step_wait()[0])
+            return np.array(out)
+        finally:
+            workers.close()
+            probe.close()
+
+    assert np.array_equal(run("fork"), run("spawn"))

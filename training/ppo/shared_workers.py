@@ -45,8 +45,7 @@ class _Arrays:
     """Shared arrays of ``slots`` slots of ``width`` float32 each (``RawArray``: no lock, each
     worker writes only its own slice and the learner reads between steps)."""
 
-    def __init__(self, slots: int, width: int) -> None:
-        ctx = mp.get_context()
+    def __init__(self, slots: int, width: int, ctx: Any) -> None:
         self.raw = {
             "actions": ctx.RawArray("q", slots),
             "obs": ctx.RawArray("f", slots * width),
@@ -140,15 +139,16 @@ class SharedWorkers:
     ``step_async``, ``step_wait``, ``close``, as SuperSuit's ``ProcConcatVec`` offers them.
     """
 
-    def __init__(self, makers: Sequence[Callable[[], Any]], slots: Sequence[int], width: int) -> None:
+    def __init__(self, makers: Sequence[Callable[[], Any]], slots: Sequence[int], width: int,
+                 start_method: Optional[str] = None) -> None:
         from gymnasium.vector.async_vector_env import CloudpickleWrapper
 
         self._owner_pid = os.getpid()
         self.num_envs = int(sum(slots))
         self.starts = [int(x) for x in np.concatenate([[0], np.cumsum(slots)])]
-        self.arrays = _Arrays(self.num_envs, width)
+        ctx = mp.get_context(start_method)  # None: multiprocessing's default, as SuperSuit's workers
+        self.arrays = _Arrays(self.num_envs, width, ctx)
         self._closed = False
-        ctx = mp.get_context()
         self.pipes: list[Connection] = []
         self.procs: list[Any] = []
         try:
