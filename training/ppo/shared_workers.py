@@ -146,7 +146,7 @@ class SharedWorkers:
         self._owner_pid = os.getpid()
         self.num_envs = int(sum(slots))
         self.starts = [int(x) for x in np.concatenate([[0], np.cumsum(slots)])]
-        ctx = mp.get_context(start_method)  # None: multiprocessing's default, as SuperSuit's workers
+        ctx: Any = mp.get_context(start_method)  # None: multiprocessing's default, as SuperSuit's workers
         self.arrays = _Arrays(self.num_envs, width, ctx)
         self._closed = False
         self.pipes: list[Connection] = []
