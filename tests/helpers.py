@@ -148,3 +148,22 @@ def rewrite_checkpoint(folder: "pathlib.Path", *, tensors: Optional[dict] = None
     weights.update(tensors or {})
     save_file(weights, str(file), metadata={**old_meta, **(meta or {})})
     return pathlib.Path(folder)
+
+
+def slot_rollout(overrides: dict, n_envs: int, num_cpus: int, transport: str, steps: int = 30, seed: int = 5):
+    """``steps`` steps of uniform random actions (generator seed 0) through a slot vector env of
+    ``n_envs`` intersection instances: the observations (reset's first), rewards, dones and infos."""
+    from training.ppo.vec_env import make_vec_env_from
+
+    venv = make_vec_env_from("intersection-v0", overrides, n_envs, num_cpus, transport=transport)
+    try:
+        venv.seed(seed)
+        obs = [venv.reset()]
+        rng = np.random.default_rng(0)
+        rewards, dones, infos = [], [], []
+        for _ in range(steps):
+            o, r, d, i = venv.step(rng.integers(0, 13, venv.num_envs))
+            obs.append(o), rewards.append(r), dones.append(d), infos.append(i)
+        return np.array(obs), np.array(rewards), np.array(dones), infos
+    finally:
+        venv.close()

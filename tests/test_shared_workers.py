@@ -14,25 +14,15 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
+from tests.helpers import slot_rollout
 from training.ppo.shared_workers import STEP_INFO_KEYS, SharedWorkers
 from training.ppo.vec_env import make_vec_env_from
 
 KW = {"num_cars": 3, "horizon": 6}
 
 
-def _rollout(num_cpus: int, transport: str, steps: int = 30, seed: int = 5):
-    venv = make_vec_env_from("intersection-v0", KW, 4, num_cpus, transport=transport)
-    try:
-        venv.seed(seed)
-        obs = [venv.reset()]
-        rng = np.random.default_rng(0)
-        rewards, dones, infos = [], [], []
-        for _ in range(steps):
-            o, r, d, i = venv.step(rng.integers(0, 13, venv.num_envs))
-            obs.append(o), rewards.append(r), dones.append(d), infos.append(i)
-        return np.array(obs), np.array(rewards), np.array(dones), infos
-    finally:
-        venv.close()
+def _rollout(num_cpus: int, transport: str):
+    return slot_rollout(KW, 4, num_cpus, transport)
 
 
 def _equal(x, y) -> bool:

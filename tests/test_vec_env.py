@@ -18,25 +18,14 @@ pytest.importorskip("supersuit")
 
 import box2d_driving
 from training.ppo.vec_env import make_vec_env_from
-from tests.helpers import HANG
+from tests.helpers import HANG, slot_rollout
 
 ROOT = Path(__file__).resolve().parent.parent
 KW = {"num_cars": 3, "horizon": 6}
 
 
 def _rollout(num_cpus: int, steps: int = 30, seed: int = 5, transport: str = "supersuit"):
-    venv = make_vec_env_from("intersection-v0", KW, 4, num_cpus, transport=transport)
-    try:
-        venv.seed(seed)
-        obs = [venv.reset()]
-        rng = np.random.default_rng(0)
-        rewards, dones, infos = [], [], []
-        for _ in range(steps):
-            o, r, d, i = venv.step(rng.integers(0, 13, venv.num_envs))
-            obs.append(o), rewards.append(r), dones.append(d), infos.append(i)
-        return np.array(obs), np.array(rewards), np.array(dones), infos
-    finally:
-        venv.close()
+    return slot_rollout(KW, 4, num_cpus, transport, steps, seed)
 
 
 def _same_infos(a, b):
