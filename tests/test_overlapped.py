@@ -117,3 +117,26 @@ def test_without_workers_sb3s_own_loop_runs(tmp_path, monkeypatch):
     monkeypatch.setattr(PPO, "collect_rollouts", spy)
     _, _, _, overlapped, _ = _rollouts(tmp_path, 0, overlap=True, rollouts=1)
     assert not overlapped and calls == [1]
+
+
+def test_the_update_runs_on_its_own_threads_and_a_new_model_starts_from_the_same_weights():
+    """By default the update takes every core and rollouts the cores the workers leave free; the
+    thread count an update leaves set must not change the next model's initial (orthogonal) weights."""
+    import os
+
+    from training.trainers.trainer import TrainConfig
+
+    cfg = TrainConfig(env_overrides={"num_cars": 2, "horizon": 5}, n_envs=2, batch_decisions=40, minibatch=20,
+                      epochs=1, num_cpus=1, device="cpu")
+    first = []
+    for left_set in (1, 2):
+        th.set_num_threads(left_set)
+        venv = make_vec_env(cfg)
+        try:
+            model = build_model(cfg, venv)
+            assert (model.rollout_threads, model.update_threads) == (max(1, (os.cpu_count() or 1) - 1),
+                                                                    os.cpu_count() or 1)
+            first.append([p.detach().clone() for p in model.policy.parameters()])
+        finally:
+            venv.close()
+    assert all(th.equal(a, b) for a, b in zip(*first))

@@ -264,6 +264,9 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
     actor_only = config.kl_stop == "actor"
     policy_kwargs = policy_kwargs_for(probe, config.critic)
     policy_kwargs.update(optimizer_class=ActorStopAdam, optimizer_kwargs={"eps": config.adam_eps})
+    # the initial weights' orthogonal draws depend on torch's thread count: build at the rollout's,
+    # whatever an earlier model in this process left set (its update's)
+    th.set_num_threads(torch_threads(config))
     model = OverlappedPPO(
         CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
         n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
