@@ -36,7 +36,6 @@ from typing import Any, Optional, cast
 
 import numpy as np
 import torch as th
-from gymnasium import spaces
 from stable_baselines3 import PPO
 from stable_baselines3.common.buffers import RolloutBuffer
 from stable_baselines3.common.callbacks import BaseCallback
@@ -60,8 +59,7 @@ class OverlappedPPO(PPO):
         """Whether ``collect_rollouts`` on ``env`` takes the overlapped loop."""
         policy = self.policy
         return (self.overlap and getattr(env, "worker_processes", 0) > 0 and not self.use_sde
-                and isinstance(policy, CTDEPolicy) and policy.lean_rollouts
-                and isinstance(self.action_space, spaces.Discrete))
+                and isinstance(policy, CTDEPolicy) and policy.lean_rollouts_available())
 
     def train(self) -> None:
         if self.update_threads is not None:

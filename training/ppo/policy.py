@@ -200,9 +200,13 @@ class CTDEPolicy(ActorCriticPolicy):
         actions, log_prob, pending = self.rollout_actions(obs, deterministic)
         return actions, self.rollout_values(pending), log_prob
 
+    def lean_rollouts_available(self) -> bool:
+        """Whether rollouts may take the lean path (it is on, and the action is one discrete choice)."""
+        return self.lean_rollouts and isinstance(self.action_space, spaces.Discrete)
+
     def lean_forward_applies(self) -> bool:
-        """Whether :meth:`forward` takes the lean path (no gradients, one discrete choice)."""
-        return not th.is_grad_enabled() and self.lean_rollouts and isinstance(self.action_space, spaces.Discrete)
+        """Whether :meth:`forward` takes the lean path (no gradients, and it is available)."""
+        return not th.is_grad_enabled() and self.lean_rollouts_available()
 
     def rollout_actions(self, obs: th.Tensor, deterministic: bool = False) -> tuple[th.Tensor, th.Tensor, tuple]:
         """The first half of the lean :meth:`forward`: actions and their log-probabilities (rows,),

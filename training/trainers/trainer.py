@@ -266,7 +266,8 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
     policy_kwargs.update(optimizer_class=ActorStopAdam, optimizer_kwargs={"eps": config.adam_eps})
     # the initial weights' orthogonal draws depend on torch's thread count: build at the rollout's,
     # whatever an earlier model in this process left set (its update's)
-    th.set_num_threads(torch_threads(config))
+    rollout_threads = torch_threads(config)
+    th.set_num_threads(rollout_threads)
     model = OverlappedPPO(
         CTDEPolicy, venv, n_steps=n_steps, batch_size=min(config.minibatch, n_steps * venv.num_envs),
         n_epochs=config.epochs, learning_rate=config.learning_rate, gamma=config.gamma,
@@ -280,7 +281,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
     model.overlap = config.overlap
-    model.rollout_threads, model.update_threads = torch_threads(config), update_threads(config)
+    model.rollout_threads, model.update_threads = rollout_threads, update_threads(config)
     if actor_only:  # the paper's KL rule: buffer, policy and optimiser share one watch
         assert config.target_kl is not None  # TrainConfig refuses kl_stop="actor" without one
         watch = KLWatch(config.target_kl)
