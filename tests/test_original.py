@@ -280,3 +280,29 @@ def test_a_curve_scores_every_kept_actor_once_on_one_set_of_selection_episodes(t
     err = [line for line in capsys.readouterr().err.splitlines() if line]
     assert len(err) == 3 and "one set of episodes" in err[0] and "run.json is missing" in err[2]
     assert (run / "curve.csv").read_text() == before
+
+
+def test_a_report_names_its_weights_within_the_run_so_it_travels_with_it(tmp_path, monkeypatch):
+    import shutil
+
+    run = tmp_path / "scratch" / "noise1.0_seed1"
+    (run / "actors").mkdir(parents=True)
+    (run / "run.json").write_text("{}")
+    (run / "state.json").write_text(json.dumps({"epochs_done": 50, "joint_steps": 1_600_000,
+                                                "car_decisions": 5_900_000}))
+    (run / "actors" / "epoch_0050.safetensors").write_bytes(b"x")
+    calls = []
+
+    def fake_worker(cmd, **kwargs):  # the sdriving worker's rollout, stood in for by a recorded table
+        calls.append(cmd)
+        shutil.copy(FIXTURE, cmd[cmd.index("--out") + 1])
+    monkeypatch.setattr(cli, "require_venv", lambda: None)
+    monkeypatch.setattr(cli.subprocess, "run", fake_worker)
+    out = run / "report.json"
+    assert cli.main(["evaluate", "--run", str(run), "--episodes", "3", "--out", str(out)]) == 0
+    report = json.loads(out.read_text())
+    assert report["weights"] == "actors/epoch_0050.safetensors" and report["run"] == "noise1.0_seed1"
+    assert str(tmp_path) not in out.read_text()  # nothing of where it was made
+    assert (report["epochs"], report["joint_steps"], report["episodes"]) == (50, 1_600_000, 3)
+    assert report["collision_rate"] == pytest.approx(0.5)  # scored from the table the worker wrote
+    assert calls and str(run / "actors" / "epoch_0050.safetensors") in calls[0]

@@ -210,8 +210,54 @@ def test_training_benchmark_prints_a_table_and_writes_json(tmp_path, capsys):
             bench(["--train", "--devices", "cuda"])
 
 
+def test_the_training_benchmark_measures_what_train_lights_trains_under_a_preset():
+    """``bench --train --preset paper`` builds the config ``train lights --preset paper`` trains
+    with (world and update), sizes given on the command line replacing the preset's."""
+    from training.behaviours.scripts import ScriptArgs, config_from
+    from training.trainers.bench_train import bench_config
+    from training.trainers.trainer import TrainConfig
+
+    fields = ("env_overrides", "n_envs", "batch_decisions", "minibatch", "epochs", "ent_coef", "clip_range_vf",
+              "kl_stop", "advantage_normalisation", "adam_eps", "max_grad_norm", "bootstrap_truncation",
+              "learning_rate", "gamma", "gae_lambda", "clip_range", "target_kl", "preset")
+    common = dict(cars=4, lidar_noise=0.25, num_cpus=0, transport="shared", overlap=True, device="cpu",
+                  minibatch_by_step=True, threads=None)
+    bench = bench_config(preset="paper", **common)
+    trained = config_from("intersection-v0", ScriptArgs(preset="paper", num_cars=4, lidar_noise=0.25))
+    assert {f: getattr(bench, f) for f in fields} == {f: getattr(trained, f) for f in fields}
+    # the paper's update: 20 instances, 32,000 joint steps of 4 cars, one pass in 20 minibatches
+    assert (bench.n_envs, bench.batch_decisions, bench.minibatch, bench.epochs) == (20, 128_000, 6_400, 1)
+    assert bench.env_overrides["horizon"] == 25 and bench.env_overrides["arrived_cars_stay"] is True
+    small = bench_config(preset="paper", n_envs=2, batch_decisions=200, **common)
+    assert (small.n_envs, small.batch_decisions, small.minibatch, small.epochs) == (2, 200, 10, 1)
+    ours = bench_config(**common)
+    assert (ours.n_envs, ours.batch_decisions, ours.minibatch, ours.epochs, ours.preset) == (
+        TrainConfig.n_envs, TrainConfig.batch_decisions, TrainConfig.minibatch, TrainConfig.epochs, None)
+    assert ours.env_overrides == {"num_cars": 4, "lidar_noise": 0.25}
+
+
+def test_the_training_benchmark_runs_a_preset_and_times_its_epochs(tmp_path, capsys):
+    from box2d_driving.bench import main as bench
+
+    out = tmp_path / "paper.json"
+    assert bench(["--train", "--preset", "paper", "--cars", "2", "--n-envs", "2", "--batch-decisions", "200",
+                  "--warmup", "1", "--updates", "1", "--num-cpus", "0", "--threads", "1", "--device", "cpu",
+                  "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "(preset paper), 2 cars" in printed
+    assert "200 slot-decisions per update (1 epoch(s) of minibatch 10)" in printed
+    assert "| s per epoch of 32,000 joint steps |" in printed
+    row = json.loads(out.read_text())["rows"][0]
+    # a joint step: one instance one decision; 50 steps of 2 instances per update of 200 slot-decisions
+    assert row["steps"] == 50
+    assert abs(row["joint_steps_per_s"] * row["seconds"] - row["steps"] * 2) < 1e-6 * row["steps"]
+    assert 0 < row["agent_steps"] <= row["steps"] * 2 * 2
+    with pytest.raises(SystemExit):  # a preset that does not exist: a usage error naming the choices
+        bench(["--train", "--preset", "nonesuch"])
+
+
 def test_the_limit_row_counts_live_agent_steps_of_the_same_env(monkeypatch):
-    import training.trainers.bench_train as bt
+    import training.trainers.bench_rows as bt
     from training.trainers.trainer import TrainConfig
 
     cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": 2}, n_envs=2, num_cpus=0)

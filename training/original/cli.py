@@ -238,9 +238,11 @@ def _evaluate(args) -> int:
     state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
     latest = args.epoch is None
     metrics = score_table(load_table(table_path))
-    metrics.update(episodes=args.episodes, first_seed=args.first_seed, run=str(args.run),
+    # the weights named within the run folder: a report travels with its run (carried, copied)
+    metrics.update(episodes=args.episodes, first_seed=args.first_seed, run=args.run.name,
                    epochs=state.get("epochs_done") if latest else args.epoch,
-                   weights=str(weights), joint_steps=state.get("joint_steps") if latest else None,
+                   weights=weights.relative_to(args.run).as_posix(),
+                   joint_steps=state.get("joint_steps") if latest else None,
                    car_decisions=state.get("car_decisions") if latest else None)
     tmp = args.out.with_name(args.out.name + ".partial")
     tmp.write_text(json.dumps(metrics, indent=1, default=float) + "\n")

@@ -1,281 +1,66 @@
 """Training throughput benchmark: ``box2d-driving bench --train``.
 
-Measures agent-steps per second of real PPO training, updates included (one agent-step is one
-decision of one live car; padding slots are not counted), on ``intersection-v0`` with the paper's
-settings (4 cars by default, LiDAR noise 0.5, 16 env instances, 32,000 slot-decisions per update,
-minibatch 4,000, 4 epochs), for each number of env worker processes (0 = in the learner's process,
-then 1, 2, 4, ... up to the machine's cores) on the CPU and, where torch sees one, the GPU. Each
-row runs ``--warmup`` updates (not timed: Numba kernels compile, workers start), then ``--updates``
-timed ones, and splits the timed wall clock into:
-
-* ``env``: waiting for the vector env's step (stepping the envs in-process, or waiting for the
-  workers and copying their observations);
-* ``inference``: the rest of the rollout (the policy's forward pass, the rollout buffer, callbacks);
-* ``update``: PPO's epochs over the batch.
-
-Each row also gives those three as milliseconds per step of the vector env (one step: every
-instance one decision), and a **limit**: the same vector env (same instances, same worker
-processes) stepped for as many steps with uniform random actions and no learner at all, after an
-untimed warm-up of as many steps as the warm-up updates took. The limit is what the env side
-delivers on that machine; training throughput over the limit is the share of it the learner lets
-through (the rest is the forward pass and the update, during which the env side waits).
-
-After the timed updates each row runs PPO's epochs once more on the last batch, timed alone, and
-once under ``torch.utils.flop_counter.FlopCounterMode`` to count the floating-point operations of
-the update's matrix products and convolutions (forward and backward; element-wise operations are
-not counted; the LiDAR convolutions counted as convolutions, not as the zero-padded products
-``training/ppo/encoder.py`` computes them with). Their ratio is the update's achieved GFLOP/s,
-printed beside a plain matrix product of the update's widest layer (minibatch x 256 times
-256 x 256) timed in the same run on the same device and threads: how close the learner comes to
-what the machine can do. Beside it, the same update timed once more with both LiDAR encoders
-replaced by stand-ins that cost next to nothing (:func:`training.ppo.encoder.encoders_cost_nothing`),
-over the same counted GFLOP: the most any faster encoder could give.
-
-Prints a table and writes it as JSON (``--json FILE``, never replacing an existing file).
+For each number of env worker processes (0 = in the learner's process, then 1, 2, 4, ... up to the
+machine's cores), transport, rollout loop and thread count asked for, and on the CPU and, where
+torch sees one, the GPU, trains real PPO updates on ``intersection-v0`` and measures agent-steps
+per second with the updates included (:mod:`training.trainers.bench_rows` defines every figure of
+a row). The world and update are our defaults (4 cars, LiDAR noise 0.5, 16 env instances, 32,000
+slot-decisions per update, minibatch 4,000, 4 epochs), or a named preset's (``--preset paper``:
+the paper's own code, 20 instances, an update every 32,000 joint steps, one pass in 20
+minibatches; docs/paper_world.md). Prints a table and writes it as JSON (``--json FILE``, never
+replacing an existing file).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import sys
-import tempfile
-import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
-from typing import Any, Optional, Sequence, cast
+from typing import Optional, Sequence
 
 import torch as th
-from gymnasium import spaces
 
 from box2d_driving.bench import machine
-from stable_baselines3.common.callbacks import BaseCallback
+from box2d_driving.presets import preset_overrides
 
 from training.common.cli_args import OneLineParser
 from training.ppo.workers import worker_processes
 from training.ppo.vec_env import TRANSPORTS
-from training.trainers.trainer import (DEVICES, TrainConfig, build_model, make_vec_env, resolve_device,
-                                       set_minibatching, torch_threads, update_threads)
+from training.trainers.bench_rows import TrainBenchRow, bench_row
+from training.trainers.presets import TRAINING_PRESETS, training_preset
+from training.trainers.trainer import DEVICES, TrainConfig, resolve_device
+
+ENV_ID = "intersection-v0"
+JOINT_STEPS_PER_EPOCH = 32_000  # the original trainer's epoch (sdriving's steps_per_epoch), the table's time unit
 
 
-@dataclass
-class TrainBenchRow:
-    """One measured setting of ``bench --train`` (the module docstring defines each figure).
-
-    Attributes:
-        num_cpus: env workers asked for (``--num-cpus``; 0: the envs step in the learner's process).
-        worker_processes: the worker processes that ran: the instances go in runs of
-            ``ceil(n_envs / num_cpus)``, so 16 instances over 15 workers are 8 processes of 2.
-        device: torch device of the learner.
-        threads: torch threads while collecting rollouts.
-        update_threads: torch threads during the update (by default every core: the workers wait).
-        agent_steps_per_s: live agent-steps per wall-clock second over the timed updates.
-        agent_steps: live agent-steps in the timed updates.
-        seconds: wall clock of the timed updates (s).
-        env_share, inference_share, update_share: the three parts of that wall clock.
-        update_gflop: counted floating-point work of one update (GFLOP).
-        update_gflops: that work over the update's own time (GFLOP/s).
-        bound_gflops: the same work over the time with the encoders replaced by free stand-ins.
-        matmul_gflops: a plain product of the update's widest layer, same device and threads.
-        steps: vector-env steps in the timed updates (every instance one decision each).
-        env_ms, inference_ms, update_ms: the three parts per vector-env step (ms).
-        limit_agent_steps_per_s: the same vector env stepped with random actions, no learner.
-        transport: how the worker processes hand each step over (``shared`` or ``supersuit``;
-            ``-`` without workers).
-        overlap: whether the overlapped rollout loop ran (:mod:`training.ppo.overlapped`; only
-            with workers).
-    """
-
-    num_cpus: int
-    worker_processes: int
-    device: str
-    threads: int
-    agent_steps_per_s: float
-    agent_steps: int
-    seconds: float
-    env_share: float
-    inference_share: float
-    update_share: float
-    update_gflop: float
-    update_gflops: float
-    bound_gflops: float
-    matmul_gflops: float
-    steps: int = 0
-    env_ms: float = 0.0
-    inference_ms: float = 0.0
-    update_ms: float = 0.0
-    limit_agent_steps_per_s: float = 0.0
-    transport: str = "-"
-    overlap: bool = False
-    update_threads: int = 0
-
-
-class _Clock(BaseCallback):
-    """Splits wall time into rollouts and updates; counts live agent-steps after the warm-up."""
-
-    def __init__(self, warmup: int, env_timer: "_TimedStep") -> None:
-        super().__init__()
-        self.warmup = warmup
-        self.env_timer = env_timer
-        self.rollouts = 0
-        self.t_start: Optional[float] = None
-        self.rollout_s = 0.0
-        self.agent_steps = 0
-        self.steps = 0  # vector-env steps timed
-        self._t = 0.0
-
-    @property
-    def timing(self) -> bool:
-        return self.rollouts >= self.warmup
-
-    def _on_rollout_start(self) -> None:
-        if self.timing and self.t_start is None:
-            self.t_start = time.perf_counter()
-            self.env_timer.seconds = 0.0
-        self._t = time.perf_counter()
-
-    def _on_step(self) -> bool:
-        if self.timing:
-            self.agent_steps += sum(1 for info in self.locals["infos"] if info)
-            self.steps += 1
-        return True
-
-    def _on_rollout_end(self) -> None:
-        if self.timing:
-            self.rollout_s += time.perf_counter() - self._t
-        self.rollouts += 1
-
-
-class _TimedStep:
-    """Accumulates in ``seconds`` the time a vector env spends in ``step_wait``."""
-
-    def __init__(self, venv: Any) -> None:
-        inner = venv.step_wait
-        self.seconds = 0.0
-
-        def timed() -> Any:
-            t0 = time.perf_counter()
-            try:
-                return inner()
-            finally:
-                self.seconds += time.perf_counter() - t0
-
-        venv.step_wait = timed
-
-
-def _timed_update(model) -> tuple[float, int]:
-    """Seconds and epochs of one PPO update on the model's last batch."""
-    before = model._n_updates
-    t0 = time.perf_counter()
-    model.train()
-    return time.perf_counter() - t0, model._n_updates - before
-
-
-def update_flops(model) -> tuple[float, float, float]:
-    """FLOPs of one PPO update on the model's last batch (matrix products and convolutions,
-    forward and backward), the seconds the same update takes without counting, and the seconds it
-    takes with the LiDAR encoders costing nothing; both times scaled to the epochs the counted
-    update ran (PPO may stop early on its KL target)."""
-    from torch.utils.flop_counter import FlopCounterMode
-
-    from training.ppo.encoder import encoders_cost_nothing, reference_convolutions
-
-    seconds, timed_epochs = _timed_update(model)
-    counter = FlopCounterMode(display=False)
-    before = model._n_updates
-    with counter, reference_convolutions():  # the model's own operations, not the fast way's zeros
-        model.train()
-    counted_epochs = model._n_updates - before
-    with encoders_cost_nothing():
-        bound_s, bound_epochs = _timed_update(model)
-    return (float(counter.get_total_flops()), seconds * counted_epochs / max(1, timed_epochs),
-            bound_s * counted_epochs / max(1, bound_epochs))
-
-
-def matmul_gflops(rows: int, width: int, device: str, repeats: int = 50) -> float:
-    """GFLOP/s of a ``(rows, width) @ (width, width)`` product on ``device`` (best of 3)."""
-    a = th.randn(rows, width, device=device)
-    b = th.randn(width, width, device=device)
-    best = 0.0
-    for _ in range(3):
-        a @ b
-        if device == "cuda":
-            th.cuda.synchronize()
-        t0 = time.perf_counter()
-        for _ in range(repeats):
-            a @ b
-        if device == "cuda":
-            th.cuda.synchronize()
-        best = max(best, 2.0 * rows * width * width * repeats / (time.perf_counter() - t0) / 1e9)
-    return best
-
-
-def limit_rate(config: TrainConfig, warmup_steps: int, steps: int) -> float:
-    """Live agent-steps per second of ``config``'s vector env (its instances, its worker processes)
-    stepped ``steps`` times with uniform random actions and no learner, after ``warmup_steps``
-    untimed ones: what the env side delivers without training."""
-    import numpy as np
-
-    th.set_num_threads(torch_threads(config))  # as while collecting rollouts, not the update's
-    venv = make_vec_env(config)
-    try:
-        venv.seed(config.seed)
-        venv.reset()
-        rng = np.random.default_rng(config.seed)
-        n = int(cast(spaces.Discrete, venv.action_space).n)
-        for _ in range(warmup_steps):
-            venv.step(rng.integers(n, size=venv.num_envs))
-        live = 0
-        t0 = time.perf_counter()
-        for _ in range(steps):
-            live += sum(1 for info in venv.step(rng.integers(n, size=venv.num_envs))[3] if info)
-        return live / (time.perf_counter() - t0)
-    finally:
-        venv.close()
-
-
-def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
-    """Train ``warmup + updates`` PPO updates of ``config`` and time the last ``updates``; then
-    the limit row: the same vector env with random actions and no learner, as many steps."""
-    th.set_num_threads(torch_threads(config))
-    venv = make_vec_env(config)
-    try:
-        env_timer = _TimedStep(venv)
-        model = build_model(config, venv)
-        overlap = model.overlaps(venv)
-        set_minibatching(model, config, venv.n_cars)
-        venv.seed(config.seed)
-        with tempfile.TemporaryDirectory() as tmp:
-            from stable_baselines3.common.logger import configure
-
-            model.set_logger(configure(tmp, []))
-            clock = _Clock(warmup, env_timer)
-            per_update = model.n_steps * venv.num_envs
-            model.learn(per_update * (warmup + updates), callback=clock)
-            assert clock.t_start is not None  # set at the first timed rollout
-            wall = time.perf_counter() - clock.t_start
-            flops, update_s, bound_s = update_flops(model)
-            n_steps = model.n_steps
-    finally:
-        venv.close()
-    env_s = env_timer.seconds
-    inference_s, learn_s = max(0.0, clock.rollout_s - env_s), max(0.0, wall - clock.rollout_s)
-    per_step = 1000.0 / max(1, clock.steps)
-    limit = limit_rate(config, n_steps * warmup, clock.steps)
-    return TrainBenchRow(
-        num_cpus=config.num_cpus, worker_processes=venv.worker_processes, device=resolve_device(config.device),
-        threads=torch_threads(config),
-        agent_steps_per_s=clock.agent_steps / wall, agent_steps=clock.agent_steps, seconds=wall,
-        env_share=env_s / wall, inference_share=inference_s / wall,
-        update_share=learn_s / wall, update_gflop=flops / 1e9,
-        update_gflops=flops / update_s / 1e9, bound_gflops=flops / bound_s / 1e9,
-        matmul_gflops=matmul_gflops(config.minibatch, 256, resolve_device(config.device)),
-        steps=clock.steps, env_ms=env_s * per_step, inference_ms=inference_s * per_step,
-        update_ms=learn_s * per_step, limit_agent_steps_per_s=limit,
-        transport=config.transport if venv.worker_processes else "-", overlap=overlap,
-        update_threads=update_threads(config))
+def bench_config(*, cars: int, lidar_noise: float, num_cpus: int, transport: str, overlap: bool, device: str,
+                 minibatch_by_step: bool, threads: Optional[int], n_envs: Optional[int] = None,
+                 batch_decisions: Optional[int] = None, preset: Optional[str] = None) -> TrainConfig:
+    """The training config of one row: our defaults, or ``preset``'s world and update
+    (:func:`box2d_driving.presets.preset_overrides`, :meth:`TrainingPreset.apply`); ``n_envs`` and
+    ``batch_decisions`` replace the defaults' or the preset's when given (under a preset the
+    minibatch stays its share of the batch: a 20th for ``paper``)."""
+    overrides = {} if preset is None else preset_overrides(preset, ENV_ID)
+    overrides.update({"num_cars": cars, "lidar_noise": lidar_noise})
+    cfg = TrainConfig(env_id=ENV_ID, env_overrides=overrides, num_cpus=num_cpus, transport=transport,
+                      overlap=overlap, device=device, minibatch_by_step=minibatch_by_step, threads=threads,
+                      preset=preset)
+    if preset is not None:
+        training_preset(preset).apply(cfg, cars)
+    if n_envs is not None:
+        cfg.n_envs = n_envs
+    if batch_decisions is not None:
+        cfg.batch_decisions = batch_decisions
+        if preset is not None:
+            cfg.minibatch = math.ceil(batch_decisions / training_preset(preset).minibatches)
+    cfg.validate()
+    return cfg
 
 
 def worker_counts(cores: int) -> list[int]:
@@ -305,17 +90,18 @@ def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
 def format_table(rows: list[TrainBenchRow]) -> str:
     """The markdown table ``bench --train`` prints, one row per measured setting."""
     lines = ["| env workers | transport | overlap | device | torch threads: rollout / update | "
-             "agent-steps/s (with updates) | "
+             "agent-steps/s (with updates) | s per epoch of 32,000 joint steps | "
              "limit: random actions, no learner | of limit | env | inference | update | "
              "ms per env step: env / inference / update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
-             "|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
+             "|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         workers = f"{r.worker_processes}" + ("" if r.worker_processes == r.num_cpus else f" (of {r.num_cpus} asked)")
+        epoch_s = f"{JOINT_STEPS_PER_EPOCH / r.joint_steps_per_s:,.0f}" if r.joint_steps_per_s else "n/a"
         of_limit = f"{r.agent_steps_per_s / r.limit_agent_steps_per_s:.0%}" if r.limit_agent_steps_per_s else "n/a"
         lines.append(f"| {workers} | {r.transport} | {'yes' if r.overlap else 'no'} | {r.device} | "
                      f"{r.threads} / {r.update_threads} | "
-                     f"{r.agent_steps_per_s:,.0f} | "
+                     f"{r.agent_steps_per_s:,.0f} | {epoch_s} | "
                      f"{r.limit_agent_steps_per_s:,.0f} | {of_limit} | "
                      f"{r.env_share:.0%} | {r.inference_share:.0%} | {r.update_share:.0%} | "
                      f"{r.env_ms:.2f} / {r.inference_ms:.2f} / {r.update_ms:.2f} | "
@@ -331,8 +117,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p = OneLineParser(prog="box2d-driving bench --train", description=__doc__.split("\n\n")[0])
     p.add_argument("--cars", type=int, default=4, help="cars per instance (default 4)")
     p.add_argument("--lidar-noise", type=float, default=0.5, help="LiDAR noise (default 0.5)")
-    p.add_argument("--n-envs", type=int, default=16, help="env instances (default 16)")
-    p.add_argument("--batch-decisions", type=int, default=32_000, help="slot-decisions per update (default 32,000)")
+    p.add_argument("--n-envs", type=int, help="env instances (default 16, or the preset's: 20 for paper)")
+    p.add_argument("--batch-decisions", type=int,
+                   help="slot-decisions per update (default 32,000, or the preset's: 32,000 joint steps x --cars "
+                        "for paper)")
+    p.add_argument("--preset", choices=sorted(TRAINING_PRESETS),
+                   help="a named preset's world and update instead of our defaults (paper: the paper's own code, "
+                        "docs/paper_world.md)")
     p.add_argument("--warmup", type=int, default=1, help="untimed updates first (default 1)")
     p.add_argument("--updates", type=int, default=2, help="timed updates (default 2)")
     p.add_argument("--num-cpus", type=int, nargs="+", help="worker counts (default 0, 1, 2, 4, ... cores)")
@@ -353,37 +144,46 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="minibatches of whole env steps (default; --no-minibatch-by-step: by transition)")
     p.add_argument("--json", help="also write the table to this JSON file (must not exist)")
     args = p.parse_args(argv)
-    if min(args.cars, args.n_envs, args.batch_decisions, args.updates) < 1 or args.warmup < 0:
+    given = [v for v in (args.n_envs, args.batch_decisions) if v is not None]
+    if min([args.cars, args.updates, *given]) < 1 or args.warmup < 0:
         p.error("--cars, --n-envs, --batch-decisions and --updates must be >= 1, --warmup >= 0")
     if args.threads and min(args.threads) < 1:
         p.error(f"--threads must be >= 1, got {min(args.threads)}")
     if args.json and Path(args.json).exists():
         p.error(f"{args.json} exists; choose another --json")
+
+    def config(n: int, transport: str, overlap: bool, device: str, threads: Optional[int]) -> TrainConfig:
+        return bench_config(cars=args.cars, lidar_noise=args.lidar_noise, num_cpus=n, transport=transport,
+                            overlap=overlap, device=device, minibatch_by_step=args.minibatch_by_step,
+                            threads=threads, n_envs=args.n_envs, batch_decisions=args.batch_decisions,
+                            preset=args.preset)
+
+    first = config(0, args.transport[0], False, "cpu", None)  # what every row shares, for the heading
     cores = os.cpu_count() or 1
-    counts = args.num_cpus or distinct_worker_counts(worker_counts(cores), args.n_envs)
+    counts = args.num_cpus or distinct_worker_counts(worker_counts(cores), first.n_envs)
     if "cuda" in (args.devices or ()) and not th.cuda.is_available():
         p.error("--devices cuda: torch sees no GPU (a CPU-only torch build, or no driver); use auto or cpu")
     devices = args.devices or (["cpu", "cuda"] if th.cuda.is_available() else ["cpu"])
     devices = list(dict.fromkeys(resolve_device(d) for d in devices))  # auto -> cpu or cuda, once
-    print(f"training benchmark: intersection-v0, {args.cars} cars, noise {args.lidar_noise}, {args.n_envs} "
-          f"instances, {args.batch_decisions:,} decisions per update, {args.warmup} warm-up + {args.updates} "
-          f"timed updates; {cores} cores, python {platform.python_version()}, torch {th.__version__}", flush=True)
+    world = "our defaults" if args.preset is None else f"preset {args.preset}"
+    print(f"training benchmark: {ENV_ID} ({world}), {args.cars} cars, noise {args.lidar_noise}, {first.n_envs} "
+          f"instances, {first.batch_decisions:,} slot-decisions per update ({first.epochs} epoch(s) of minibatch "
+          f"{first.minibatch:,}), {args.warmup} warm-up + {args.updates} timed updates; {cores} cores, python "
+          f"{platform.python_version()}, torch {th.__version__}", flush=True)
     rows = []
     for device in devices:
         for n in counts:
             ways = [(t, o) for t in args.transport for o in args.overlap] if n else [(args.transport[0], "off")]
             for transport, overlap in ways:
                 for threads in args.threads or [None]:
-                    cfg = TrainConfig(env_id="intersection-v0", env_overrides={"num_cars": args.cars,
-                                      "lidar_noise": args.lidar_noise}, n_envs=args.n_envs,
-                                      batch_decisions=args.batch_decisions, num_cpus=n, transport=transport,
-                                      overlap=overlap == "on", device=device,
-                                      minibatch_by_step=args.minibatch_by_step, threads=threads)
-                    row = bench_row(cfg, args.warmup, args.updates)
+                    row = bench_row(config(n, transport, overlap == "on", device, threads), args.warmup,
+                                    args.updates)
                     rows.append(row)
                     print(f"  workers {row.worker_processes:>2} ({row.transport}, overlap {overlap}), {device}, "
                           f"{row.threads} / {row.update_threads} threads: {row.agent_steps_per_s:,.0f} agent-steps/s "
-                          f"(limit {row.limit_agent_steps_per_s:,.0f})", flush=True)
+                          f"(limit {row.limit_agent_steps_per_s:,.0f}), "
+                          f"{JOINT_STEPS_PER_EPOCH / row.joint_steps_per_s:,.0f} s per epoch of "
+                          f"{JOINT_STEPS_PER_EPOCH:,} joint steps", flush=True)
     print()
     print(format_table(rows))
     gpu = th.cuda.get_device_name(0) if th.cuda.is_available() else "no GPU"
