@@ -252,8 +252,13 @@ def test_the_training_benchmark_runs_a_preset_and_times_its_epochs(tmp_path, cap
     assert row["steps"] == 50
     assert abs(row["joint_steps_per_s"] * row["seconds"] - row["steps"] * 2) < 1e-6 * row["steps"]
     assert 0 < row["agent_steps"] <= row["steps"] * 2 * 2
+    capsys.readouterr()
     with pytest.raises(SystemExit):  # a preset that does not exist: a usage error naming the choices
         bench(["--train", "--preset", "nonesuch"])
+    with pytest.raises(SystemExit):  # a world setting out of range: one line naming it, before any training
+        bench(["--train", "--preset", "paper", "--lidar-noise", "1.5", "--json", str(tmp_path / "bad.json")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "nonesuch" in err[-2] and "lidar_noise" in err[-1] and not (tmp_path / "bad.json").exists()
 
 
 def test_the_limit_row_counts_live_agent_steps_of_the_same_env(monkeypatch):

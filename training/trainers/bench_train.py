@@ -25,7 +25,9 @@ from typing import Optional, Sequence
 
 import torch as th
 
+from box2d_driving import make
 from box2d_driving.bench import machine
+from box2d_driving.config import ConfigError
 from box2d_driving.presets import preset_overrides
 
 from training.common.cli_args import OneLineParser
@@ -158,7 +160,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                             threads=threads, n_envs=args.n_envs, batch_decisions=args.batch_decisions,
                             preset=args.preset)
 
-    first = config(0, args.transport[0], False, "cpu", None)  # what every row shares, for the heading
+    try:  # what every row shares: checked (the world's settings too) and printed before anything runs
+        first = config(0, args.transport[0], False, "cpu", None)
+        make(ENV_ID, **first.env_overrides).close()
+    except ConfigError as exc:
+        p.error(str(exc))
     cores = os.cpu_count() or 1
     counts = args.num_cpus or distinct_worker_counts(worker_counts(cores), first.n_envs)
     if "cuda" in (args.devices or ()) and not th.cuda.is_available():
