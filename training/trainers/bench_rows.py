@@ -15,9 +15,10 @@ Each row also gives those three as milliseconds per step of the vector env (one 
 instance one decision), the joint steps per second (one joint step: one instance one decision;
 the paper's trainer counts its epoch as 32,000 of them), and a **limit**: the same vector env
 (same instances, same worker processes) stepped for as many steps with uniform random actions and
-no learner at all, after an untimed warm-up of as many steps as the warm-up updates took. The limit is what the env side
-delivers on that machine; training throughput over the limit is the share of it the learner lets
-through (the rest is the forward pass and the update, during which the env side waits).
+no learner at all, after an untimed warm-up of as many steps as the warm-up updates took. The
+limit is what the env side delivers on that machine; training throughput over the limit is the
+share of it the learner lets through (the rest is the forward pass and the update, during which
+the env side waits).
 
 After the timed updates each row runs PPO's epochs once more on the last batch, timed alone, and
 once under ``torch.utils.flop_counter.FlopCounterMode`` to count the floating-point operations of

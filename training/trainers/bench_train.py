@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import platform
 import sys
@@ -60,7 +59,7 @@ def bench_config(*, cars: int, lidar_noise: float, num_cpus: int, transport: str
     if batch_decisions is not None:
         cfg.batch_decisions = batch_decisions
         if preset is not None:
-            cfg.minibatch = math.ceil(batch_decisions / training_preset(preset).minibatches)
+            cfg.minibatch = training_preset(preset).minibatch_for(batch_decisions)
     cfg.validate()
     return cfg
 

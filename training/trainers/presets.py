@@ -65,11 +65,15 @@ class TrainingPreset:
         """The update's size in slot-decisions: every car of every joint step."""
         return self.joint_steps_per_update * num_cars
 
+    def minibatch_for(self, batch_decisions: int) -> int:
+        """The minibatch that cuts an update of ``batch_decisions`` into this preset's minibatches."""
+        return math.ceil(batch_decisions / self.minibatches)
+
     def apply(self, config: "TrainConfig", num_cars: int) -> None:
         """Set ``config``'s update to this preset's for ``num_cars`` cars per instance."""
         config.n_envs = self.n_envs
         config.batch_decisions = self.slot_decisions_per_update(num_cars)
-        config.minibatch = math.ceil(config.batch_decisions / self.minibatches)
+        config.minibatch = self.minibatch_for(config.batch_decisions)
         config.epochs = self.epochs
         config.ent_coef = self.ent_coef
         config.clip_range_vf = self.clip_range_vf
