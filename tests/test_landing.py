@@ -299,9 +299,11 @@ def test_a_stopped_trial_without_a_checkpoint_is_not_carried_and_a_bad_carry_is_
         carry_run(out / "tune" / "lights_num_cars=2_seed=0" / "run", tmp_path / "c" / "x")
 
     final = _stop_part_way(out, "lights_num_cars=2_seed=0")
+    (final / ".lock").write_text("4242 vm\n")  # a lock left by the process that trained there
     folder = tmp_path / "carried"
     carry_run(final, folder / "lights_num_cars=2_seed=0")
     assert list(carried_runs(folder, spec)) == ["lights_num_cars=2_seed=0"]
+    assert not (folder / "lights_num_cars=2_seed=0" / ".lock").exists()  # that machine's, not carried
     carry_run(final, folder / "lights_num_cars=8_seed=0")
     with pytest.raises(SweepError, match="lights_num_cars=8_seed=0 is not a trial of this sweep"):
         carried_runs(folder, spec)

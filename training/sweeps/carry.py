@@ -22,13 +22,15 @@ import shutil
 from pathlib import Path
 from typing import Any, Optional
 
+from training.runs.run_dir import LOCK_FILE
 from training.sweeps.spec import SweepError, SweepSpec
 
 __all__ = ["LEFT_BEHIND", "carried_folder", "carried_runs", "carry_run"]
 
 # what a carried run leaves behind: the kept checkpoints (at any depth: a bilevel run's stages
-# have their own), TensorBoard logs, an evaluation (a carried trial has not finished)
-LEFT_BEHIND = ("checkpoints", "tb", "eval", "events.out.tfevents.*")
+# have their own), TensorBoard logs, an evaluation (a carried trial has not finished), and the
+# lock of the process that trained there (it names that machine's process; the next one makes its own)
+LEFT_BEHIND = ("checkpoints", "tb", "eval", "events.out.tfevents.*", LOCK_FILE)
 
 
 def carried_folder(summaries: Path, name: str) -> Path:
