@@ -37,6 +37,9 @@ def test_flags_given_away_from_their_defaults_win_over_the_preset():
     cfg = _config("--preset", "paper", "--n-envs", "8", "--ent-coef", "0.01", "--horizon", "30")
     assert cfg.n_envs == 8 and cfg.ent_coef == 0.01 and cfg.env_overrides["horizon"] == 30
     assert cfg.epochs == 1  # the rest stays the preset's
+    # a batch given keeps the preset's one pass in 20 minibatches, as bench --train --preset sizes it
+    smaller = _config("--preset", "paper", "--num-cars", "4", "--batch-decisions", "40000")
+    assert (smaller.batch_decisions, smaller.minibatch, smaller.epochs) == (40_000, 2_000, 1)
 
 
 def test_without_a_preset_nothing_changes():

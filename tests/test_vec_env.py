@@ -230,6 +230,9 @@ def test_the_training_benchmark_measures_what_train_lights_trains_under_a_preset
     assert bench.env_overrides["horizon"] == 25 and bench.env_overrides["arrived_cars_stay"] is True
     small = bench_config(preset="paper", n_envs=2, batch_decisions=200, **common)
     assert (small.n_envs, small.batch_decisions, small.minibatch, small.epochs) == (2, 200, 10, 1)
+    resized = config_from("intersection-v0", ScriptArgs(preset="paper", num_cars=4, lidar_noise=0.25, n_envs=2,
+                                                       batch_decisions=200))
+    assert {f: getattr(small, f) for f in fields} == {f: getattr(resized, f) for f in fields}
     ours = bench_config(**common)
     assert (ours.n_envs, ours.batch_decisions, ours.minibatch, ours.epochs, ours.preset) == (
         TrainConfig.n_envs, TrainConfig.batch_decisions, TrainConfig.minibatch, TrainConfig.epochs, None)

@@ -72,7 +72,8 @@ class CommonArgs:
     remove_collided: take a collided car out of the world instead of leaving it as a wreck
     preset: a named preset of world and training settings: paper (the paper's own code: its world, 20
         instances, updates of 32,000 joint steps in one pass of 20 minibatches, entropy 1e-4;
-        docs/paper_world.md); flags given with other than their default values still win
+        docs/paper_world.md); flags given with other than their default values still win (a
+        --batch-decisions given keeps the preset's 20 minibatches)
     original_epochs: the budget in the original's unit, epochs of 32,000 joint steps (each num_cars
         slot-decisions); overrides --timesteps
     """
@@ -137,13 +138,13 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         init_from=args.init_from,
         ent_coef=TrainConfig.ent_coef if args.ent_coef is None else args.ent_coef, preset=args.preset,
     )
-    if args.preset is not None:  # the preset's update, then any flag given away from its default
+    if args.preset is not None:  # the preset's update, then any size given away from its default
         preset = training_preset(args.preset)
         preset.apply(cfg, args.num_cars)
         defaults = type(args)()
-        for name in ("n_envs", "batch_decisions", "epochs"):
-            if getattr(args, name) != getattr(defaults, name):
-                setattr(cfg, name, getattr(args, name))
+        given = {name: getattr(args, name) for name in ("n_envs", "batch_decisions", "epochs")
+                 if getattr(args, name) != getattr(defaults, name)}
+        preset.resize(cfg, **given)
         if args.ent_coef is not None:
             cfg.ent_coef = args.ent_coef
     if args.original_epochs is not None:

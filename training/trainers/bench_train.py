@@ -54,12 +54,10 @@ def bench_config(*, cars: int, lidar_noise: float, num_cpus: int, transport: str
                       preset=preset)
     if preset is not None:
         training_preset(preset).apply(cfg, cars)
-    if n_envs is not None:
-        cfg.n_envs = n_envs
-    if batch_decisions is not None:
-        cfg.batch_decisions = batch_decisions
-        if preset is not None:
-            cfg.minibatch = training_preset(preset).minibatch_for(batch_decisions)
+        training_preset(preset).resize(cfg, n_envs=n_envs, batch_decisions=batch_decisions)
+    else:
+        cfg.n_envs = cfg.n_envs if n_envs is None else n_envs
+        cfg.batch_decisions = cfg.batch_decisions if batch_decisions is None else batch_decisions
     cfg.validate()
     return cfg
 

@@ -83,6 +83,20 @@ class TrainingPreset:
         config.adam_eps, config.max_grad_norm = self.adam_eps, self.max_grad_norm
         config.bootstrap_truncation = self.bootstrap_truncation
 
+    def resize(self, config: "TrainConfig", *, n_envs: Optional[int] = None, batch_decisions: Optional[int] = None,
+               epochs: Optional[int] = None) -> None:
+        """Replace the sizes of ``config`` (set by :meth:`apply`) that are given: a new
+        ``batch_decisions`` keeps the minibatch at this preset's share of it, so the update stays
+        one pass in :attr:`minibatches` minibatches. ``train`` and ``bench --train`` both resize
+        through here."""
+        if n_envs is not None:
+            config.n_envs = n_envs
+        if batch_decisions is not None:
+            config.batch_decisions = batch_decisions
+            config.minibatch = self.minibatch_for(batch_decisions)
+        if epochs is not None:
+            config.epochs = epochs
+
 
 TRAINING_PRESETS = {"paper": TrainingPreset()}
 
