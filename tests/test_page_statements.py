@@ -500,3 +500,40 @@ def test_an_interval_stays_inside_its_metrics_range():
     assert metric_bounds(Size("fast_lanes.pearson_rating_lateral")) == (0.0, 1.0)
     assert metric_bounds(Difference("success_rate", "messages_unheard.success_rate")) == (-1.0, 1.0)
     assert metric_bounds("lanes.mean_abs_lane_position") == (0.0, 1.0)
+
+
+def test_a_lone_car_follows_the_light_only_below_every_rule_free_driver():
+    from training.results.statements import lone_car_statement
+
+    drivers = {"full-throttle/red_light_violation_rate": (0.30, 200), "random/red_light_violation_rate": (0.12, 200)}
+    follows = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.01, 0.02, 0.015])})
+    ignores = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.10, 0.20, 0.30])})
+    line = lone_car_statement([follows], drivers)[0]
+    assert line.startswith("- 1 car, red-light violations against rule-free scripted drivers on the same 200 report "
+                           "episodes (") and "full-throttle 0.300, random 0.120" in line
+    assert line.endswith("below every rule-free driver: the lone car stops for the light, unlike the paper.")
+    # an interval that reaches the random driver's rate (0.12) is a light not followed; its reach is said
+    line = lone_car_statement([ignores], drivers)[0]
+    low = mean_ci([0.10, 0.20, 0.30]).low
+    assert line.endswith(f"not below every rule-free driver (our interval reaches down to {max(low, 0.0):.3f}): "
+                         "the light is not followed, as in the paper.")
+    assert lone_car_statement([ignores], {}) == []  # no baseline measured: nothing said
+    one_seed = Group({}, [0], {"red_light_violation_rate": mean_ci([0.2])})
+    assert lone_car_statement([one_seed], drivers) == []  # no interval from one seed
+
+
+def test_a_lone_car_is_set_against_the_4_car_row_with_the_cars_the_right_way_round():
+    from training.results.sections import section, statements
+    from training.results.statements import reference_statement
+
+    lone = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.30, 0.32, 0.31])})
+    four = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.05, 0.06, 0.07])})
+    # the lone car's row has the higher rate: fewer violations with more cars, as the paper says
+    line = reference_statement([lone], four, "the 4-car row", more_cars_here=False)[0]
+    assert "fewer violations with more cars, intervals apart, as in the paper" in line
+    # the same numbers read as if this row had the more cars would say the opposite
+    assert "more violations with more cars, intervals apart, unlike the paper" in \
+        reference_statement([lone], four, "the 4-car row")[0]
+    # the page's lone-car section sets itself against the 4-car preset row that way round
+    text = "\n".join(statements(section("traffic-lights-preset-1car"), [lone], {}, four, "the 4-car row"))
+    assert "fewer violations with more cars, intervals apart, as in the paper" in text

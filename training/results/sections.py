@@ -28,7 +28,7 @@ from training.results.rule_parts import (COMMUNICATION_BASELINE, COMMUNICATION_B
                                          ONE_SIDED_WORDS, PEARSON, SAFE_SHORTFALL_WORDS, SUCCESS_LOST_UNHEARD, SWEEP,
                                          lanes_4_vs_8, lanes_statements, right_of_way, turn_signals_12_cars)
 from training.results.statements import (above_statement, level_change_statement, lights_statement,
-                                         scripted_baseline_statement,
+                                         lone_car_statement, scripted_baseline_statement,
                                          paper_comparison, reference_statement,
                                          unlearnt_statement)
 
@@ -113,6 +113,25 @@ SECTIONS: tuple[Section, ...] = (
             paper_budget="4 cars at LiDAR noise 1.0 for 50 epochs of 32,000 joint steps (1.6 M joint steps), "
                          "entropy 1e-4",
             paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
+    Section("traffic-lights-preset-1car", "A lone car in the paper's world and update", "lights",
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper")),
+            LIGHTS_METRICS,
+            "In a single agent environment there is no need to follow the signals (the paper's figure caption); "
+            "its experiment list says of its 1-car run that the actions are not correlated with the signals.",
+            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 preset=paper original_epochs=75 "
+            "--out runs/sweep-lights-preset-1car",
+            setting="Each trial trains one car alone in the world and update of the 4-car section above, at its "
+                    "LiDAR noise 0.25 and for its 75 epochs of 32,000 joint steps (2.4 M decisions of the one "
+                    "car): only the number of cars differs, so the section above's noise-0.25 row is the 4-car "
+                    "comparison. The original's own 1-car run differed in more: turning tracks on a junction of "
+                    "12 signals with right-of-way lights (`turns`, `learn_right_of_way`), a horizon of 20 "
+                    "decisions, entropy 1e-3, LiDAR noise 0, 60 epochs; our intersection has no turning tracks. "
+                    "Six seeds were planned before any was run.",
+            baseline=lights_baselines, statements=(lone_car_statement,),
+            compare_with=("traffic-lights-preset", (("lidar_noise", "0.25"),)),
+            paper_budget="1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, "
+                         "horizon 20 decisions, entropy 1e-3, LiDAR noise 0",
+            paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
             LIGHTS_METRICS,
@@ -414,8 +433,11 @@ def statements(section: Section, groups: list[Group], baseline: Baseline, refere
     ``reference_label`` names it), the section's own (``section.statements``, given ``baseline``:
     what ``section.baseline`` measured, empty if it has none) and the grid points not learnt."""
     lines = paper_comparison(section.paper_values, groups)
-    if reference is not None:
-        lines += reference_statement(groups, reference, reference_label)
+    if reference is not None and section.compare_with is not None:
+        other = next(s for s in SECTIONS if s.key == section.compare_with[0])
+        # the reference usually has fewer cars (denser traffic against the 4-car row); a lone car's has more
+        lines += reference_statement(groups, reference, reference_label,
+                                     more_cars_here=not 0 < section.cars < other.cars)
     for own in section.statements:
         lines += own(groups, baseline)
     return lines + unlearnt_statement(groups)

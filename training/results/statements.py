@@ -19,7 +19,8 @@ from box2d_driving.metrics.stats import Estimate, half_width, mean_ci, mean_var,
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
 __all__ = ["Statement", "above_statement", "apart_statement", "level_change_statement", "lights_statement",
-           "noise_trend_statement", "paper_comparison", "reference_statement", "unlearnt_statement"]
+           "lone_car_statement", "noise_trend_statement", "paper_comparison", "reference_statement",
+           "unlearnt_statement"]
 
 # a section's own statements: from its grouped trials and its baseline's measurements, the lines
 # it adds to the page
@@ -341,9 +342,10 @@ def above_statement(metric: Metric, label: str, above: str, below: str, level: f
     return say
 
 
-def reference_statement(groups: list[Group], reference: Group, label: str) -> list[str]:
+def reference_statement(groups: list[Group], reference: Group, label: str, more_cars_here: bool = True) -> list[str]:
     """This section's violations against a reference grid point with fewer cars (the paper: more
-    cars, fewer violations), from the intervals."""
+    cars, fewer violations), from the intervals; ``more_cars_here=False``: the reference has more
+    cars than this section (a lone car set against the 4-car row)."""
     metric = "red_light_violation_rate"
     ref = reference.estimates.get(metric)
     lines = []
@@ -351,7 +353,8 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
         e = g.estimates.get(metric)
         if e is None or ref is None or e.high is None or ref.high is None:
             continue
-        verdict = more_cars_verdict(ref, e)
+        fewer_cars, more_cars = (ref, e) if more_cars_here else (e, ref)
+        verdict = more_cars_verdict(fewer_cars, more_cars)
         these = "these trials" if not g.point else f"these trials at {_where(g.point)}"
         # the two rows' seeds were not trained in pairs: Welch's two-sample test
         p = welch_p(e.values, ref.values)
@@ -362,13 +365,44 @@ def reference_statement(groups: list[Group], reference: Group, label: str) -> li
             if p < 0.05:
                 # two 95 % intervals of the means may overlap while their difference is still
                 # significant: the test of the difference decides, and the page says so
-                fewer = e.mean < ref.mean
+                fewer = more_cars.mean < fewer_cars.mean
                 verdict = (f"{'fewer' if fewer else 'more'} violations with more cars by Welch's test, "
                            f"though the two intervals overlap, {'as' if fewer else 'unlike'} the paper.")
             else:
                 test += seeds_needed_apart(e.values, ref.values)
         lines.append(f"- red-light violations: {these} {e.format()}, {label} {ref.format()}: "
                      f"{verdict.rstrip('.')}{test}).")
+    return lines
+
+
+def lone_car_statement(groups: list[Group], baseline: Baseline) -> list[str]:
+    """The paper's lone car: "in a single agent environment, there is no need to follow the
+    signals". A car follows the light only where its violations' interval lies below every
+    rule-free scripted driver's rate on the same report episodes (``baseline``, keyed
+    ``DRIVER/red_light_violation_rate``: full throttle, which never sees the light, and uniform
+    random actions); anything else is a light not followed, as the paper says. Where the interval
+    is wide, the line gives how far down it reaches, so a reader sees what "not followed" rests on."""
+    metric = "red_light_violation_rate"
+    drivers = {key.split("/", 1)[0]: value for key, (value, _) in baseline.items()
+               if key.split("/", 1)[1] == metric and np.isfinite(value)}
+    if not drivers:
+        return []
+    episodes = next(count for key, (_, count) in baseline.items() if key.split("/", 1)[0] in drivers)
+    lines = []
+    for g in groups:
+        e = g.estimates.get(metric)
+        if e is None or e.high is None:
+            continue
+        low, high = e.interval
+        them = ", ".join(f"{d} {v:.3f}" for d, v in drivers.items())
+        lowest = min(drivers.values())
+        if high < lowest:
+            verdict = "below every rule-free driver: the lone car stops for the light, unlike the paper"
+        else:
+            verdict = (f"not below every rule-free driver (our interval reaches down to {max(low, 0.0):.3f}): the "
+                       "light is not followed, as in the paper")
+        lines.append(f"- 1 car, red-light violations against rule-free scripted drivers on the same {episodes} report "
+                     f"episodes ({_where(g.point)}): ours {e.format()}; {them}: {verdict}.")
     return lines
 
 
