@@ -140,3 +140,36 @@ def test_a_rollout_step_takes_the_grouped_path_with_the_same_values(critic):
     x = th.as_tensor(obs)
     assert net._whole_instances(x[[1, 0, 2, 3] + list(range(4, 12))]) is None  # not in slot order
     assert net._whole_instances(x[:6]) is None
+
+
+@pytest.mark.parametrize("group_size", [1, 3])
+def test_minibatches_hold_the_transitions_sb3s_slot_major_layout_gives_in_its_order(group_size):
+    """The buffer draws minibatches as SB3's flattened (slot-major) layout orders the transitions,
+    without copying the arrays into that layout: the same transitions in the same order (so the
+    same weights) as the copy gave, whatever the draw."""
+    steps, instances, cars = 5, 2, 3
+    buf, _, alive, _ = _filled_buffer(steps, instances, cars, group_size=group_size, seed=2)
+    np.random.seed(7)
+    ids = np.concatenate([b.observations.numpy()[:, 0] for b in buf.get(batch_size=4)]).astype(int).tolist()
+    # the order SB3's layout gives: flat index slot * T + t, live ones shuffled (whole steps together)
+    np.random.seed(7)
+    live = alive.T.reshape(-1) > 0.5
+    if group_size == 1:
+        valid = np.flatnonzero(live)
+        order = valid[np.random.permutation(len(valid))]
+    else:
+        groups = np.random.permutation(instances * steps)
+        instance, t = np.divmod(groups, steps)
+        flat = (instance[:, None] * cars + np.arange(cars)[None, :]) * steps + t[:, None]
+        order = flat[live[flat]]
+    slot, t = np.divmod(order, steps)
+    assert ids == (t * 100 + slot).tolist()
+
+
+def test_the_observations_keep_their_memory_from_update_to_update():
+    buf, *_ = _filled_buffer(steps=4, instances=2, cars=3, group_size=3)
+    before = buf.observations
+    list(buf.get(batch_size=4))
+    buf.reset()
+    assert buf.observations is before and not before.any()  # the same block, zeroed
+    assert buf.observations.shape == (4, 6, buf.obs_shape[0]) and buf.pos == 0 and not buf.full
