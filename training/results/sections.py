@@ -96,7 +96,12 @@ SECTIONS: tuple[Section, ...] = (
                     "were planned before any was run.",
             figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            joins=("traffic-lights-preset-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
+            joins=("traffic-lights-preset-noise1", "lidar_noise"), joins_differ=("original_epochs",),
+            headlines=(Headline("stop at red lights, the paper's world, update and budget",
+                                "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
+                                "32,000 joint steps (9.6 M decisions, the paper's own run)",
+                                (("lidar_noise", "0.5"),),
+                                ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
     Section("traffic-lights-preset-noise1", "Stopping at red lights in the paper's world and update, LiDAR noise "
             "1.0", "lights",
             (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_noise", "1.0")),
