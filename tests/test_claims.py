@@ -60,6 +60,15 @@ def test_a_row_takes_the_largest_run_that_decides_and_reads_its_curves():
     assert claim_row(CLAIM, {"big": rounds})[2].startswith("[R](#r): 4.8-5.9 M decisions per trial")
     rounds.ran = ()
     assert claim_row(CLAIM, {"big": rounds})[2] == "[R](#r): 150 bilevel rounds per trial, 3 seeds"
+    # in the paper's units: joint steps (our slot-decisions over the cars) and the share of its run's
+    lone = SectionResult("L", "", "2,400,000 decisions", found["big"].groups, [], None, [], (2_400_000,),
+                         paper_joint_steps=1_920_000, cars=1)
+    assert claim_row(CLAIM, {"big": lone})[2] == (
+        "[L](#l): 2.4 M decisions per trial = 2.40 M joint steps of 1 car (75.0 epochs of 32,000), 125 % of the "
+        "paper's 1.92 M (60 epochs), 3 seeds")
+    lone.cars, lone.paper_joint_steps = 4, 2_400_000
+    assert "= 0.60 M joint steps of 4 cars (18.8 epochs of 32,000), 25 % of the paper's 2.4 M" in \
+        claim_row(CLAIM, {"big": lone})[2]
     assert now == f"**{NOT_DETECTED}**; violations stopped moving at both grid points"
     assert said == "violations: no fall detected."
     # the larger run's trials too few for a statement: the smaller run decides

@@ -89,7 +89,8 @@ def _budget(result: SectionResult) -> str:
     share = ""
     if result.paper_joint_steps and result.cars:  # our slot-decisions are joint steps x cars
         joint, epoch = max(result.ran) / result.cars, TrainerSettings.steps_per_epoch
-        share = (f" = {joint / 1e6:.2f} M joint steps of {result.cars} cars ({joint / epoch:.1f} epochs of "
+        cars = f"{result.cars} car" + ("s" if result.cars != 1 else "")
+        share = (f" = {joint / 1e6:.2f} M joint steps of {cars} ({joint / epoch:.1f} epochs of "
                  f"{epoch:,}), {100 * joint / result.paper_joint_steps:.0f} % of the paper's "
                  f"{result.paper_joint_steps / 1e6:g} M ({result.paper_joint_steps / epoch:,g} epochs)")
     return f"{ran} decisions per trial{asked}{share}"
