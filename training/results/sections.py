@@ -431,18 +431,18 @@ def section(key: str) -> Section:
     raise KeyError(f"no rule {key!r}; the rules are {', '.join(s.key for s in SECTIONS)}")
 
 
-def statements(section: Section, groups: list[Group], baseline: Baseline, reference: Optional[Group] = None,
+def statements(rule: Section, groups: list[Group], baseline: Baseline, reference: Optional[Group] = None,
                reference_label: str = "") -> list[str]:
-    """Every statement of ``section``'s part of the page, for its grouped trials: against the paper's
-    numbers, against ``reference`` (the grid point named by ``section.compare_with``, if measured;
-    ``reference_label`` names it), the section's own (``section.statements``, given ``baseline``:
-    what ``section.baseline`` measured, empty if it has none) and the grid points not learnt."""
-    lines = paper_comparison(section.paper_values, groups)
-    if reference is not None and section.compare_with is not None:
-        other = next(s for s in SECTIONS if s.key == section.compare_with[0])
+    """Every statement of ``rule``'s part of the page, for its grouped trials: against the paper's
+    numbers, against ``reference`` (the grid point named by ``rule.compare_with``, if measured;
+    ``reference_label`` names it), the section's own (``rule.statements``, given ``baseline``:
+    what ``rule.baseline`` measured, empty if it has none) and the grid points not learnt."""
+    lines = paper_comparison(rule.paper_values, groups)
+    if reference is not None and rule.compare_with is not None:
+        other = section(rule.compare_with[0])
         # the reference usually has fewer cars (denser traffic against the 4-car row); a lone car's has more
         lines += reference_statement(groups, reference, reference_label,
-                                     more_cars_here=not 0 < section.cars < other.cars)
-    for own in section.statements:
+                                     more_cars_here=not 0 < rule.cars < other.cars)
+    for own in rule.statements:
         lines += own(groups, baseline)
     return lines + unlearnt_statement(groups)

@@ -53,8 +53,9 @@ def bench_config(*, cars: int, lidar_noise: float, num_cpus: int, transport: str
                       overlap=overlap, device=device, minibatch_by_step=minibatch_by_step, threads=threads,
                       preset=preset)
     if preset is not None:
-        training_preset(preset).apply(cfg, cars)
-        training_preset(preset).resize(cfg, n_envs=n_envs, batch_decisions=batch_decisions)
+        chosen = training_preset(preset)
+        chosen.apply(cfg, cars)
+        chosen.resize(cfg, n_envs=n_envs, batch_decisions=batch_decisions)
     else:
         cfg.n_envs = cfg.n_envs if n_envs is None else n_envs
         cfg.batch_decisions = cfg.batch_decisions if batch_decisions is None else batch_decisions
