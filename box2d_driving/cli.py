@@ -5,7 +5,7 @@ a car yourself), ``bench`` (the
 world speed benchmark), ``import-osm`` / ``import-nuscenes`` (a real junction from an
 OpenStreetMap file or a nuScenes map-expansion JSON to a map JSON),
 ``train lights|crosswalk|lanes|fast-lanes|real-junction``, ``evaluate``, ``sweep``, ``reproduce``,
-``curve``, ``check-shipped`` and ``convert-checkpoint`` (the training scripts).
+``curve``, ``check-shipped``, ``lidar-use`` and ``convert-checkpoint`` (the training scripts).
 Bad arguments print one line and exit with status 2.
 """
 
@@ -250,12 +250,15 @@ def build_parser() -> OneLineParser:
                         "(`convert-checkpoint --help`)")
     sub.add_parser("original", add_help=False,
                    help="the paper's own simulator and trainer (sdriving 0.1.0) beside ours (`original --help`)")
+    sub.add_parser("lidar-use", add_help=False,
+                   help="whether trained actors use their LiDAR (a dead encoder is blind; `lidar-use --help`)")
     parser.commands = sub.choices  # name -> sub-command parser
     return parser
 
 
 # the sub-commands the training package provides (box2d_driving/plugins.py)
-DELEGATED = ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve", "check-shipped", "original")
+DELEGATED = ("train", "evaluate", "convert-checkpoint", "sweep", "reproduce", "curve", "check-shipped", "original",
+             "lidar-use")
 
 
 def _delegate(argv: list[str]) -> int:

@@ -30,6 +30,43 @@ def test_fast_lidar_encoder_equals_the_convolution(n_rays):
     assert not th.allclose(g_fast[0], th.zeros_like(g_fast[0]))
 
 
+@pytest.mark.parametrize("rows", [50, 2000])  # a rollout step's few rows (the convolutions), an update's many
+def test_the_paper_codes_encoder_is_sdrivings_convolutions_and_linear(rows):
+    """``lidar_encoder="original"``: sdriving 0.1.0's two convolutions (H -> 1 -> 1 channel, kernel
+    4, stride 2, circular padding 2, no activation) pooled to 25, within float rounding on either
+    path, gradients too; being linear, it cannot go dead as a ReLU can."""
+    from torch import nn
+
+    from training.ppo.encoder import OriginalLidarEncoder, encode
+
+    th.manual_seed(rows)
+    enc = OriginalLidarEncoder(5, 100, 4)
+    with th.no_grad():  # non-zero biases, so that their path is checked too
+        enc.layer1.bias.fill_(0.3)
+        enc.layer2.bias.fill_(-0.7)
+    sdriving = nn.Sequential(nn.Conv1d(5, 1, 4, 2, 2, padding_mode="circular"),
+                             nn.Conv1d(1, 1, 4, 2, 2, padding_mode="circular"), nn.AdaptiveAvgPool1d(25))
+    sdriving.load_state_dict({"0.weight": enc.layer1.weight, "0.bias": enc.layer1.bias,
+                              "1.weight": enc.layer2.weight, "1.bias": enc.layer2.bias})
+    x = th.rand(rows, 5 * 100 + 20)
+    out = encode([enc], x)[0]
+    assert out.shape == (rows, 25 + 20)
+    assert th.allclose(out[:, :25], sdriving(x[:, :500].reshape(rows, 5, 100)).flatten(1), atol=1e-5)
+    assert th.equal(out[:, 25:], x[:, 500:])
+    params = list(enc.parameters())
+    g_fast = th.autograd.grad((encode([enc], x)[0] ** 2).sum(), params)
+    g_slow = th.autograd.grad((enc.reference(x) ** 2).sum(), params)
+    for a, b in zip(g_fast, g_slow):
+        assert th.allclose(a, b, rtol=1e-4, atol=1e-4 * float(b.abs().max()))
+    # linear: the features move with the LiDAR whatever the biases (a dead ReLU's would not)
+    with th.no_grad():
+        enc.layer2.bias.fill_(-1e3)
+        assert not th.allclose(enc(x)[:, :25], enc(x * 0.5)[:, :25])
+    fresh = OriginalLidarEncoder(5, 100, 4)  # sdriving's init_weights: orthogonal weights, zero biases
+    assert not fresh.layer1.bias.any() and not fresh.layer2.bias.any()
+    assert th.allclose(fresh.layer1.weight.flatten().norm(), th.tensor(1.0))
+
+
 def test_encoder_without_gradients_equals_the_convolution_and_follows_weight_updates():
     """The rollout's fused no-gradient path (few rows) and the training path (many rows) give the
     reference convolution's values, also after an optimiser step changes the weights it caches."""

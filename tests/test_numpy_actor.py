@@ -96,6 +96,33 @@ def test_the_numpy_layers_agree_with_their_definitions():
     assert [tuple(np.flatnonzero(pool[:, i])) for i in range(4)] == [(0, 1, 2), (2, 3, 4), (5, 6, 7), (7, 8, 9)]
 
 
+def test_numpy_actor_reads_a_policy_with_the_paper_codes_encoder(tmp_path):
+    """A run trained with ``lidar_encoder="original"`` acts the same through numpy as through
+    torch, and its strided convolution is torch's."""
+    th = pytest.importorskip("torch")
+    from training.runs.inference import actor_actions, load_policy
+    from training.trainers.trainer import train
+    from box2d_driving.policies.numpy_actor import strided_circular_conv
+    from tests.helpers import tiny_train_config
+
+    train(tiny_train_config(lidar_encoder="original"), tmp_path / "run")
+    mine, theirs = load_trained(tmp_path / "run"), load_policy(tmp_path / "run")
+    assert mine.actor.original
+    obs = _record(mine, 2_000, seed=5)
+    assert np.array_equal(mine.actions(obs), actor_actions(theirs.policy, obs))
+    logits = mine.actor.logits(obs[:300])
+    with th.no_grad():
+        want = theirs.policy.action_net(theirs.policy.mlp_extractor.forward_actor(th.as_tensor(obs[:300])))
+    np.testing.assert_allclose(logits, want.numpy(), rtol=1e-4, atol=1e-5)
+    rng = np.random.default_rng(1)
+    x, w, b = (rng.normal(size=s).astype(np.float32) for s in ((3, 5, 100), (2, 5, 4), (2,)))
+    conv = th.nn.Conv1d(5, 2, 4, 2, 2, padding_mode="circular")
+    conv.load_state_dict({"weight": th.as_tensor(w), "bias": th.as_tensor(b)})
+    with th.no_grad():
+        np.testing.assert_allclose(strided_circular_conv(x, w, b, 2, 2), conv(th.as_tensor(x)).numpy(),
+                                   rtol=1e-5, atol=1e-5)
+
+
 def test_bad_checkpoints_are_refused_with_our_error(tmp_path):
     (tmp_path / "model.zip").write_bytes(b"PK\x03\x04 pickled")
     with pytest.raises(CheckpointError, match="pickled"):

@@ -290,7 +290,7 @@ def test_denser_traffic_is_set_against_the_grids_4_car_row(tmp_path):
     page = tmp_path / "results.md"
     assert main([str(grid), str(tmp_path / "dense.json"), "--out", str(page)]) == 0
     text = page.read_text()
-    dense = text.split("## Denser traffic")[1].split("\n## ")[0]
+    dense = text.split("## Denser traffic (8 cars, from the 4-car policy)")[1].split("\n## ")[0]
     assert "- red-light violations: these trials 0.011" in dense
     assert "fewer violations with more cars, intervals apart" in dense
     # the grid keeps its own table

@@ -245,6 +245,26 @@ def test_reuse_refuses_another_sweeps_summary(tmp_path):
         reusable_rows(tmp_path / "bad.json", spec)
 
 
+def test_a_stop_keeps_the_rows_of_finished_trials_it_had_not_reached(tmp_path):
+    """A sweep continuing a committed summary (``--reuse``, as ``reproduce --run`` does) and stopped
+    before it reached some finished trials writes their earlier rows as they were; a trial never
+    run is pending. (Seen: a stop after seed 2 dropped the finished seeds 4-5 from the summary.)"""
+    from training.sweeps.summary import reusable_rows, unreached_row, write_summary
+
+    spec = SweepSpec("lights", grid={"lidar_noise": ["0.25", "0.5"]}, seeds=2)
+    done = {"trial": "lights_lidar_noise=0.25_seed=1", "behaviour": "lights", "seed": 1, "status": "done",
+            "lidar_noise": "0.25", "success_rate": 0.75, "run": "/elsewhere/checkpoint_000008"}
+    write_summary(tmp_path, spec, [done])
+    reused = reusable_rows(tmp_path / "summary.json", spec)
+    trials = {t["name"]: t for t in spec.trials()}
+    for name, trial in trials.items():
+        trial["reuse"] = reused.get(name)
+    rows = {name: unreached_row(trial) for name, trial in trials.items()}
+    assert rows[done["trial"]] == done  # as it was: no extra keys, nothing re-measured
+    others = [r for name, r in rows.items() if name != done["trial"]]
+    assert len(others) == 3 and all(r["status"] == "pending" for r in others)
+
+
 def test_an_extension_needs_the_same_sweep_at_a_larger_budget(tmp_path):
     import dataclasses
 

@@ -283,6 +283,47 @@ def test_init_from_copies_weights_across_car_counts(tmp_path):
         train(tiny_train_config(init_from=str(tmp_path / "nope")), tmp_path / "bad2")
 
 
+def test_init_from_kept_sweep_weights_copies_the_actor_and_starts_a_fresh_critic(tmp_path):
+    """A sweep's kept trial weights hold the actor alone: --init-from copies it bit for bit and
+    leaves the critic as a fresh build has it; a file missing part of the actor is refused."""
+    from safetensors.numpy import load_file, save_file
+
+    from training.sweeps.kept import keep_final_weights
+    from training.trainers.trainer import load_weights
+
+    train(tiny_train_config(), tmp_path / "four")
+    kept = keep_final_weights(tmp_path / "four", tmp_path / "kept")
+    cfg = tiny_train_config(env_overrides={"num_cars": 3, "horizon": 8})
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=3, horizon=8)])
+    th.manual_seed(0)
+    model = build_model(cfg, venv)
+    fresh = {k: v.clone() for k, v in model.policy.state_dict().items()}
+    assert load_weights(model, kept) is False
+    full = read_checkpoint_policy(tmp_path / "four")
+    now = model.policy.state_dict()
+    actor = [k for k in now if k.startswith(("mlp_extractor.actor_", "action_net."))]
+    assert actor and len(actor) < len(now)
+    for k in now:
+        assert th.equal(now[k], full[k] if k in actor else fresh[k]), k
+    assert any(not th.equal(fresh[k], full[k]) for k in now if k not in actor)  # the critic did not come along
+    # an actor with a layer missing is not an actor: one error naming the file
+    from safetensors import safe_open
+
+    with safe_open(str(kept / "model.safetensors"), "np") as f:
+        meta = f.metadata()
+    tensors = load_file(str(kept / "model.safetensors"))
+    tensors.pop("policy/action_net.bias")
+    save_file(tensors, str(kept / "model.safetensors"), metadata=meta)
+    with pytest.raises(RunError, match="different network"):
+        load_weights(build_model(cfg, venv), kept)
+
+
+def read_checkpoint_policy(path):
+    from training.runs.checkpoint import read_checkpoint
+
+    return read_checkpoint(path).policy
+
+
 def test_init_from_widens_a_policy_to_the_communication_option(tmp_path):
     from training.trainers.trainer import load_ppo, load_weights
 

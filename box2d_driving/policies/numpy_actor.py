@@ -7,6 +7,9 @@ writes them):
   two circular 1-D convolutions (``H -> 8`` channels, then ``8 -> 1``, kernel 5, ReLU after each),
   is average-pooled to 25 features and concatenated with the sat-nav history; then two tanh layers
   of 256 and the action logits (:meth:`DrivingActor.logits`; the greedy action is the largest).
+  A policy trained with the paper code's encoder (``lidar_encoder="original"``: two linear
+  convolutions ``H -> 1 -> 1`` channel, kernel 4, stride 2, no ReLU) is read from its layer names
+  (``conv.0`` and ``conv.1``; ours are ``conv.0`` and ``conv.2``).
 * :class:`MlpActor`: the spline (stage-0) policy of a bilevel run, an SB3 ``MlpPolicy`` actor:
   tanh hidden layers, then the action head. Greedy action: what SB3's
   ``predict(deterministic=True)`` returns (the most likely category of each discrete component,
@@ -31,6 +34,9 @@ from box2d_driving.policies.checkpoint_file import CheckpointError
 # The acceleration policy's architecture (the trainer's networks, training/ppo/, import these):
 # LiDAR convolutions of CHANNELS channels and kernel KERNEL, POOLED features, HIDDEN tanh units
 CHANNELS, KERNEL, POOLED, HIDDEN = 8, 5, 25, 256
+# the paper code's encoder (``lidar_encoder="original"``): two linear convolutions to one channel,
+# kernel 4, stride 2, wrap-around padding 2
+ORIGINAL_KERNEL, ORIGINAL_STRIDE, ORIGINAL_PADDING = 4, 2, 2
 # the state_dict prefixes of what acting reads: the CTDE actor's encoder and MLP, SB3's action
 # head, and a bilevel spline stage's MLP actor (an actor-only checkpoint holds these alone)
 ACTOR_PREFIXES = ("mlp_extractor.actor_", "mlp_extractor.policy_net.", "action_net.")
@@ -67,6 +73,20 @@ def circular_conv(x: np.ndarray, weight: np.ndarray, bias: np.ndarray) -> np.nda
     return out.reshape(b, length, out_ch).transpose(0, 2, 1)
 
 
+def strided_circular_conv(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, stride: int,
+                          pad: int) -> np.ndarray:
+    """``(B, C_in, L)`` -> ``(B, C_out, L_out)``: ``torch.nn.Conv1d(..., stride, pad,
+    padding_mode="circular")``, ``L_out = (L + 2 pad - kernel) // stride + 1``."""
+    out_ch, in_ch, kernel = weight.shape
+    b, _, length = x.shape
+    ring = np.concatenate([x[..., length - pad:], x, x[..., :pad]], axis=2)
+    windows = sliding_window_view(ring, kernel, axis=2)[:, :, ::stride]  # (B, C_in, L_out, K)
+    n = windows.shape[2]
+    cols = windows.transpose(0, 2, 1, 3).reshape(b * n, in_ch * kernel)
+    out = cols @ weight.reshape(out_ch, in_ch * kernel).T + bias
+    return out.reshape(b, n, out_ch).transpose(0, 2, 1)
+
+
 def adaptive_average(length: int, size: int) -> np.ndarray:
     """``(length, size)`` matrix of ``torch.nn.AdaptiveAvgPool1d(size)``: output ``i`` averages
     inputs ``floor(i L / size)`` up to ``ceil((i + 1) L / size)``."""
@@ -90,26 +110,47 @@ class DrivingActor:
     def __init__(self, weights: Mapping[str, np.ndarray], history: int, n_rays: int,
                  pooled: int = 25, n_actions: Optional[int] = None) -> None:
         prefix = "mlp_extractor.actor_encoder.conv"
+        # the paper code's linear encoder names its second convolution conv.1 (no ReLU between)
+        self.original = f"{prefix}.1.weight" in weights
+        second = 1 if self.original else 2
         self.conv1 = (_weight(weights, f"{prefix}.0.weight"), _weight(weights, f"{prefix}.0.bias"))
-        self.conv2 = (_weight(weights, f"{prefix}.2.weight"), _weight(weights, f"{prefix}.2.bias"))
+        self.conv2 = (_weight(weights, f"{prefix}.{second}.weight"), _weight(weights, f"{prefix}.{second}.bias"))
         self.mlp = linear_layers(weights, ["mlp_extractor.actor_mlp.0", "mlp_extractor.actor_mlp.2"])
         self.head = linear_layers(weights, ["action_net"])[0]
         self.history, self.n_rays = history, n_rays
         check_actor_shapes(self, history, n_rays, pooled, n_actions)
-        self.pool = adaptive_average(n_rays, pooled)
+        self.pool = adaptive_average(self._encoded_rays(n_rays), pooled)
         self.obs_dim = history * n_rays + self.mlp[0][0].shape[1] - pooled
 
-    def logits(self, obs: np.ndarray) -> np.ndarray:
-        """Action logits ``(B, n_actions)`` for own observations ``(B, D)``."""
+    def _encoded_rays(self, n_rays: int) -> int:
+        """Values per observation the convolutions give before pooling (ours keep every ray; the
+        paper code's halve them twice: 100 -> 51 -> 26)."""
+        if not self.original:
+            return n_rays
+        for _ in range(2):
+            n_rays = (n_rays + 2 * ORIGINAL_PADDING - ORIGINAL_KERNEL) // ORIGINAL_STRIDE + 1
+        return n_rays
+
+    def lidar_features(self, obs: np.ndarray) -> np.ndarray:
+        """The pooled LiDAR features ``(B, 25)`` the actor's MLP reads for own observations ``(B, D)``."""
         x = np.asarray(obs, dtype=np.float32)
         if x.ndim != 2 or x.shape[1] != self.obs_dim:
             raise ValueError(f"observations must be (B, {self.obs_dim}), got {x.shape}: "
                              f"wrong env settings for this policy?")
         h, r = self.history, self.n_rays
         lidar = x[:, : h * r].reshape(len(x), h, r)
-        hidden = np.maximum(circular_conv(lidar, *self.conv1), 0.0)
-        rays = np.maximum(circular_conv(hidden, *self.conv2), 0.0)[:, 0]  # (B, R)
-        z = np.concatenate([rays @ self.pool, x[:, h * r:]], axis=1)
+        if self.original:
+            step = (ORIGINAL_STRIDE, ORIGINAL_PADDING)
+            rays = strided_circular_conv(strided_circular_conv(lidar, *self.conv1, *step), *self.conv2, *step)[:, 0]
+        else:
+            hidden = np.maximum(circular_conv(lidar, *self.conv1), 0.0)
+            rays = np.maximum(circular_conv(hidden, *self.conv2), 0.0)[:, 0]  # (B, R)
+        return rays @ self.pool
+
+    def logits(self, obs: np.ndarray) -> np.ndarray:
+        """Action logits ``(B, n_actions)`` for own observations ``(B, D)``."""
+        x = np.asarray(obs, dtype=np.float32)
+        z = np.concatenate([self.lidar_features(x), x[:, self.history * self.n_rays:]], axis=1)
         for w, b in self.mlp:
             z = np.tanh(z @ w.T + b)
         w, b = self.head
@@ -125,8 +166,15 @@ def check_actor_shapes(actor: "DrivingActor", history: int, n_rays: int, pooled:
     (m0, c0), (m1, c1) = actor.mlp
     head_w, head_b = actor.head
     conv, mlp = "mlp_extractor.actor_encoder.conv", "mlp_extractor.actor_mlp"
-    wanted = {f"{conv}.0.weight": (w1, (CHANNELS, history, KERNEL)), f"{conv}.0.bias": (b1, (CHANNELS,)),
-              f"{conv}.2.weight": (w2, (1, CHANNELS, KERNEL)), f"{conv}.2.bias": (b2, (1,)),
+    if actor.original:  # the paper code's: one channel throughout
+        kernel = ORIGINAL_KERNEL
+        layers = {f"{conv}.0.weight": (w1, (1, history, kernel)), f"{conv}.0.bias": (b1, (1,)),
+                  f"{conv}.1.weight": (w2, (1, 1, kernel)), f"{conv}.1.bias": (b2, (1,))}
+    else:
+        kernel = KERNEL
+        layers = {f"{conv}.0.weight": (w1, (CHANNELS, history, KERNEL)), f"{conv}.0.bias": (b1, (CHANNELS,)),
+                  f"{conv}.2.weight": (w2, (1, CHANNELS, KERNEL)), f"{conv}.2.bias": (b2, (1,))}
+    wanted = {**layers,
               f"{mlp}.0.weight": (m0, (HIDDEN, m0.shape[-1] if m0.ndim == 2 and m0.shape[-1] >= pooled else -1)),
               f"{mlp}.0.bias": (c0, (HIDDEN,)), f"{mlp}.2.weight": (m1, (HIDDEN, HIDDEN)),
               f"{mlp}.2.bias": (c1, (HIDDEN,)),
@@ -136,8 +184,8 @@ def check_actor_shapes(actor: "DrivingActor", history: int, n_rays: int, pooled:
         if array.shape != shape:
             raise ValueError(f"{name} is {tuple(array.shape)}, the network needs "
                              f"{tuple('>= %d' % pooled if d == -1 else d for d in shape)}")
-    if KERNEL > n_rays:
-        raise ValueError(f"the convolutions' kernel {KERNEL} is wider than the {n_rays} rays")
+    if kernel > n_rays:
+        raise ValueError(f"the convolutions' kernel {kernel} is wider than the {n_rays} rays")
 
 
 def greedy_from_layers(layers: Layers, action_space: spaces.Space, obs: np.ndarray) -> np.ndarray:

@@ -76,6 +76,9 @@ class CommonArgs:
         --batch-decisions given keeps the preset's 20 minibatches)
     original_epochs: the budget in the original's unit, epochs of 32,000 joint steps (each num_cars
         slot-decisions); overrides --timesteps
+    lidar_encoder: the networks' LiDAR encoder: relu (ours: 8 channels, kernel 5, ReLU after each
+        convolution) or original (the paper's code: linear, one channel, kernel 4, stride 2; the
+        paper preset's); default: ours, or the preset's
     """
 
     num_cars: int = DrivingConfig.num_cars
@@ -102,6 +105,7 @@ class CommonArgs:
     remove_collided: bool = False
     preset: Optional[str] = None
     original_epochs: Optional[int] = None
+    lidar_encoder: Optional[str] = None
 
     def env_overrides(self) -> dict:
         """Scenario-specific config overrides a script adds (none by default)."""
@@ -147,6 +151,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         preset.resize(cfg, **given)
         if args.ent_coef is not None:
             cfg.ent_coef = args.ent_coef
+    if args.lidar_encoder is not None:
+        cfg.lidar_encoder = args.lidar_encoder
     if args.original_epochs is not None:
         if args.original_epochs < 1:
             raise ConfigError(f"--original-epochs must be >= 1, got {args.original_epochs}")
@@ -156,6 +162,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         cfg.n_envs, cfg.batch_decisions, cfg.minibatch = QUICK.n_envs, QUICK.batch_decisions, QUICK.minibatch
         cfg.timesteps = min(cfg.timesteps, QUICK.timesteps)
         cfg.checkpoint_every = QUICK.checkpoint_every
+    cfg.validate()  # fields set after construction (the preset's, the flags'): a bad one named now
     return cfg
 
 

@@ -21,10 +21,19 @@ ENV_ID = "intersection-v0"
 
 @dataclass
 class Args(ScriptArgs):
-    """Train the traffic-light rule on intersection-v0."""
+    """Train the traffic-light rule on intersection-v0.
+
+    approach_order: which arm each car starts on: fixed (car i on arm i mod 4), rotate (round robin
+        from a random first arm: the paper's 4-car runs) or random (each car's arm uniform at random:
+        the paper's 8-car run); default: the scenario's, or the preset's
+    """
 
     num_cars: int = IntersectionConfig.num_cars  # the scenario's, declared once in its config
     out: str = "runs/traffic_lights"
+    approach_order: Optional[str] = None
+
+    def env_overrides(self) -> dict:
+        return {} if self.approach_order is None else {"approach_order": self.approach_order}
 
 
 def main(argv: Optional[list[str]] = None) -> int:

@@ -21,18 +21,28 @@ encoders on the same rows as matrix products:
 
 The result equals the convolution (same sums, other order: within float rounding), which
 ``tests/test_training.py`` checks with gradients.
+
+The paper's own code (sdriving 0.1.0) encodes differently: :class:`OriginalLidarEncoder`, two
+*linear* strided convolutions to one channel (``lidar_encoder="original"``, the ``paper``
+preset's). Ours ends in a ReLU on a single channel, which can die: every output zero for every
+observation, no gradient ever again, an actor blind to its LiDAR (seen in most of the preset's
+first runs: docs/paper_world.md). A linear encoder cannot.
 """
 
 from __future__ import annotations
 
 from contextlib import contextmanager
-from typing import Iterator, Sequence, cast
+from typing import Any, Iterator, Sequence, cast
 
 import torch as th
 import torch.nn.functional as F
 from torch import nn
 
-from box2d_driving.policies.numpy_actor import CHANNELS, KERNEL, POOLED
+from box2d_driving.policies.numpy_actor import (CHANNELS, KERNEL, ORIGINAL_KERNEL, ORIGINAL_PADDING,
+                                                ORIGINAL_STRIDE, POOLED)
+
+# the LiDAR encoders an actor and critic may have: ours (ReLU, 8 channels) and the paper code's
+ENCODERS = ("relu", "original")
 
 
 class CircularConv1d(nn.Conv1d):
@@ -66,7 +76,7 @@ class LidarEncoder(nn.Module):
             CircularConv1d(channels, 1, kernel), nn.ReLU(),
             nn.AdaptiveAvgPool1d(pooled),
         )
-        self.out_dim = pooled + history * n_satnav
+        self.out_dim: int = pooled + history * n_satnav
 
     # the layers by name (``nn.Sequential``'s ``[i]`` walks its modules: microseconds per access,
     # and a rollout's forward pass reads each layer every decision)
@@ -90,6 +100,76 @@ class LidarEncoder(nn.Module):
         n_lidar = self.history * self.n_rays
         lidar = obs[:, :n_lidar].reshape(-1, self.history, self.n_rays)
         return th.cat([self.conv(lidar).flatten(1), obs[:, n_lidar:]], dim=1)
+
+
+class OriginalLidarEncoder(nn.Module):
+    """The LiDAR encoder of the paper's own code (sdriving 0.1.0: ``PPOLidarCategoricalActor``'s
+    ``lidar_features``, and its critics'): ``Conv1d(H, 1, 4, stride 2, padding 2, circular)``, then
+    ``Conv1d(1, 1, 4, 2, 2, circular)``, no activation, average-pooled to 25 features (100 rays ->
+    51 -> 26 -> 25), concatenated with the sat-nav history as :class:`LidarEncoder` does. Weights
+    orthogonal and biases zero, as its ``init_weights``.
+
+    Linear throughout, so on many rows it runs as one ``(H * n_rays, 25)`` matrix built from the
+    two kernels (the encoder applied to the unit vectors; gradients reach the kernels through it):
+    one product instead of two strided convolutions, whose CPU weight gradient is slow."""
+
+    def __init__(self, history: int, n_rays: int, n_satnav: int, pooled: int = POOLED) -> None:
+        super().__init__()
+        self.history, self.n_rays = history, n_rays
+        k, s, p = ORIGINAL_KERNEL, ORIGINAL_STRIDE, ORIGINAL_PADDING
+        self.conv = nn.Sequential(
+            nn.Conv1d(history, 1, k, s, p, padding_mode="circular"),
+            nn.Conv1d(1, 1, k, s, p, padding_mode="circular"),
+            nn.AdaptiveAvgPool1d(pooled),
+        )
+        for layer in (self.layer1, self.layer2):
+            nn.init.orthogonal_(layer.weight)
+            nn.init.zeros_(cast(th.Tensor, layer.bias))
+        self.out_dim: int = pooled + history * n_satnav
+
+    @property
+    def layer1(self) -> nn.Conv1d:
+        return cast(nn.Conv1d, self.conv._modules["0"])
+
+    @property
+    def layer2(self) -> nn.Conv1d:
+        return cast(nn.Conv1d, self.conv._modules["1"])
+
+    @property
+    def pooled(self) -> int:
+        return cast(int, cast(nn.AdaptiveAvgPool1d, self.conv._modules["2"]).output_size)
+
+    def forward(self, obs: th.Tensor) -> th.Tensor:
+        n = self.history * self.n_rays
+        if obs.shape[0] <= n:  # few rows (a rollout step): the convolutions themselves
+            return self.reference(obs)
+        basis = th.eye(n, dtype=obs.dtype, device=obs.device).reshape(n, self.history, self.n_rays)
+        matrix = self._weights_only(basis).flatten(1)  # (n, 25): what each LiDAR column adds
+        offset = self.conv(obs.new_zeros(1, self.history, self.n_rays)).flatten(1)  # (1, 25): the biases'
+        return th.cat([th.addmm(offset, obs[:, :n], matrix), obs[:, n:]], dim=1)
+
+    def _weights_only(self, x: th.Tensor) -> th.Tensor:
+        """The encoder without its biases (their part is added once, not cancelled out of every
+        unit vector's: that would cost the biases' gradients float precision)."""
+        for layer in (self.layer1, self.layer2):
+            p = cast(int, layer.padding[0])
+            x = F.conv1d(F.pad(x, (p, p), mode="circular"), layer.weight, None, layer.stride)
+        return F.adaptive_avg_pool1d(x, self.pooled)
+
+    def reference(self, obs: th.Tensor) -> th.Tensor:
+        """The same output through ``nn.Conv1d`` (the tests' reference)."""
+        n = self.history * self.n_rays
+        lidar = obs[:, :n].reshape(-1, self.history, self.n_rays)
+        return th.cat([self.conv(lidar).flatten(1), obs[:, n:]], dim=1)
+
+
+def make_encoder(kind: str, history: int, n_rays: int, n_satnav: int) -> "LidarEncoder | OriginalLidarEncoder":
+    """A LiDAR encoder of the kind named in :data:`ENCODERS` (``ValueError`` otherwise)."""
+    if kind == "relu":
+        return LidarEncoder(history, n_rays, n_satnav)
+    if kind == "original":
+        return OriginalLidarEncoder(history, n_rays, n_satnav)
+    raise ValueError(f"lidar_encoder must be one of {ENCODERS}, got {kind!r}")
 
 
 def block_size(n_rays: int) -> int:
@@ -168,12 +248,14 @@ def encoders_cost_nothing() -> Iterator[None]:
 
 
 
-def encode(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
+def encode(encoders: Sequence[Any], obs: th.Tensor) -> list[th.Tensor]:
     """The outputs of ``encoders`` (same architecture, own weights) on the same rows ``obs``."""
     if _REFERENCE:
         return [enc.reference(obs) for enc in encoders]
     if _STAND_IN:
         return [obs[:, :enc.out_dim] * enc.layer2.bias for enc in encoders]
+    if not isinstance(encoders[0], LidarEncoder):  # the paper code's linear encoders: each its own product
+        return [enc(obs) for enc in encoders]
     if obs.shape[0] <= FUSED_ROWS and not th.is_grad_enabled():
         return _encode_no_grad(encoders, obs)
     first = encoders[0]

@@ -1,7 +1,8 @@
 """The paper's actor and centralised critic as an SB3 policy (docs/training.md).
 
 * Actor: LiDAR history ``(H, n_rays)`` -> two circular 1-D convolutions -> average pool to 25
-  features; concatenated with the sat-nav history; MLP [256, 256] tanh -> action logits. It reads
+  features (ours, or the paper code's linear ones: ``lidar_encoder``, ``training/ppo/encoder.py``);
+  concatenated with the sat-nav history; MLP [256, 256] tanh -> action logits. It reads
   only the slot's own observation: :meth:`CTDENetwork.forward_actor` never touches the team block.
 * Critic: the same encoder architecture (own weights) on every car of the env instance in the
   team block -> linear 256 tanh -> mean over live cars (masked: dead slots contribute nothing, so
@@ -27,7 +28,8 @@ from stable_baselines3.common.type_aliases import PyTorchObs
 from torch import nn
 
 from box2d_driving.policies.numpy_actor import HIDDEN
-from training.ppo.encoder import CircularConv1d, LidarEncoder, encode  # noqa: F401  (re-exported)
+from training.ppo.encoder import (ENCODERS, CircularConv1d, LidarEncoder, encode,  # noqa: F401  (re-exported)
+                                  make_encoder)
 from training.ppo.original_update import KLWatch
 
 CRITICS = ("mean", "own+mean", "own")
@@ -37,17 +39,17 @@ class CTDENetwork(nn.Module):
     """``forward_actor``: own observation only; ``forward_critic``: the team block."""
 
     def __init__(self, obs_dim: int, n_cars: int, history: int, n_rays: int, n_satnav: int,
-                 critic: str = "mean", hidden: int = HIDDEN) -> None:
+                 critic: str = "mean", hidden: int = HIDDEN, lidar_encoder: str = "relu") -> None:
         super().__init__()
         if critic not in CRITICS:
             raise ValueError(f"critic must be one of {CRITICS}, got {critic!r}")
         self.obs_dim, self.n_cars, self.critic = obs_dim, n_cars, critic
         self.latent_dim_pi = hidden
         self.latent_dim_vf = hidden
-        self.actor_encoder = LidarEncoder(history, n_rays, n_satnav)
+        self.actor_encoder = make_encoder(lidar_encoder, history, n_rays, n_satnav)
         self.actor_mlp = nn.Sequential(nn.Linear(self.actor_encoder.out_dim, hidden), nn.Tanh(),
                                        nn.Linear(hidden, hidden), nn.Tanh())
-        self.critic_encoder = LidarEncoder(history, n_rays, n_satnav)
+        self.critic_encoder = make_encoder(lidar_encoder, history, n_rays, n_satnav)
         self.critic_proj = nn.Sequential(nn.Linear(self.critic_encoder.out_dim, hidden), nn.Tanh())
         width = hidden * (2 if critic == "own+mean" else 1)
         self.critic_mlp = nn.Sequential(nn.Linear(width, hidden), nn.Tanh())
@@ -170,9 +172,9 @@ class CTDEPolicy(ActorCriticPolicy):
     mlp_extractor: CTDENetwork  # type: ignore[assignment]
 
     def __init__(self, *args: Any, obs_dim: int, n_cars: int, history: int, n_rays: int,
-                 n_satnav: int, critic: str = "mean", **kwargs: Any) -> None:
+                 n_satnav: int, critic: str = "mean", lidar_encoder: str = "relu", **kwargs: Any) -> None:
         self.ctde_kwargs: dict[str, Any] = dict(obs_dim=obs_dim, n_cars=n_cars, history=history, n_rays=n_rays,
-                                n_satnav=n_satnav, critic=critic)
+                                n_satnav=n_satnav, critic=critic, lidar_encoder=lidar_encoder)
         super().__init__(*args, **kwargs)
 
     def _build_mlp_extractor(self) -> None:
@@ -241,8 +243,8 @@ class CTDEPolicy(ActorCriticPolicy):
         return [*net.actor_encoder.parameters(), *net.actor_mlp.parameters(), *self.action_net.parameters()]
 
 
-def policy_kwargs_for(env: Any, critic: str = "mean") -> dict[str, Any]:
+def policy_kwargs_for(env: Any, critic: str = "mean", lidar_encoder: str = "relu") -> dict[str, Any]:
     """``policy_kwargs`` for :class:`CTDEPolicy` from a driving env (its observation layout)."""
     lay = env.observation_layout
     return dict(obs_dim=lay.size, n_cars=len(env.possible_agents), history=lay.history,
-                n_rays=lay.n_rays, n_satnav=lay.n_satnav, critic=critic)
+                n_rays=lay.n_rays, n_satnav=lay.n_satnav, critic=critic, lidar_encoder=lidar_encoder)

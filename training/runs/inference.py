@@ -97,15 +97,18 @@ def build_ctde_policy(config: dict, where: Path) -> Any:
     from training.ppo.policy import CTDEPolicy, policy_kwargs_for
     from training.ppo.slots import slot_observation_space
 
-    from training.ppo.policy import CRITICS
+    from training.ppo.policy import CRITICS, ENCODERS
 
     critic = config.get("critic", "mean")
     if critic not in CRITICS:
         raise CheckpointError(f"{where}: critic must be one of {CRITICS}, got {critic!r}")
+    lidar_encoder = config.get("lidar_encoder", "relu")  # runs from before the choice had ours
+    if lidar_encoder not in ENCODERS:
+        raise CheckpointError(f"{where}: lidar_encoder must be one of {ENCODERS}, got {lidar_encoder!r}")
     env = run_env(config, where)
     agent = env.possible_agents[0]
     space = slot_observation_space(env.observation_space(agent), len(env.possible_agents))
-    policy = CTDEPolicy(space, env.action_space(agent), lambda _: 0.0, **policy_kwargs_for(env, critic))
+    policy = CTDEPolicy(space, env.action_space(agent), lambda _: 0.0, **policy_kwargs_for(env, critic, lidar_encoder))
     env.close()
     return policy.eval()
 

@@ -117,6 +117,16 @@ def extendable_runs(old_out: Path, spec: SweepSpec) -> dict[str, Path]:
             if r.get("status") == "done" and r.get("run") and (Path(r["run"]) / "state.json").exists()}
 
 
+def unreached_row(trial: dict[str, Any]) -> dict[str, Any]:
+    """The summary row of a trial a sweep stopped before reaching: the row an earlier run of the
+    sweep measured (``--reuse``; ``reproduce --run`` continues every committed summary so), as it
+    was, else ``pending``. A stop must not turn a finished trial back into a missing one."""
+    earlier = trial.get("reuse")
+    if earlier:
+        return {k: v for k, v in earlier.items() if k != "grid_keys"}
+    return summary_row(trial, "pending", {})
+
+
 def summary_row(trial: dict[str, Any], status: str, metrics: dict[str, Any], error: str = "",
                 run: str = "") -> dict[str, Any]:
     """One trial's row of the sweep summary: its name, seed, status and grid point, the training

@@ -38,7 +38,7 @@ from training.sweeps.deadline import Deadline
 from training.sweeps.spec import (SweepError, SweepSpec, check_spec, parse_pairs, script_module,
                                  spec_differences)
 from training.sweeps.summary import (extendable_runs, final_metrics, first_line, metrics_from_row, reusable_rows,
-                                    summary_row, train_metrics, write_summary)
+                                    summary_row, train_metrics, unreached_row, write_summary)
 
 __all__ = ["SweepError", "SweepSpec", "main", "run_sweep", "run_trial"]
 
@@ -307,8 +307,8 @@ def run_sweep(spec: SweepSpec, out: Path, cpus_per_trial: float = 1, gpus_per_tr
         rows[trial["name"]] = summary_row(trial, status, result.metrics or {},
                                           first_line(result.error) if result.error else "", path)
     for name, trial in trials.items():
-        if name not in rows:
-            rows[name] = summary_row(trial, "pending", {})
+        if name not in rows:  # not reached before a stop
+            rows[name] = unreached_row(trial)
     write_summary(out, spec, list(rows.values()))
     return list(rows.values())
 

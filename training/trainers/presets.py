@@ -7,7 +7,9 @@ preset's cars that stay after arriving, 32,000 x ``num_cars`` slot-decisions), o
 in 20 minibatches of whole steps, entropy 1e-4, the value clipped to +-0.2 around its rollout
 estimate, learning rate 1e-3, gamma 0.99, GAE lambda 0.97, clip 0.2, target KL 0.2; past the KL
 limit only the actor stops, advantages normalised per car over the update, Adam's epsilon 1e-8,
-no gradient clipping, the horizon terminal (:mod:`training.ppo.original_update`). What still
+no gradient clipping, the horizon terminal (:mod:`training.ppo.original_update`), and its
+network's LiDAR encoder (two linear strided convolutions to one channel,
+:class:`training.ppo.encoder.OriginalLidarEncoder`). What still
 differs is tabled in the docs' page "Our world and the paper's".
 """
 
@@ -42,6 +44,7 @@ class TrainingPreset:
         max_grad_norm: None: gradients are not clipped (the original does not clip).
         bootstrap_truncation: False: the horizon is terminal (value 0), as the original's
             ``episode_runner`` treats its timeout.
+        lidar_encoder: ``"original"``: the LiDAR encoder of the original's actor and critic.
     """
 
     n_envs: int = 20
@@ -60,6 +63,7 @@ class TrainingPreset:
     adam_eps: float = 1e-8
     max_grad_norm: Optional[float] = None
     bootstrap_truncation: bool = False
+    lidar_encoder: str = "original"
 
     def slot_decisions_per_update(self, num_cars: int) -> int:
         """The update's size in slot-decisions: every car of every joint step."""
@@ -82,6 +86,7 @@ class TrainingPreset:
         config.kl_stop, config.advantage_normalisation = self.kl_stop, self.advantage_normalisation
         config.adam_eps, config.max_grad_norm = self.adam_eps, self.max_grad_norm
         config.bootstrap_truncation = self.bootstrap_truncation
+        config.lidar_encoder = self.lidar_encoder
 
     def resize(self, config: "TrainConfig", *, n_envs: Optional[int] = None, batch_decisions: Optional[int] = None,
                epochs: Optional[int] = None) -> None:

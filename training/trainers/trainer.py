@@ -35,6 +35,7 @@ from stable_baselines3.common.logger import configure
 
 from training.ppo.buffer import MaskedRolloutBuffer
 from box2d_driving.policies.checkpoint_file import LEGACY_FILE, legacy_message, read_json
+from box2d_driving.policies.numpy_actor import is_actor_key
 from training.runs.checkpoint import FILE, CheckpointError, read_checkpoint, restore_model
 from training.runs.lock import locked_run
 from training.runs.resume import ResumePoint, cut_back, resume_point, started_files
@@ -42,7 +43,7 @@ from training.runs.inference import find_config
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
-from training.ppo.policy import CRITICS, CTDEPolicy, policy_kwargs_for
+from training.ppo.policy import CRITICS, ENCODERS, CTDEPolicy, policy_kwargs_for
 from training.ppo.overlapped import OverlappedPPO
 from training.common.seeds import MAX_RUN_SEED, TRAINING
 from training.runs.run_dir import RunError, append_logger, check_new, check_same_run, write_config
@@ -74,6 +75,10 @@ class TrainConfig:
         learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
         ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
+        lidar_encoder: the actor's and critic's LiDAR encoder: ``relu`` (ours: two circular
+            convolutions of 8 channels, kernel 5, ReLU after each) or ``original`` (the paper's
+            code: two linear strided convolutions to one channel; the ``paper`` preset's). Ours can
+            end with its one-channel ReLU dead, the actor then blind to its LiDAR.
         checkpoint_every: updates between checkpoints.
         threads: torch CPU threads (None: while collecting rollouts the cores the env worker
             processes leave free, during the update every core, as the workers wait then).
@@ -125,6 +130,7 @@ class TrainConfig:
     target_kl: Optional[float] = 0.2
     ent_coef: float = 0.01
     critic: str = "mean"
+    lidar_encoder: str = "relu"
     checkpoint_every: int = 10
     threads: Optional[int] = None
     num_cpus: int = 0
@@ -151,7 +157,7 @@ class TrainConfig:
         if not isinstance(self.env_overrides, dict):
             raise ConfigError(f"TrainConfig: env_overrides must be a dict, got {self.env_overrides!r}")
         check_bounds(self, {  # timesteps 0: a bilevel run's acceleration stage (rounds decide)
-            "timesteps": (0, 100_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096),
+            "timesteps": (0, 1_000_000_000), "seed": (0, MAX_RUN_SEED), "n_envs": (1, 4096),
             "batch_decisions": (1, None), "minibatch": (1, None),
             "epochs": (1, 1000), "checkpoint_every": (1, None), "threads": (1, 1024), "num_cpus": (0, 1024),
             "learning_rate": (0, None), "gamma": (0, 1), "gae_lambda": (0, 1), "clip_range": (0, None),
@@ -172,6 +178,8 @@ class TrainConfig:
             raise ConfigError(f"TrainConfig: device must be one of {DEVICES}, got {self.device!r}")
         if self.critic not in CRITICS:
             raise ConfigError(f"TrainConfig: critic must be one of {CRITICS}, got {self.critic!r}")
+        if self.lidar_encoder not in ENCODERS:
+            raise ConfigError(f"TrainConfig: lidar_encoder must be one of {ENCODERS}, got {self.lidar_encoder!r}")
 
     def n_steps(self, n_cars: int) -> int:
         return max(1, math.ceil(self.batch_decisions / (self.n_envs * n_cars)))
@@ -262,7 +270,7 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
     n_cars = len(probe.possible_agents)
     n_steps = config.n_steps(n_cars)
     actor_only = config.kl_stop == "actor"
-    policy_kwargs = policy_kwargs_for(probe, config.critic)
+    policy_kwargs = policy_kwargs_for(probe, config.critic, config.lidar_encoder)
     policy_kwargs.update(optimizer_class=ActorStopAdam, optimizer_kwargs={"eps": config.adam_eps})
     # the initial weights' orthogonal draws depend on torch's thread count: build at the rollout's,
     # whatever an earlier model in this process left set (its update's)
@@ -405,17 +413,25 @@ def set_minibatching(model: PPO, config: TrainConfig, n_cars: int) -> None:
     cast(MaskedRolloutBuffer, model.rollout_buffer).group_size = n_cars if config.minibatch_by_step else 1
 
 
-def load_weights(model: PPO, checkpoint: Path) -> None:
+def load_weights(model: PPO, checkpoint: Path) -> bool:
     """Copy the policy weights (actor, critic) of ``checkpoint`` into ``model``; widened (see
-    ``training/runs/weights.py``) when ``model``'s env adds sat-nav fields or the communication bit."""
+    ``training/runs/weights.py``) when ``model``'s env adds sat-nav fields or the communication bit.
+
+    A sweep trial's kept weights (``assets/sweeps/weights/...``) hold the actor alone: then only
+    the actor is copied and the critic keeps its fresh initialisation (as a value function
+    learnt for fewer cars would mislead the first updates no less). Returns whether the critic
+    was copied too."""
     try:
         source = read_checkpoint(checkpoint)
     except CheckpointError as exc:
         raise RunError(f"--init-from: {exc}") from None
     path = source.path
-    mine, theirs = model.policy.state_dict(), source.policy
-    if mine.keys() != theirs.keys():
+    full, theirs = model.policy.state_dict(), source.policy
+    actor_keys = {k for k in full if is_actor_key(k)}
+    with_critic = full.keys() == theirs.keys()
+    if not with_critic and theirs.keys() != actor_keys:
         raise RunError(f"--init-from: {path} has a different network (critic variant?)")
+    mine = full if with_critic else {k: v for k, v in full.items() if k in actor_keys}
     bad = [k for k in mine if mine[k].shape != theirs[k].shape]
     if bad:
         env = cast(SlotVecEnv, model.get_env()).probe.env
@@ -427,4 +443,8 @@ def load_weights(model: PPO, checkpoint: Path) -> None:
             raise RunError(f"--init-from: {path} does not fit this env's observation layout "
                            f"(e.g. {bad[0]}: {tuple(theirs[bad[0]].shape)} vs {tuple(mine[bad[0]].shape)}; "
                            f"{exc})") from None
-    model.policy.load_state_dict(theirs)
+    model.policy.load_state_dict(theirs, strict=with_critic)
+    if not with_critic:
+        print(f"--init-from: {path} holds the actor alone (kept sweep weights): the critic starts fresh",
+              file=sys.stderr)
+    return with_critic

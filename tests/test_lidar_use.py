@@ -1,0 +1,36 @@
+"""``box2d-driving lidar-use``: whether an actor's LiDAR features move with what it sees."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytest.importorskip("torch")
+
+from training.evaluation.lidar_use import lidar_use, main
+
+
+def test_a_dead_encoder_is_blind_and_the_paper_codes_is_not(tmp_path):
+    # the shipped 4-car lights policy (our ReLU encoder): its last ReLU is zero on every observation
+    dead = lidar_use("traffic_lights_4cars", episodes=2)
+    assert dead.encoder == "relu" and dead.decisions > 0
+    assert dead.blind and dead.actions_changed == 0.0
+    # a policy with the paper code's linear encoder, however little trained, sees
+    from tests.helpers import tiny_train_config
+    from training.trainers.trainer import train
+
+    train(tiny_train_config(lidar_encoder="original"), tmp_path / "run")
+    alive = lidar_use(str(tmp_path / "run"), episodes=2)
+    assert alive.encoder == "original" and not alive.blind and alive.feature_spread > 1e-4
+
+
+def test_the_command_prints_a_row_per_policy_and_writes_json(tmp_path, capsys):
+    assert main(["traffic_lights_4cars", "--episodes", "1", "--json", str(tmp_path / "use.json")]) == 0
+    out = capsys.readouterr()
+    assert "traffic_lights_4cars" in out.out and "1 of 1 blind" in out.err
+    rows = json.loads((tmp_path / "use.json").read_text())
+    assert rows[0]["blind"] is True and rows[0]["encoder"] == "relu"
+    with pytest.raises(SystemExit):
+        main([str(tmp_path / "nothing_here")])
+    assert "nothing_here" in capsys.readouterr().err
