@@ -537,3 +537,15 @@ def test_a_lone_car_is_set_against_the_4_car_row_with_the_cars_the_right_way_rou
     # the page's lone-car section sets itself against the 4-car preset row that way round
     text = "\n".join(statements(section("traffic-lights-preset-1car"), [lone], {}, four, "the 4-car row"))
     assert "fewer violations with more cars, intervals apart, as in the paper" in text
+
+
+def test_a_sweep_with_no_trial_finished_yet_is_written_as_planned(tmp_path):
+    """A grid just started (its summary holds only stopped and pending trials) has no report
+    episodes to score the scripted drivers on: its section says what is planned, no error."""
+    names = [f"lights_lidar_noise={n}_num_cars={c}_seed={s}" for (n, c), v in VIOLATIONS.items() for s in range(3)]
+    summary = lights_summary(tmp_path / "lights.json", VIOLATIONS,
+                             statuses={name: ("stopped" if i < 2 else "pending") for i, name in enumerate(names)})
+    page = tmp_path / "results.md"
+    assert main([str(summary), "--out", str(page)]) == 0
+    part = page.read_text().split("## Stopping at red lights")[1].split("\n## ")[0]
+    assert "0 of 12 planned trials done" in part

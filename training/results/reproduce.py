@@ -193,7 +193,8 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
         parts += [f"Values marked {ADDED_MARK} are of seeds added after an interim look at the results (seeds "
                   f"0-{section.seeds_before_look - 1} were planned first; the setting above says why more were "
                   "added); the intervals are not corrected for that look.", ""]
-    baseline = section.baseline(summary, groups) if section.baseline is not None else {}
+    # scripted drivers are scored on the finished trials' report episodes: none finished, none to score
+    baseline = section.baseline(summary, groups) if section.baseline is not None and done else {}
     notes = statements(section, groups, baseline, *reference(section, summaries))
     result = SectionResult(section.title, section.paper_budget, trial_budget(summary["sweep"]), groups, notes,
                            curves, keys, tuple(ran_decisions(trials)), section.paper_joint_steps, section.cars)
