@@ -34,3 +34,22 @@ def test_the_command_prints_a_row_per_policy_and_writes_json(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main([str(tmp_path / "nothing_here")])
     assert "nothing_here" in capsys.readouterr().err
+
+
+def test_the_page_counts_blind_actors_per_grid_point_from_their_kept_measurements(tmp_path):
+    from training.results.lidar_blind import blind_line
+
+    trials = []
+    for noise, seed, blind in (("0.25", 0, True), ("0.25", 1, False), ("0.5", 0, True), ("0.5", 1, True)):
+        name = f"lights_lidar_noise={noise}_seed={seed}"
+        trials.append({"trial": name, "status": "done", "lidar_noise": noise, "seed": seed})
+        kept = tmp_path / "weights" / "grid" / name
+        kept.mkdir(parents=True)
+        (kept / "model.safetensors").write_bytes(b"")  # measured already: the file beside it is read
+        (kept / "lidar_use.json").write_text(json.dumps({"encoder": "relu", "decisions": 100, "blind": blind,
+                                                         "feature_spread": 0.0 if blind else 0.02,
+                                                         "actions_changed": 0.0 if blind else 0.1}))
+    trials.append({"trial": "lights_lidar_noise=0.5_seed=2", "status": "stopped", "lidar_noise": "0.5", "seed": 2})
+    line = blind_line({"path": str(tmp_path / "grid.json"), "trials": trials}, ["lidar_noise"])
+    assert line is not None and line.endswith("lidar_noise 0.25: 1 of 2 blind; lidar_noise 0.5: 2 of 2 blind.")
+    assert blind_line({"path": str(tmp_path / "other.json"), "trials": trials}, ["lidar_noise"]) is None

@@ -32,10 +32,13 @@ import numpy as np
 
 from training.common.seeds import SELECTION
 
-__all__ = ["BLIND_SPREAD", "LidarUse", "lidar_use", "main"]
+__all__ = ["BLIND_SPREAD", "KEPT_FILE", "LidarUse", "kept_lidar_use", "lidar_use", "main"]
 
 # features that vary less than this across a policy's own observations (LiDAR values span 0-10): blind
 BLIND_SPREAD = 1e-4
+# a kept trial's measurement, beside its weights (``assets/sweeps/weights/NAME/<trial>/``), on this
+# many selection episodes: seeded, so measuring again gives the same numbers
+KEPT_FILE, KEPT_EPISODES = "lidar_use.json", 20
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,30 @@ def lidar_use(path: str, episodes: int = 20, first_seed: int = SELECTION.start) 
     spread = float(actor.lidar_features(seen).std(axis=0).max())
     changed = float(np.mean(actor.logits(seen).argmax(1) != actor.logits(empty).argmax(1)))
     return LidarUse(str(path), "original" if actor.original else "relu", len(seen), spread, changed)
+
+
+def kept_lidar_use(folder: Path) -> Optional[LidarUse]:
+    """The LiDAR use of the actor kept in ``folder`` (a sweep trial's kept weights), read from its
+    ``lidar_use.json`` or measured on :data:`KEPT_EPISODES` selection episodes and written there;
+    None for a folder without a flat run's weights (a bilevel run's stages)."""
+    folder = Path(folder)
+    if not (folder / "model.safetensors").is_file():
+        return None
+    cached = folder / KEPT_FILE
+    if cached.is_file():
+        try:
+            saved = json.loads(cached.read_text())
+            return LidarUse(str(folder), str(saved["encoder"]), int(saved["decisions"]),
+                            float(saved["feature_spread"]), float(saved["actions_changed"]))
+        except (ValueError, KeyError, TypeError):
+            pass  # unreadable: measured again below and replaced
+    use = lidar_use(str(folder), KEPT_EPISODES)
+    tmp = cached.with_name(cached.name + ".partial")
+    tmp.write_text(json.dumps({"episodes": KEPT_EPISODES, "first_seed": SELECTION.start, "encoder": use.encoder,
+                               "decisions": use.decisions, "feature_spread": use.feature_spread,
+                               "actions_changed": use.actions_changed, "blind": use.blind}, indent=2))
+    tmp.replace(cached)
+    return use
 
 
 def main(argv: Optional[list[str]] = None) -> int:

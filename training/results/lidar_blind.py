@@ -1,0 +1,49 @@
+"""The results page's line on whether a section's kept actors use their LiDAR.
+
+An actor whose LiDAR encoder went dead drives blind to the other cars (docs/paper_world.md, "The
+LiDAR encoder"); a reader weighing a claim about LiDAR noise needs to know how many of the trials
+behind a row are such actors. Each finished trial with kept weights is measured once by
+:func:`training.evaluation.lidar_use.kept_lidar_use` (the result kept beside its weights).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Optional
+
+__all__ = ["blind_line"]
+
+
+def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
+    """``"LiDAR use of the kept actors ...: k of n blind"`` per grid point of ``summary`` (its
+    finished trials whose flat weights are kept), or None where none are kept."""
+    from training.evaluation.lidar_use import KEPT_EPISODES, kept_lidar_use
+    from training.sweeps.kept import kept_folder
+
+    path = Path(summary["path"])
+    folder = kept_folder(path.parent, path.stem)
+    counts: dict[tuple[str, ...], list[int]] = {}
+    for trial in summary["trials"]:
+        if trial.get("status") != "done":
+            continue
+        use = kept_lidar_use(folder / trial["trial"])
+        if use is None:
+            continue
+        point = tuple(str(trial.get(k)) for k in keys)
+        seen = counts.setdefault(point, [0, 0])
+        seen[0] += use.blind
+        seen[1] += 1
+    if not counts:
+        return None
+    parts = [(", ".join(f"{k} {v}" for k, v in zip(keys, point)) + ": " if keys else "") + f"{b} of {n} blind"
+             for point, (b, n) in sorted(counts.items(), key=lambda item: [_number(v) for v in item[0]])]
+    return (f"LiDAR use of the kept actors (`box2d-driving lidar-use`, {KEPT_EPISODES} selection episodes each; "
+            "blind: LiDAR features that do not move, an actor that cannot see the other cars, "
+            f"[why](paper_world.md#the-lidar-encoder)): {'; '.join(parts)}.")
+
+
+def _number(value: str) -> tuple[int, float, str]:
+    try:
+        return (0, float(value), "")
+    except ValueError:
+        return (1, 0.0, value)
