@@ -53,3 +53,7 @@ def test_the_page_counts_blind_actors_per_grid_point_from_their_kept_measurement
     line = blind_line({"path": str(tmp_path / "grid.json"), "trials": trials}, ["lidar_noise"])
     assert line is not None and line.endswith("lidar_noise 0.25: 1 of 2 blind; lidar_noise 0.5: 2 of 2 blind.")
     assert blind_line({"path": str(tmp_path / "other.json"), "trials": trials}, ["lidar_noise"]) is None
+    # a sweep at noise 1.0 sees nothing by design, and says so
+    noise1 = blind_line({"path": str(tmp_path / "grid.json"), "trials": trials[:2],
+                         "sweep": {"fixed": {"lidar_noise": "1.0"}}}, [])
+    assert noise1 is not None and "1 of 2 blind (at LiDAR noise 1.0 every ray is dropped" in noise1

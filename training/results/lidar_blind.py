@@ -37,9 +37,14 @@ def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
         return None
     parts = [(", ".join(f"{k} {v}" for k, v in zip(keys, point)) + ": " if keys else "") + f"{b} of {n} blind"
              for point, (b, n) in sorted(counts.items(), key=lambda item: [_number(v) for v in item[0]])]
+    fixed_noise = str(summary.get("sweep", {}).get("fixed", {}).get("lidar_noise", ""))
+    all_dropped = _number(fixed_noise)[1] == 1.0 or any(
+        k == "lidar_noise" and _number(v)[1] == 1.0 for point in counts for k, v in zip(keys, point))
     return (f"LiDAR use of the kept actors (`box2d-driving lidar-use`, {KEPT_EPISODES} selection episodes each; "
             "blind: LiDAR features that do not move, an actor that cannot see the other cars, "
-            f"[why](paper_world.md#the-lidar-encoder)): {'; '.join(parts)}.")
+            f"[why](paper_world.md#the-lidar-encoder)): {'; '.join(parts)}"
+            + (" (at LiDAR noise 1.0 every ray is dropped: every actor is blind there by design)" if all_dropped
+               else "") + ".")
 
 
 def _number(value: str) -> tuple[int, float, str]:
