@@ -251,7 +251,8 @@ def test_lanes_at_other_noise_levels_are_joined_by_the_noise_05_trials_and_compa
 
 
 def _preset_lights(path, fixed, grid, violations):
-    """A lights sweep in the paper's world (``--preset paper``), 4 cars: ``violations`` per noise level
+    """A lights sweep in the paper's world and network (``--preset paper``, the paper code's LiDAR
+    encoder), 4 cars: ``violations`` per noise level
     (seeds 0-2); ``fixed``: its fixed options besides cars and preset; ``grid``: its noise grid."""
     trials = [{"trial": f"lights_lidar_noise={noise}_seed={seed}", "behaviour": "lights", "seed": seed,
                **({"lidar_noise": noise} if grid else {}), "status": "done", "error": "",
@@ -259,7 +260,8 @@ def _preset_lights(path, fixed, grid, violations):
                "env_config.num_cars": 4, "red_light_violation_rate": v, "success_rate": 0.95, "collision_rate": 0.05}
               for noise, values in violations.items() for seed, v in enumerate(values)]
     sweep = {"behaviour": "lights", "grid": {"lidar_noise": list(violations)} if grid else {}, "seeds": 3,
-             "fixed": {"num_cars": "4", "preset": "paper", **fixed}, "timesteps": None, "minutes": None,
+             "fixed": {"num_cars": "4", "preset": "paper", "lidar_encoder": "original", **fixed}, "timesteps": None,
+             "minutes": None,
              "episodes": 200, "quick": False}
     path.write_text(json.dumps({"sweep": sweep, "trials": trials}))
     return path
@@ -273,7 +275,7 @@ def test_the_paper_world_grid_is_joined_by_its_noise_1_sweep_at_its_own_budget(t
     page = tmp_path / "docs" / "results.md"
     assert main([str(grid), str(noise1), "--out", str(page)]) == 0
     text = page.read_text()
-    mine = text.split("## Stopping at red lights in the paper's world and update\n")[1].split("\n## ")[0]
+    mine = text.split("## Stopping at red lights in the paper's world, update and network\n")[1].split("\n## ")[0]
     assert "75 epochs of 32,000 joint steps (2.4 M joint steps) per trial" in mine
     rows = [line.split(" | ")[0] for line in mine.splitlines() if re.match(r"\| (0\.25|0\.5|0\.75|1\.0) \| 3 \|", line)]
     assert rows == ["| 0.25", "| 0.5", "| 0.75", "| 1.0"]  # the 50-epoch noise-1.0 trials join as a row
@@ -283,12 +285,13 @@ def test_the_paper_world_grid_is_joined_by_its_noise_1_sweep_at_its_own_budget(t
     # the claim is read from the paper-world section now that it has trials
     claims = text.split("## Where the page stands on the paper's claims")[1].split("\n## ")[0]
     row = next(x for x in claims.splitlines() if x.startswith("| With more LiDAR noise"))
-    assert "[Stopping at red lights in the paper's world and update]" in row and "**reproduced**" in row
+    assert "[Stopping at red lights in the paper's world, update and network]" in row and "**reproduced**" in row
     assert "100 % of the paper's 2.4 M" in row
     # a noise-1.0 sweep at another budget than the one joins_differ allows to differ is not joined
     other = _preset_lights(tmp_path / "lights-preset-noise1.json", {"original_epochs": "50", "lidar_noise": "1.0",
                                                                      "ent_coef": "0.01"}, False,
                            {"1.0": [0.02, 0.03, 0.01]})
     assert main([str(grid), str(other), "--out", str(page)]) == 0
-    mine = page.read_text().split("## Stopping at red lights in the paper's world and update\n")[1].split("\n## ")[0]
+    title = "## Stopping at red lights in the paper's world, update and network\n"
+    mine = page.read_text().split(title)[1].split("\n## ")[0]
     assert not re.search(r"^\| 1\.0 \| 3 \|", mine, re.M)
