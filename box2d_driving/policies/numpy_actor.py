@@ -63,14 +63,7 @@ def linear_layers(weights: Mapping[str, np.ndarray], names: list[str]) -> Layers
 def circular_conv(x: np.ndarray, weight: np.ndarray, bias: np.ndarray) -> np.ndarray:
     """``(B, C_in, L)`` -> ``(B, C_out, L)``: a 1-D convolution (cross-correlation, as
     ``torch.nn.Conv1d``) over a ring, padded by wrapping ``kernel // 2`` values round each end."""
-    out_ch, in_ch, kernel = weight.shape
-    pad = kernel // 2
-    b, _, length = x.shape
-    ring = np.concatenate([x[..., length - pad:], x, x[..., :pad]], axis=2)
-    windows = sliding_window_view(ring, kernel, axis=2)  # (B, C_in, L, K)
-    cols = windows.transpose(0, 2, 1, 3).reshape(b * length, in_ch * kernel)
-    out = cols @ weight.reshape(out_ch, in_ch * kernel).T + bias
-    return out.reshape(b, length, out_ch).transpose(0, 2, 1)
+    return strided_circular_conv(x, weight, bias, 1, weight.shape[2] // 2)
 
 
 def strided_circular_conv(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, stride: int,

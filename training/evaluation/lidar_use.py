@@ -31,6 +31,7 @@ from typing import Optional
 import numpy as np
 
 from training.common.seeds import SELECTION
+from training.runs.run_dir import write_json_atomic
 
 __all__ = ["BLIND_SPREAD", "KEPT_FILE", "LidarUse", "kept_lidar_use", "lidar_use", "main"]
 
@@ -98,11 +99,9 @@ def kept_lidar_use(folder: Path) -> Optional[LidarUse]:
         except (ValueError, KeyError, TypeError):
             pass  # unreadable: measured again below and replaced
     use = lidar_use(str(folder), KEPT_EPISODES)
-    tmp = cached.with_name(cached.name + ".partial")
-    tmp.write_text(json.dumps({"episodes": KEPT_EPISODES, "first_seed": SELECTION.start, "encoder": use.encoder,
+    write_json_atomic(cached, {"episodes": KEPT_EPISODES, "first_seed": SELECTION.start, "encoder": use.encoder,
                                "decisions": use.decisions, "feature_spread": use.feature_spread,
-                               "actions_changed": use.actions_changed, "blind": use.blind}, indent=2))
-    tmp.replace(cached)
+                               "actions_changed": use.actions_changed, "blind": use.blind})
     return use
 
 

@@ -18,6 +18,8 @@ def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
     """``"LiDAR use of the kept actors ...: k of n blind"`` per grid point of ``summary`` (its
     finished trials whose flat weights are kept), or None where none are kept."""
     from training.evaluation.lidar_use import KEPT_EPISODES, kept_lidar_use
+    from training.results.data import as_number
+    from training.results.matching import grid_value
     from training.sweeps.kept import kept_folder
 
     path = Path(summary["path"])
@@ -36,19 +38,13 @@ def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
     if not counts:
         return None
     parts = [(", ".join(f"{k} {v}" for k, v in zip(keys, point)) + ": " if keys else "") + f"{b} of {n} blind"
-             for point, (b, n) in sorted(counts.items(), key=lambda item: [_number(v) for v in item[0]])]
+             for point, (b, n) in sorted(counts.items(), key=lambda item: [grid_value(v) for v in item[0]])]
     fixed_noise = str(summary.get("sweep", {}).get("fixed", {}).get("lidar_noise", ""))
-    all_dropped = _number(fixed_noise)[1] == 1.0 or any(
-        k == "lidar_noise" and _number(v)[1] == 1.0 for point in counts for k, v in zip(keys, point))
+    all_dropped = as_number(fixed_noise) == 1.0 or any(
+        k == "lidar_noise" and as_number(v) == 1.0 for point in counts for k, v in zip(keys, point))
     return (f"LiDAR use of the kept actors (`box2d-driving lidar-use`, {KEPT_EPISODES} selection episodes each; "
             "blind: LiDAR features that do not move, an actor that cannot see the other cars, "
             f"[why](paper_world.md#the-lidar-encoder)): {'; '.join(parts)}"
             + (" (at LiDAR noise 1.0 every ray is dropped: every actor is blind there by design)" if all_dropped
                else "") + ".")
 
-
-def _number(value: str) -> tuple[int, float, str]:
-    try:
-        return (0, float(value), "")
-    except ValueError:
-        return (1, 0.0, value)

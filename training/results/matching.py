@@ -11,7 +11,7 @@ from typing import Any, Optional
 from training.results.data import Group, Metric, as_number, groups_of
 from training.results.sections import IN_GRID, SECTIONS, Section, section as section_by_key
 
-__all__ = ["group_at", "grid_order", "joined_groups", "reference", "section_summaries"]
+__all__ = ["group_at", "grid_order", "grid_value", "joined_groups", "reference", "section_summaries"]
 
 
 def _matches(section: Section, summary: dict[str, Any]) -> bool:
@@ -58,12 +58,15 @@ def joined_groups(section: Section, summaries: list[dict[str, Any]], summary: di
     return groups, paths
 
 
+def grid_value(v: str) -> tuple[int, float, str]:
+    """A grid value's sort key: numbers by value, then the rest by name."""
+    number = as_number(v)
+    return (0, number, "") if math.isfinite(number) else (1, 0.0, v)
+
+
 def grid_order(groups: list[Group], keys: list[str]) -> list[Group]:
     """``groups`` sorted by their grid values, key by key, numbers by value."""
-    def value(v: str) -> tuple[int, float, str]:
-        number = as_number(v)
-        return (0, number, "") if math.isfinite(number) else (1, 0.0, v)
-    return sorted(groups, key=lambda g: tuple(value(str(g.point[k])) for k in keys))
+    return sorted(groups, key=lambda g: tuple(grid_value(str(g.point[k])) for k in keys))
 
 
 def group_at(section: Section, summaries: list[dict[str, Any]], metrics: list[Metric],
