@@ -295,3 +295,32 @@ def test_the_paper_world_grid_is_joined_by_its_noise_1_sweep_at_its_own_budget(t
     title = "## Stopping at red lights in the paper's world, update and network\n"
     mine = page.read_text().split(title)[1].split("\n## ")[0]
     assert not re.search(r"^\| 1\.0 \| 3 \|", mine, re.M)
+
+
+def _drop_fixed(path, key):
+    """``path``'s summary without the fixed option ``key`` (a sweep that left it to its preset)."""
+    summary = json.loads(path.read_text())
+    del summary["sweep"]["fixed"][key]
+    path.write_text(json.dumps(summary))
+    return path
+
+
+def test_a_preset_sweep_is_shown_only_where_its_presets_settings_match(tmp_path, capsys):
+    title = "## Stopping at red lights in the paper's world, update and network\n"
+    # no lidar_encoder given: it ran with the preset's (the paper code's), so it is that section's
+    grid = _drop_fixed(_preset_lights(tmp_path / "lights-preset.json", {"original_epochs": "75"}, True,
+                                      {"0.25": [0.10, 0.12, 0.11], "0.5": [0.08, 0.09, 0.07]}), "lidar_encoder")
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(grid), "--out", str(page)]) == 0
+    text = page.read_text()
+    assert "lights-preset.json" in text.split(title)[1].split("\n## ")[0]
+    ours = text.split("## Stopping at red lights, the noise grid at 2.4 M decisions\n")[1].split("\n## ")[0]
+    assert "Not run yet" in ours  # a preset's world is not our default world's section
+    assert "warning" not in capsys.readouterr().err
+    # 2 cars: no section of the paper's world has it, and our world's sections do not take it
+    two = json.loads(grid.read_text())
+    two["sweep"]["fixed"]["num_cars"] = "2"
+    (tmp_path / "two.json").write_text(json.dumps(two))
+    assert main([str(tmp_path / "two.json"), "--out", str(page)]) == 0
+    assert "two.json measures no rule of the page" in capsys.readouterr().err
+    assert "two.json" not in page.read_text()

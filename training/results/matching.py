@@ -10,17 +10,32 @@ from typing import Any, Optional
 
 from training.results.data import Group, Metric, as_number, groups_of
 from training.results.sections import IN_GRID, SECTIONS, Section, section as section_by_key
+from training.trainers.presets import TRAINING_PRESETS
 
 __all__ = ["group_at", "grid_order", "grid_value", "joined_groups", "reference", "section_summaries"]
 
 
+def _setting(settings: dict[str, Any], key: str) -> str:
+    """``key``'s value in a sweep's ``settings`` as a section's match spells it: a value the sweep
+    did not set is its preset's (a ``preset=paper`` sweep without ``lidar_encoder`` ran with the
+    preset's encoder), else ``"false"``."""
+    if key in settings:
+        return str(settings[key]).lower()
+    preset = TRAINING_PRESETS.get(str(settings.get("preset", "")))
+    if preset is not None and hasattr(preset, key):
+        return str(getattr(preset, key)).lower()
+    return "false"
+
+
 def _matches(section: Section, summary: dict[str, Any]) -> bool:
-    """Whether ``summary`` has ``section``'s behaviour and fixed options."""
+    """Whether ``summary`` has ``section``'s behaviour and fixed options. A sweep in a preset's
+    world measures only the sections that name that preset: its world and update are not ours."""
     sweep = summary["sweep"]
     # the trial budget counts too: the same settings at a larger budget may be a rule of its own
     settings = {"timesteps": sweep.get("timesteps"), **sweep.get("fixed", {}), **{k: IN_GRID for k in summary["grid"]}}
-    return sweep["behaviour"] == section.behaviour and \
-        all(str(settings.get(k, "false")).lower() == v for k, v in section.match)
+    if _setting(settings, "preset") != "false" and "preset" not in dict(section.match):
+        return False
+    return sweep["behaviour"] == section.behaviour and all(_setting(settings, k) == v for k, v in section.match)
 
 
 def section_summaries(section: Section, summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:

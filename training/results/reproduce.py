@@ -74,6 +74,12 @@ def _estimate_cell(e: Estimate, seeds: Optional[list[int]] = None, planned: Opti
     return f"{e.format()} ({values})"
 
 
+def unplaced(summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The summaries no section of the page shows."""
+    shown = {id(s) for section in SECTIONS for s in section_summaries(section, summaries)}
+    return [s for s in summaries if id(s) not in shown]
+
+
 # marks a seed's value where the seed was added after an interim look at the results
 ADDED_MARK = "†"  # not "*": Markdown would read pairs of them as emphasis
 
@@ -380,6 +386,10 @@ def main(argv: Optional[list[str]] = None) -> int:
     except ResultsError as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
+    for summary in unplaced(summaries):
+        print(f"{prog}: warning: {summary['path']} measures no rule of the page (its behaviour and fixed options "
+              f"match no section's, e.g. a preset's sweep at other settings than the page's): left out",
+              file=sys.stderr)
     print(f"wrote {args.out} and its figures in {figures}")
     return status
 

@@ -12,23 +12,23 @@ from __future__ import annotations
 from typing import Optional
 
 from training.evaluation import figure_data as fd
-from training.original.commands import TrainerSettings
 from training.results.baselines import light_blind_rates, lights_baselines, scripted_baselines
 from training.results.data import Baseline, Group, PaperValue
 from training.results.figures import bars_figure, distribution_figure, lights_figure
 from training.results.page_section import IN_GRID, Headline, Section
+from training.results.paper_world_sections import PAPER_WORLD_LIGHTS
 from training.results.rule_parts import (COMMUNICATION_BASELINE, COMMUNICATION_BUDGET, COMMUNICATION_CLAIM,
                                          COMMUNICATION_FIGURE,
                                          COMMUNICATION_METRICS, COMMUNICATION_STATEMENTS, DENSER_BUDGET,
                                          DENSER_JOINT_STEPS, FAST_LANES_R,
                                          LANES_BASELINE, LANES_BUDGET, LANES_CURVE_EXTRA, LANES_FIGURE, LANES_METRICS,
-                                         LANES_NOISE_METRICS, LIGHTS_BASELINE_STATEMENT, LIGHTS_METRICS,
+                                         LANES_NOISE_METRICS, LIGHTS_METRICS,
                                          LIGHTS_NOISE_BUDGET, LIGHTS_NOISE_FIGURE, LIGHTS_NOISE_STATEMENTS,
                                          LIGHTS_NOISE_JOINT_STEPS, ONE_SIDED,
                                          ONE_SIDED_WORDS, PEARSON, SAFE_SHORTFALL_WORDS, SUCCESS_LOST_UNHEARD, SWEEP,
                                          lanes_4_vs_8, lanes_statements, right_of_way, turn_signals_12_cars)
 from training.results.statements import (above_statement, level_change_statement, lights_statement,
-                                         lone_car_statement, scripted_baseline_statement,
+                                         scripted_baseline_statement,
                                          paper_comparison, reference_statement,
                                          unlearnt_statement)
 
@@ -36,29 +36,6 @@ __all__ = ["IN_GRID", "Headline", "PaperValue", "SECTIONS", "Section", "section"
 
 # the privileged crosswalk driver (reads every pedestrian from the world): a reference, not a rule-free baseline
 ORACLE = "pedestrian-oracle"
-# the 8-car preset rule's starting policy: a kept trial of the 4-car preset grid (its actor alone)
-PRESET_8CARS_FROM = "assets/sweeps/weights/lights-paper-net/lights_lidar_noise=0.5_seed=0"
-NOISE1_BUDGET = "4 cars at LiDAR noise 1.0 for 50 epochs of 32,000 joint steps (1.6 M joint steps), entropy 1e-4"
-LONE_CAR_CLAIM = ("In a single agent environment there is no need to follow the signals (the paper's figure "
-                  "caption); its experiment list says of its 1-car run that the actions are not correlated with "
-                  "the signals.")
-LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of the 4-car section, at its LiDAR "
-                    "noise 0.25 and for its 75 epochs of 32,000 joint steps (2.4 M decisions of the one car): only "
-                    "the number of cars differs, so that section's noise-0.25 row is the 4-car comparison. The "
-                    "original's own 1-car run differed in more: turning tracks on a junction of 12 signals with "
-                    "right-of-way lights (`turns`, `learn_right_of_way`), a horizon of 20 decisions, entropy "
-                    "1e-3, LiDAR noise 0, 60 epochs; our intersection has no turning tracks. Six seeds were "
-                    "planned before any was run.")
-LONE_CAR_BUDGET = ("1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, horizon "
-                   "20 decisions, entropy 1e-3, LiDAR noise 0")
-# why the preset's first runs stand apart (docs/paper_world.md, "The LiDAR encoder")
-RELU_NOTE = ("Run before the preset had the paper code's LiDAR encoder, with ours (`lidar_encoder=relu`: its last "
-             "ReLU sits on a single channel). In most of these actors that ReLU is dead: their LiDAR features are "
-             "the same for every observation, so they drive by the light and their own speed alone, blind to "
-             "the other cars (`box2d-driving lidar-use` measures it; the table in "
-             "[paper_world.md](paper_world.md#the-lidar-encoder)). A blind actor cannot test a claim about "
-             "LiDAR noise.")
-
 
 SECTIONS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
@@ -102,114 +79,7 @@ SECTIONS: tuple[Section, ...] = (
                                 "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), "
                                 "entropy 0.01",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
-    Section("traffic-lights-preset", "Stopping at red lights in the paper's world, update and network", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 preset=paper "
-            "lidar_encoder=original original_epochs=75 --out runs/sweep-lights-paper-net",
-            setting="Each trial trains 4 cars from scratch with our trainer in the paper's own world, update and "
-                    "network (`--preset paper`: an arrived car stays until the horizon of 25 decisions, every car "
-                    "decides at every step, one pass over each epoch in 20 minibatches, entropy 1e-4, the paper's "
-                    "KL rule, and the LiDAR encoder of the paper's code, two linear strided convolutions; what "
-                    "each setting is: [paper_world.md](paper_world.md)) for the paper's own budget: 75 epochs of "
-                    "32,000 joint steps at noise 0.25, 0.5 and 0.75, and, from the sweep joined below it, 50 "
-                    "epochs at noise 1.0, as the original commands list them. The same training seeds run at "
-                    "every noise level, so the noise trend is tested paired by seed. Six seeds at every level "
-                    "were planned before any was run.",
-            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
-            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            joins=("traffic-lights-preset-noise1", "lidar_noise"), joins_differ=("original_epochs",),
-            headlines=(Headline("stop at red lights, the paper's world, update, network and budget",
-                                "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
-                                "32,000 joint steps (9.6 M decisions, the paper's own run)",
-                                (("lidar_noise", "0.5"),),
-                                ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
-    Section("traffic-lights-preset-noise1", "Stopping at red lights in the paper's world, update and network, "
-            "LiDAR noise 1.0", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_noise", "1.0"),
-             ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
-            "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 preset=paper lidar_encoder=original "
-            "original_epochs=50 --out runs/sweep-lights-paper-net-noise1",
-            setting="The section above at LiDAR noise 1.0 (every ray dropped: the cars see no other car), for the "
-                    "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
-                    "noise-1.0 row, paired by seed with the other levels.",
-            baseline=lights_baselines,
-            statements=(LIGHTS_BASELINE_STATEMENT,),
-            paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
-    Section("traffic-lights-preset-1car", "A lone car in the paper's world, update and network", "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), ("lidar_encoder", "original")),
-            LIGHTS_METRICS, LONE_CAR_CLAIM,
-            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 preset=paper lidar_encoder=original "
-            "original_epochs=75 --out runs/sweep-lights-paper-net-1car",
-            setting=LONE_CAR_SETTING,
-            baseline=lights_baselines, statements=(lone_car_statement,),
-            compare_with=("traffic-lights-preset", (("lidar_noise", "0.25"),)),
-            paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
-    Section("traffic-lights-preset-8cars", "Denser traffic in the paper's world, update and network (8 cars)",
-            "lights",
-            (("num_cars", "8"), ("preset", "paper"), ("approach_order", "random"), ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more cars, fewer cars enter on red (the paper's 8-car run, fine-tuned from its 4-car policy).",
-            f"{SWEEP} lights --seeds 4 --set num_cars=8 lidar_noise=0.5 preset=paper lidar_encoder=original "
-            f"approach_order=random original_epochs=75 init_from={PRESET_8CARS_FROM} "
-            "--out runs/sweep-lights-paper-net-8cars",
-            setting="Each trial fine-tunes, with 8 cars, one 4-car policy of the grid above (its noise-0.5 "
-                    "trial of seed 0) in the paper's world, update and network at LiDAR noise 0.5, each car's "
-                    "arm drawn at random (the original's `balance_cars: false` for its 8-car run), for 75 epochs "
-                    "of 32,000 joint steps: 2.4 M joint steps, 19.2 M car-decisions, 15 % of the original's 500 "
-                    "epochs. Deviations from the original command: it fine-tuned actor and critic of its 4-car "
-                    "noise-0 model; the grid keeps actors alone, so our critic starts fresh, and the grid has no "
-                    "noise-0 row, so the starting policy and the comparison row are both the grid's noise 0.5. "
-                    "Four seeds were planned before any was run.",
-            figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
-            baseline=lights_baselines, statements=(LIGHTS_BASELINE_STATEMENT,),
-            compare_with=("traffic-lights-preset", (("lidar_noise", "0.5"),)),
-            paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8),
-    # the preset's first runs, before it had the paper code's LiDAR encoder: ours, often dead
-    Section("traffic-lights-preset-relu", "Stopping at red lights in the paper's world and update, our LiDAR "
-            "encoder", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_encoder", "relu")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 preset=paper "
-            "lidar_encoder=relu original_epochs=75 --out runs/sweep-lights-preset",
-            setting=f"{RELU_NOTE} Otherwise the section \"Stopping at red lights in the paper's world, update and "
-                    "network\": 4 cars from scratch, `--preset paper`, 75 epochs of 32,000 joint steps at noise "
-                    "0.25, 0.5 and 0.75 and, joined below it, 50 at noise 1.0, the same training seeds at every "
-                    "level. Six seeds at every level were planned; the grid was stopped at 10 of 18 when the "
-                    "dead encoders were found.",
-            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
-            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            joins=("traffic-lights-preset-relu-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
-    Section("traffic-lights-preset-relu-noise1", "Stopping at red lights in the paper's world and update, LiDAR "
-            "noise 1.0, our LiDAR encoder", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_noise", "1.0"),
-             ("lidar_encoder", "relu")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
-            "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 preset=paper lidar_encoder=relu "
-            "original_epochs=50 --out runs/sweep-lights-preset-noise1",
-            setting="The section above at LiDAR noise 1.0 for 50 epochs, with our LiDAR encoder; at noise 1.0 "
-                    "every ray is dropped, so no encoder can see another car.",
-            baseline=lights_baselines,
-            statements=(LIGHTS_BASELINE_STATEMENT,),
-            paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
-    Section("traffic-lights-preset-relu-1car", "A lone car in the paper's world and update, our LiDAR encoder",
-            "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), ("lidar_encoder", "relu")),
-            LIGHTS_METRICS, LONE_CAR_CLAIM,
-            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 preset=paper lidar_encoder=relu "
-            "original_epochs=75 --out runs/sweep-lights-preset-1car",
-            setting=f"{RELU_NOTE} A lone car has no other car to see, so its LiDAR matters less here. "
-                    + LONE_CAR_SETTING,
-            baseline=lights_baselines, statements=(lone_car_statement,),
-            compare_with=("traffic-lights-preset-relu", (("lidar_noise", "0.25"),)),
-            paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
+    *PAPER_WORLD_LIGHTS,
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
             LIGHTS_METRICS,
