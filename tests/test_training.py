@@ -394,3 +394,35 @@ def test_every_behaviour_trains_with_an_algorithm_named_by_its_arguments():
 
     with pytest.raises(TypeError, match="Stranger derives from no algorithm"):
         algorithm_of(Stranger)
+
+
+def test_the_log_says_when_the_actors_lidar_encoder_has_died(tmp_path, capsys):
+    """progress.csv carries the spread of the LiDAR and of the actor's LiDAR features; once the
+    features stop varying while the LiDAR does, one warning says the actor is blind."""
+    from training.evaluation.plots import read_progress
+    from training.runs.progress import RolloutMetrics
+
+    cfg = TrainConfig(env_overrides={"num_cars": 2, "horizon": 8}, n_envs=1, batch_decisions=32,
+                      minibatch=16, epochs=1)
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=2, horizon=8)])
+    # ours forced dead; the paper code's linear one cannot die (ours is also often dead from the start)
+    for encoder, dead in (("relu", True), ("original", False)):
+        out = tmp_path / f"{encoder}{dead}"
+        out.mkdir()
+        model = build_model(dataclasses.replace(cfg, lidar_encoder=encoder), venv)
+        if dead:  # the last ReLU's input negative for every observation: the way ours dies
+            with th.no_grad():
+                model.policy.mlp_extractor.actor_encoder.layer2.bias.fill_(-1e3)
+        from stable_baselines3.common.logger import configure
+        model.set_logger(configure(str(out), ["csv"]))
+        model.learn(96, callback=RolloutMetrics(out, 96, 0.0, 0, checkpoint_every=100, show_bar=False))
+        model.logger.close()
+        log = read_progress(out)
+        assert len(log["rollout/lidar_feature_spread"]) == 3
+        assert min(log["rollout/lidar_input_spread"]) > 1e-3  # the cars see the junction and each other
+        err = capsys.readouterr().err
+        if dead:
+            assert max(log["rollout/lidar_feature_spread"]) < 1e-4
+            assert err.count("its encoder is dead") == 1  # once, not every update
+        else:
+            assert min(log["rollout/lidar_feature_spread"]) > 1e-4 and "dead" not in err

@@ -31,12 +31,11 @@ from typing import Optional
 import numpy as np
 
 from training.common.seeds import SELECTION
+from training.ppo.encoder import BLIND_SPREAD
 from training.runs.run_dir import write_json_atomic
 
 __all__ = ["BLIND_SPREAD", "KEPT_FILE", "LidarUse", "kept_lidar_use", "lidar_use", "main"]
 
-# features that vary less than this across a policy's own observations (LiDAR values span 0-10): blind
-BLIND_SPREAD = 1e-4
 # a kept trial's measurement, beside its weights (``assets/sweeps/weights/NAME/<trial>/``), on this
 # many selection episodes: seeded, so measuring again gives the same numbers
 KEPT_FILE, KEPT_EPISODES = "lidar_use.json", 20

@@ -28,7 +28,8 @@ def read_progress(run_dir: Path) -> Optional[dict[str, np.ndarray]]:
     if not rows:
         return None
     keys = ["time/agent_steps", "time/total_timesteps", "time/wall_s", "rollout/success_rate",
-            "rollout/collision_rate", "rollout/red_light_violation_rate"]
+            "rollout/collision_rate", "rollout/red_light_violation_rate",
+            "rollout/lidar_input_spread", "rollout/lidar_feature_spread"]  # runs before these log nan
     out = {}
     for k in keys:
         out[k] = np.array([float(r[k]) if r.get(k) not in (None, "") else np.nan for r in rows])

@@ -163,6 +163,23 @@ class OriginalLidarEncoder(nn.Module):
         return th.cat([self.conv(lidar).flatten(1), obs[:, n:]], dim=1)
 
 
+# pooled LiDAR features that vary less than this over a policy's own observations (the LiDAR
+# values span 0-10): the encoder passes nothing of what the car sees, the actor is blind
+BLIND_SPREAD = 1e-4
+
+
+def lidar_spread(encoder: "LidarEncoder | OriginalLidarEncoder", obs: th.Tensor) -> tuple[float, float]:
+    """``(inputs, features)``: the largest standard deviation across the rows of ``obs`` (flat
+    observations, LiDAR history first) of its LiDAR columns, and of ``encoder``'s pooled LiDAR
+    features. Features that stay below :data:`BLIND_SPREAD` while the inputs vary: a dead encoder."""
+    if obs.shape[0] < 2:
+        return 0.0, 0.0
+    with th.no_grad():
+        lidar = obs[:, : encoder.history * encoder.n_rays]
+        features = encoder(obs)[:, : encoder.pooled]
+        return float(lidar.std(0).max()), float(features.std(0).max())
+
+
 def make_encoder(kind: str, history: int, n_rays: int, n_satnav: int) -> "LidarEncoder | OriginalLidarEncoder":
     """A LiDAR encoder of the kind named in :data:`ENCODERS` (``ValueError`` otherwise)."""
     if kind == "relu":

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Callable, Optional
 
 import numpy as np
+import torch as th
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.utils import explained_variance
@@ -19,15 +20,23 @@ from box2d_driving.metrics.lights import violation_rate
 from box2d_driving.outputs import GracefulStop
 from box2d_driving.road.lights import NO_LIGHT
 from training.ppo.buffer import MaskedRolloutBuffer
+from training.ppo.encoder import BLIND_SPREAD, lidar_spread
 from training.runs.checkpoint import save_model
 from training.runs.run_dir import set_root_checkpoint
+
+
+# rows of the rollout (evenly spaced over its live cars) the actor's LiDAR encoder is measured on
+SPREAD_ROWS = 2048
 
 
 class RolloutMetrics(BaseCallback):
     """Per update: success, collision and red-light violation rates of the episodes that ended,
     agent-steps (padding excluded), throughput (``time/agent_steps_per_s`` includes the PPO update
-    before the rollout, ``time/rollout_agent_steps_per_s`` is collection only); logged to
-    CSV/TensorBoard; progress bar."""
+    before the rollout, ``time/rollout_agent_steps_per_s`` is collection only), and whether the
+    actor still reads its LiDAR (``rollout/lidar_input_spread`` and ``rollout/lidar_feature_spread``:
+    the largest standard deviation over the rollout's observations of the LiDAR values and of the
+    actor's pooled LiDAR features; features constant while the inputs vary mean a dead encoder, warned
+    of once); logged to CSV/TensorBoard; progress bar."""
 
     model: PPO  # SB3 types it as any algorithm; this callback is given to PPO runs (bilevel's included)
 
@@ -45,6 +54,7 @@ class RolloutMetrics(BaseCallback):
         self.checkpoint_every = checkpoint_every
         self.updates = 0
         self.bar: Any = None  # a tqdm bar from the start of training
+        self.warned_blind = False
 
     def _on_training_start(self) -> None:
         from tqdm import tqdm
@@ -110,6 +120,7 @@ class RolloutMetrics(BaseCallback):
             live = buf.mask
             stats["rollout/explained_variance_live"] = float(
                 explained_variance(buf.values[live], buf.returns[live]))
+            stats.update(self._lidar_spread(buf))
         for k, val in stats.items():
             self.logger.record(k, val)
         self.bar.set_postfix(success=f"{stats['rollout/success_rate']:.2f}",
@@ -120,6 +131,26 @@ class RolloutMetrics(BaseCallback):
         self.updates += 1
         self.last_stats = stats
         self._reset_stats()
+
+    def _lidar_spread(self, buf: MaskedRolloutBuffer) -> dict[str, float]:
+        """The rollout's LiDAR input and actor feature spreads (none for a policy without the
+        actor's encoder); warns once when the features stopped varying while the inputs vary."""
+        net: Any = getattr(self.model.policy, "mlp_extractor", None)
+        encoder = getattr(net, "actor_encoder", None)
+        live = np.flatnonzero(buf.mask.reshape(-1))
+        if encoder is None or len(live) < 2:
+            return {}
+        rows = live[np.linspace(0, len(live) - 1, min(len(live), SPREAD_ROWS)).astype(np.int64)]
+        flat: np.ndarray = np.asarray(buf.observations).reshape(-1, buf.observations.shape[-1])
+        obs = flat[rows][:, : net.obs_dim]
+        inputs, features = lidar_spread(encoder, th.as_tensor(obs, device=self.model.policy.device))
+        if inputs > BLIND_SPREAD and features < BLIND_SPREAD and not self.warned_blind:
+            self.warned_blind = True
+            self.bar.write(f"warning: at {self.num_timesteps:,} decisions the actor's LiDAR features no longer "
+                           f"vary (spread {features:.1e}, the LiDAR's {inputs:.2f}): its encoder is dead and it "
+                           "drives blind to the other cars; `--lidar-encoder original` (linear) cannot die "
+                           "(docs/paper_world.md, \"The LiDAR encoder\")", file=sys.stderr)
+        return {"rollout/lidar_input_spread": inputs, "rollout/lidar_feature_spread": features}
 
     def _on_rollout_start(self) -> None:
         if self.bar is not None:
