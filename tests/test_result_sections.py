@@ -324,3 +324,19 @@ def test_a_preset_sweep_is_shown_only_where_its_presets_settings_match(tmp_path,
     assert main([str(tmp_path / "two.json"), "--out", str(page)]) == 0
     assert "two.json measures no rule of the page" in capsys.readouterr().err
     assert "two.json" not in page.read_text()
+
+
+def test_our_worlds_sections_hold_runs_of_our_encoder_only(tmp_path, capsys):
+    """A summary of before the encoder was recorded ran ours and stays in its section; the same
+    sweep run with today's default (the paper code's encoder, recorded) is no run of that section."""
+    old = _paper_lights(tmp_path, {"0.25": [0.10, 0.12, 0.11], "1.0": [0.08, 0.09, 0.07]})
+    page = tmp_path / "docs" / "results.md"
+    title = "## Stopping at red lights, the noise grid at 2.4 M decisions\n"
+    assert main([str(old), "--out", str(page)]) == 0
+    assert "lights-paper.json" in page.read_text().split(title)[1].split("\n## ")[0]
+    today = json.loads(old.read_text())
+    today["sweep"]["fixed"]["lidar_encoder"] = "original"
+    (tmp_path / "today.json").write_text(json.dumps(today))
+    assert main([str(tmp_path / "today.json"), "--out", str(page)]) == 0
+    assert "Not run yet" in page.read_text().split(title)[1].split("\n## ")[0]
+    assert "today.json measures no rule of the page" in capsys.readouterr().err

@@ -383,3 +383,31 @@ def test_a_stopped_trial_worker_exits_instead_of_printing_an_ignored_system_exit
         assert done.returncode == 3 and "still running" not in done.stdout and "SystemExit" not in done.stderr
     else:  # Python's own behaviour, which the sweep's test saw: a traceback, and the process carries on
         assert done.returncode == 0 and "still running" in done.stdout and "SystemExit" in done.stderr
+
+
+def test_a_sweep_records_the_lidar_encoder_its_trials_build_and_reads_older_ones_as_ours(tmp_path):
+    """Not given, the encoder is recorded (the default, a preset's, or a fine-tune's weights'), so
+    a summary says what it ran with; a sweep from before it was recorded ran ours and is continued
+    only by a sweep that asks for ours."""
+    from training.sweeps.spec import saved_fixed, spec_differences
+
+    cases = ((SweepSpec("lights", grid={"lidar_noise": ["0"]}), "original"),
+             (SweepSpec("lights", fixed={"init_from": str(SHIPPED)}), "relu"),
+             (SweepSpec("lights", fixed={"preset": "paper"}), "original"),
+             (SweepSpec("lights", fixed={"lidar_encoder": "relu"}), "relu"))
+    for spec, encoder in cases:
+        check_spec(spec)
+        assert spec.fixed["lidar_encoder"] == encoder
+    grid = SweepSpec("lights", grid={"lidar_encoder": ["relu", "original"]})
+    check_spec(grid)
+    assert "lidar_encoder" not in grid.fixed
+    old = {"behaviour": "lights", "grid": {"lidar_noise": ["0"]}, "seeds": 3, "fixed": {}, "timesteps": None,
+           "minutes": None, "episodes": 200, "quick": False}  # a sweep.json of before
+    assert saved_fixed(old) == {"lidar_encoder": "relu"}
+    assert saved_fixed({**old, "fixed": {"preset": "paper"}}) == {"preset": "paper", "lidar_encoder": "original"}
+    today = SweepSpec("lights", grid={"lidar_noise": ["0"]})
+    check_spec(today)
+    assert spec_differences(old, today) == ["fixed"]  # would mix encoders: refused
+    ours = SweepSpec("lights", grid={"lidar_noise": ["0"]}, fixed={"lidar_encoder": "relu"})
+    check_spec(ours)
+    assert spec_differences(old, ours) == []

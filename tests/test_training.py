@@ -426,3 +426,44 @@ def test_the_log_says_when_the_actors_lidar_encoder_has_died(tmp_path, capsys):
             assert err.count("its encoder is dead") == 1  # once, not every update
         else:
             assert min(log["rollout/lidar_feature_spread"]) > 1e-4 and "dead" not in err
+
+
+def test_new_runs_build_the_paper_codes_encoder_and_runs_from_before_read_as_ours(tmp_path):
+    """The default encoder is the paper code's (ours can be dead from the start); a run folder
+    from before the choice was recorded is ours, also when resumed under today's default."""
+    from training.runs.weights import weights_encoder
+    from training.runs.checkpoint import read_checkpoint
+    from training.trainers.trainer import read_train_config
+
+    assert TrainConfig().lidar_encoder == "original"
+    out = tmp_path / "old"
+    train(tiny_train_config(lidar_encoder="relu"), out)
+    saved = json.loads((out / "config.json").read_text())
+    del saved["lidar_encoder"]  # as every run of before 2026-12-06 wrote it
+    (out / "config.json").write_text(json.dumps(saved))
+    assert read_train_config(out / "config.json").lidar_encoder == "relu"
+    train(tiny_train_config(timesteps=480), out, resume=True)  # today's default given: the run's own kept
+    assert weights_encoder(read_checkpoint(out).policy) == "relu"
+    assert load_policy(out).act(load_policy(out).make_env().reset(seed=0)[0])
+    train(tiny_train_config(), tmp_path / "new")
+    assert weights_encoder(read_checkpoint(tmp_path / "new").policy) == "original"
+
+
+def test_a_fine_tune_builds_the_encoder_of_the_weights_it_starts_from(tmp_path):
+    from training.behaviours.scripts import ScriptArgs, config_from
+    from training.trainers.trainer import load_weights
+
+    train(tiny_train_config(lidar_encoder="relu"), tmp_path / "ours")
+    train(tiny_train_config(), tmp_path / "papers")
+    for source, encoder in (("ours", "relu"), ("papers", "original")):
+        args = ScriptArgs(out=str(tmp_path / "x"), init_from=str(tmp_path / source))
+        assert config_from("intersection-v0", args).lidar_encoder == encoder
+    # asked for another encoder than the weights': one line saying which to give
+    args = ScriptArgs(out=str(tmp_path / "x"), init_from=str(tmp_path / "ours"), lidar_encoder="original")
+    cfg = config_from("intersection-v0", args)
+    venv = SlotVecEnv([lambda: box2d_driving.make("intersection-v0", num_cars=4)])
+    with pytest.raises(RunError, match="trained with the LiDAR encoder 'relu'.*--lidar-encoder relu"):
+        load_weights(build_model(cfg, venv), tmp_path / "ours")
+    from box2d_driving.config import ConfigError
+    with pytest.raises(ConfigError, match="--init-from"):
+        config_from("intersection-v0", ScriptArgs(out=str(tmp_path / "x"), init_from=str(tmp_path / "nope")))

@@ -76,9 +76,10 @@ class CommonArgs:
         --batch-decisions given keeps the preset's 20 minibatches)
     original_epochs: the budget in the original's unit, epochs of 32,000 joint steps (each num_cars
         slot-decisions); overrides --timesteps
-    lidar_encoder: the networks' LiDAR encoder: relu (ours: 8 channels, kernel 5, ReLU after each
-        convolution) or original (the paper's code: linear, one channel, kernel 4, stride 2; the
-        paper preset's); default: ours, or the preset's
+    lidar_encoder: the networks' LiDAR encoder: original (the paper's code: linear, one channel,
+        kernel 4, stride 2; the default) or relu (ours until 2026-12-06: 8 channels, kernel 5, ReLU
+        after each convolution; its last ReLU can die, leaving the actor blind); default: original,
+        or with --init-from the encoder of those weights
     """
 
     num_cars: int = DrivingConfig.num_cars
@@ -119,6 +120,18 @@ class ScriptArgs(CommonArgs):
     timesteps: int = TrainConfig.timesteps
 
 
+def init_from_encoder(init_from: str) -> str:
+    """The LiDAR encoder of the weights ``--init-from`` names (one :class:`ConfigError` if they
+    cannot be read)."""
+    from training.runs.checkpoint import CheckpointError, read_checkpoint
+    from training.runs.weights import weights_encoder
+
+    try:
+        return weights_encoder(read_checkpoint(init_from).policy)
+    except CheckpointError as exc:
+        raise ConfigError(f"--init-from: {exc}") from None
+
+
 def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
     """The :class:`TrainConfig` a behaviour script's arguments ask for on ``env_id``: env settings
     from the flags, the rest as given (``timesteps``: instead of ``args.timesteps``)."""
@@ -153,6 +166,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
             cfg.ent_coef = args.ent_coef
     if args.lidar_encoder is not None:
         cfg.lidar_encoder = args.lidar_encoder
+    elif args.preset is None and args.init_from:  # a fine-tune builds the encoder of its weights
+        cfg.lidar_encoder = init_from_encoder(args.init_from)
     if args.original_epochs is not None:
         if args.original_epochs < 1:
             raise ConfigError(f"--original-epochs must be >= 1, got {args.original_epochs}")

@@ -43,6 +43,9 @@ from box2d_driving.policies.numpy_actor import (CHANNELS, KERNEL, ORIGINAL_KERNE
 
 # the LiDAR encoders an actor and critic may have: ours (ReLU, 8 channels) and the paper code's
 ENCODERS = ("relu", "original")
+# the encoder of runs, sweeps and shipped policies from before ``lidar_encoder`` was recorded
+# (ours was the only one, then the default, until 2026-12-06)
+LEGACY_LIDAR_ENCODER = "relu"
 
 
 class CircularConv1d(nn.Conv1d):

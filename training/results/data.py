@@ -12,6 +12,7 @@ from typing import Any, Optional, Union
 import numpy as np
 
 from training.common.seeds import REPORT
+from training.sweeps.spec import saved_fixed
 from training.evaluation.figure_data import to_majority_side
 from box2d_driving.metrics.stats import Estimate, mean_ci
 
@@ -149,6 +150,8 @@ def load_summary(path: Path) -> dict[str, Any]:
         if not isinstance(first, int) or not isinstance(n, int) or first not in REPORT or first + n - 1 not in REPORT:
             raise ResultsError(f"{path}: trial {row.get('trial')} was evaluated on episodes {first}.. "
                                f"({n} of them), not on report seeds ({REPORT.describe()})")
+    # a sweep from before the LiDAR encoder was recorded ran with the one its time built
+    sweep = {**sweep, "fixed": saved_fixed(sweep)}
     return {"path": str(path), "sweep": sweep, "grid": grid, "trials": trials}
 
 

@@ -9,12 +9,14 @@ section's ``setting`` says so on the page.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Optional
 
 from training.evaluation import figure_data as fd
 from training.results.baselines import light_blind_rates, lights_baselines, scripted_baselines
 from training.results.data import Baseline, Group, PaperValue
 from training.results.figures import bars_figure, distribution_figure, lights_figure
+from training.ppo.encoder import LEGACY_LIDAR_ENCODER
 from training.results.page_section import IN_GRID, Headline, Section
 from training.results.paper_world_sections import PAPER_WORLD_LIGHTS
 from training.results.rule_parts import (COMMUNICATION_BASELINE, COMMUNICATION_BUDGET, COMMUNICATION_CLAIM,
@@ -37,13 +39,14 @@ __all__ = ["IN_GRID", "Headline", "PaperValue", "SECTIONS", "Section", "section"
 # the privileged crosswalk driver (reads every pedestrian from the world): a reference, not a rule-free baseline
 ORACLE = "pedestrian-oracle"
 
-SECTIONS: tuple[Section, ...] = (
+# our default world's sections (the paper-world ones are in training/results/paper_world_sections.py)
+_OURS_LIGHTS: tuple[Section, ...] = (
     Section("traffic-lights", "Stopping at red lights", "lights", (("init_from", "false"),),
             LIGHTS_METRICS,
             "With one car the light is ignored; with more cars and more LiDAR noise, fewer cars enter "
             "on red (the paper shows this as histograms, without numbers).",
             f"{SWEEP} lights --grid lidar_noise=0,0.25,0.5,0.75 num_cars=1,4,8 --seeds 3 --timesteps 991552 "
-            "--out runs/sweep-lights",
+            "--set lidar_encoder=relu --out runs/sweep-lights",
             setting="Each trial trains from scratch for as many decisions as the shipped 4-car noise-0.5 "
                     "policy did.",
             figure=lights_figure, baseline=light_blind_rates, statements=(lights_statement,),
@@ -61,8 +64,8 @@ SECTIONS: tuple[Section, ...] = (
             (("init_from", "false"), ("num_cars", "4")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 6 --timesteps 2400000 --set num_cars=4 "
-            "--out runs/sweep-lights-paper",
+            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75,1.0 --seeds 6 --timesteps 2400000 "
+            "--set lidar_encoder=relu num_cars=4 --out runs/sweep-lights-paper",
             setting="Each trial trains 4 cars from scratch at the paper's noise levels: LiDAR noise 0.25, 0.5, 0.75 "
                     "and 1.0 (the share of LiDAR rays dropped at every decision: at 1.0 the cars see no other car "
                     "and have only "
@@ -79,12 +82,13 @@ SECTIONS: tuple[Section, ...] = (
                                 "4 cars, LiDAR noise 1.0, 2.4 M decisions (a quarter of the paper's joint steps), "
                                 "entropy 0.01",
                                 (("lidar_noise", "1.0"),), ("red_light_violation_rate", "success_rate")),)),
-    *PAPER_WORLD_LIGHTS,
+)
+_OURS_REST: tuple[Section, ...] = (
     Section("denser-traffic", "Denser traffic (8 cars, from the 4-car policy)", "lights",
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"),),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
-            f"{SWEEP} lights --seeds 3 --timesteps 991552 --set num_cars=8 lidar_noise=0.5 "
+            f"{SWEEP} lights --seeds 3 --timesteps 991552 --set lidar_encoder=relu num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lights-8cars",
             setting="8 cars from scratch do not learn to arrive within the grid's budget (above), so each "
                     "trial fine-tunes the shipped 4-car noise-0.5 policy with 8 cars at noise 0.5, for the grid's "
@@ -100,7 +104,7 @@ SECTIONS: tuple[Section, ...] = (
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"), ("timesteps", "2400000")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
-            f"{SWEEP} lights --seeds 3 --timesteps 2400000 --set num_cars=8 lidar_noise=0.5 "
+            f"{SWEEP} lights --seeds 3 --timesteps 2400000 --set lidar_encoder=relu num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --out runs/sweep-lights-8cars-paper",
             setting="The denser-traffic fine-tune above, for 2.4 M decisions (the paper's 4-car epoch count as "
                     "updates of 32,000 car-decisions, a quarter of its 4-car joint steps; its 8-car runs "
@@ -113,7 +117,7 @@ SECTIONS: tuple[Section, ...] = (
             (("init_from", "assets/policies/traffic_lights_4cars_noise05"), ("timesteps", "16000000")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red.",
-            f"{SWEEP} lights --seeds 8 --timesteps 16000000 --set num_cars=8 lidar_noise=0.5 "
+            f"{SWEEP} lights --seeds 8 --timesteps 16000000 --set lidar_encoder=relu num_cars=8 lidar_noise=0.5 "
             "init_from=assets/policies/traffic_lights_4cars_noise05 --cpus-per-trial 2 --max-concurrent 1 "
             "--out runs/sweep-lights-8cars-16M",
             setting="The denser-traffic fine-tune above for 500 updates of 32,000 car-decisions (16 M), the "
@@ -137,7 +141,7 @@ SECTIONS: tuple[Section, ...] = (
             "paths converge to a roundabout motion; with more agents they follow lanes, and agents trained at a "
             "higher density follow two lanes on one side of the road only. The paper gives no car counts for "
             "that figure (its experiment list runs 4 and 8 cars); this sweep sets 2 cars against 8.",
-            f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_noise=0.5 rounds=48 "
+            f"{SWEEP} lanes --grid num_cars=2,8 --seeds 3 --set lidar_encoder=relu lidar_noise=0.5 rounds=48 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--out runs/sweep-lanes",
             setting="Each trial is the shipped lanes run, for as many bilevel rounds as the shipped run "
@@ -153,7 +157,7 @@ SECTIONS: tuple[Section, ...] = (
                        Headline("no lanes with few cars", "2 cars, LiDAR noise 0.5", (("num_cars", "2"),),
                                 ("lanes.majority_share", ONE_SIDED)))),
     lanes_4_vs_8("lanes-paper", "Lanes, 4.8 M decisions (150 rounds)", (("rounds", "150"),),
-                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=150 "
+                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_encoder=relu lidar_noise=0.5 rounds=150 "
                  "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--out runs/sweep-lanes-paper",
                  setting="The lanes run above with the paper's car counts (4 and 8) for 150 bilevel rounds, each "
@@ -165,7 +169,7 @@ SECTIONS: tuple[Section, ...] = (
                          + ONE_SIDED_WORDS),
     lanes_4_vs_8("lanes-paper-16M", "Lanes, 16 M decisions (500 rounds)",
                  (("rounds", "500"),),
-                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_noise=0.5 rounds=500 "
+                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 4 --set lidar_encoder=relu lidar_noise=0.5 rounds=500 "
                  "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-paper-16M",
                  setting="The 150-round lanes run above (4 and 8 cars, LiDAR noise 0.5, the same training seeds) "
@@ -191,7 +195,7 @@ SECTIONS: tuple[Section, ...] = (
             "Lanes emerge with more perception noise: the cars keep to lanes more consistently at LiDAR noise "
             "0.25 and 0.5 than with perfect perception; past a threshold (its 0.75 run) training converges "
             "poorly. Its spatial plot of 8 cars with perfect perception shows two lanes on the right.",
-            f"{SWEEP} lanes --grid num_cars=8,4 lidar_noise=0,1.0 --seeds 4 --set rounds=150 "
+            f"{SWEEP} lanes --grid num_cars=8,4 lidar_noise=0,1.0 --seeds 4 --set lidar_encoder=relu rounds=150 "
             "spline_updates_per_round=2 init_from=assets/policies/traffic_lights_4cars_noise05 "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-noise01",
             setting="The 150-round lanes run above (150 bilevel rounds, 4.8 M decisions) at LiDAR noise 0 "
@@ -215,7 +219,7 @@ SECTIONS: tuple[Section, ...] = (
                             for noise in ("0", "1.0"))),
     lanes_4_vs_8("lanes-joint", "Lanes with the paper's single 216-way path choice",
                  (("rounds", "150"), ("spline_action", "joint")),
-                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_noise=0.5 rounds=150 "
+                 f"{SWEEP} lanes --grid num_cars=8,4 --seeds 3 --set lidar_encoder=relu lidar_noise=0.5 rounds=150 "
                  "spline_updates_per_round=2 spline_action=joint "
                  "init_from=assets/policies/traffic_lights_4cars_noise05 "
                  "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-lanes-joint",
@@ -226,8 +230,9 @@ SECTIONS: tuple[Section, ...] = (
                          "run one after the other, both car counts per seed, so a summary holds the trials "
                          "finished so far. " + ONE_SIDED_WORDS),
     right_of_way("right-of-way", "Right of way and safe distance", (),
-            f"{SWEEP} real-junction --seeds 6 --timesteps 5984128 --set num_cars=8 collision_reward=-3 "
-            "ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --out runs/sweep-real-junction",
+            f"{SWEEP} real-junction --seeds 6 --timesteps 5984128 --set lidar_encoder=relu num_cars=8 "
+            "collision_reward=-3 ent_coef=0.0001 init_from=assets/policies/real_junction_8cars "
+            "--out runs/sweep-real-junction",
             setting="Each trial repeats the last stage of the shipped `real_junction_8cars_collision3`: "
                     "from the shipped 8-car base policy, collision reward -3, as many decisions as that "
                     "stage took; the seeds vary this stage only. " + SAFE_SHORTFALL_WORDS,
@@ -238,9 +243,9 @@ SECTIONS: tuple[Section, ...] = (
                                  "collision_rate"), in_readme=True),)),
     right_of_way("right-of-way-paper-32M", "Right of way and safe distance, 32 M decisions",
             (("timesteps", "32000000"),),
-            f"{SWEEP} real-junction --seeds 3 --timesteps 32000000 --set num_cars=8 collision_reward=-3 "
-            "ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --cpus-per-trial 2 --max-concurrent 1 "
-            "--out runs/sweep-real-junction-32M",
+            f"{SWEEP} real-junction --seeds 3 --timesteps 32000000 --set lidar_encoder=relu num_cars=8 "
+            "collision_reward=-3 ent_coef=0.0001 init_from=assets/policies/real_junction_8cars --cpus-per-trial 2 "
+            "--max-concurrent 1 --out runs/sweep-real-junction-32M",
             paper_joint_steps=32_000_000, cars=8,
             setting="The right-of-way runs above for 32 M decisions per trial instead of the shipped stage's 6 M "
                     "(the paper's 1,000 epochs are 32 M joint steps, each a decision of every car still driving: "
@@ -252,7 +257,7 @@ SECTIONS: tuple[Section, ...] = (
             COMMUNICATION_METRICS,
             COMMUNICATION_CLAIM,
             f"{SWEEP} real-junction --grid lidar_noise=0,0.25,0.5,0.75 --seeds 3 --timesteps 5887232 "
-            "--set communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
+            "--set lidar_encoder=relu communication=true num_cars=8 init_from=assets/policies/real_junction_8cars "
             "--out runs/sweep-communication",
             setting="Each trial widens the shipped 8-car base policy to the 1-bit message and trains as "
                     "many decisions as the shipped noise-0.5 communication policy did (entropy 0.01 at "
@@ -269,7 +274,7 @@ SECTIONS: tuple[Section, ...] = (
                             for noise in ("0", "0.25", "0.5", "0.75"))),
     turn_signals_12_cars("communication-paper", "Turn signals at the paper's car count (12 cars)", (),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 3 --timesteps 5887232 "
-            "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
+            "--set lidar_encoder=relu communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars",
             setting="The turn-signal runs above with the paper's 12 cars and its three LiDAR noise levels "
                     "(0, 0.5, 0.75), with learning curves: each trial widens the shipped 8-car base policy "
@@ -280,7 +285,7 @@ SECTIONS: tuple[Section, ...] = (
     turn_signals_12_cars("communication-paper-16M", "Turn signals, 12 cars, 16 M decisions",
             (("timesteps", "16000000"),),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 6 --timesteps 16000000 "
-            "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
+            "--set lidar_encoder=relu communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-16M",
             seeds_before_look=3,
             setting="The 12-car turn-signal runs above trained 2.7 times as long: 16 M decisions per trial, 1.3 M "
@@ -294,7 +299,7 @@ SECTIONS: tuple[Section, ...] = (
     turn_signals_12_cars("communication-paper-32M", "Turn signals, 12 cars, 32 M decisions",
             (("timesteps", "32000000"),),
             f"{SWEEP} real-junction --grid lidar_noise=0,0.5,0.75 --seeds 4 --timesteps 32000000 "
-            "--set communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
+            "--set lidar_encoder=relu communication=true num_cars=12 init_from=assets/policies/real_junction_8cars "
             "--cpus-per-trial 2 --max-concurrent 1 --out runs/sweep-communication-12cars-32M",
             paper_joint_steps=32_000_000, cars=12, seeds_before_look=3,
             setting="The 12-car turn-signal runs above for 32 M decisions per trial (the paper's 1,000 epochs "
@@ -319,7 +324,7 @@ SECTIONS: tuple[Section, ...] = (
              ("fast_lanes.pearson_r", "Pearson(rating, lateral), signed (below 0: fast cars on the right)"),
              ("success_rate", "success")),
             "Faster cars keep to one side of the highway.",
-            f"{SWEEP} fast-lanes --seeds 3 --set num_cars=10 rounds=34 spline_updates_per_round=2 "
+            f"{SWEEP} fast-lanes --seeds 3 --set lidar_encoder=relu num_cars=10 rounds=34 spline_updates_per_round=2 "
             "--out runs/sweep-fast-lanes",
             setting="Each trial is the shipped fast-lanes run from scratch, for as many bilevel rounds as "
                     "the shipped run reached.",
@@ -336,7 +341,7 @@ SECTIONS: tuple[Section, ...] = (
             (("pedestrian_collision_rate", "pedestrian collisions"), ("safe_stopping_share", "safe-stopping share"),
              ("share_more_than_6m", "samples > 6 m from the pedestrian"), ("success_rate", "success")),
             "Most cars keep more than the speed-matching distance from pedestrians (more than 6 m).",
-            f"{SWEEP} crosswalk --seeds 3 --timesteps 8305216 --set crosswalk_in_satnav=true "
+            f"{SWEEP} crosswalk --seeds 3 --timesteps 8305216 --set lidar_encoder=relu crosswalk_in_satnav=true "
             "collision_reward=-6 ent_coef=0.001 init_from=assets/policies/crosswalk_4cars_satnav "
             "--out runs/sweep-crosswalk",
             setting="Each trial fine-tunes the shipped `crosswalk_4cars_satnav` (trained at the paper's "
@@ -365,6 +370,16 @@ SECTIONS: tuple[Section, ...] = (
                                 in_readme=True),)),
 )
 
+
+
+def _ours(sections: tuple[Section, ...]) -> tuple[Section, ...]:
+    """``sections`` of our default world, whose runs were built with our LiDAR encoder (``relu``,
+    the default until 2026-12-06; their commands say ``lidar_encoder=relu``): a run with the paper
+    code's encoder, now the default, is not counted among them."""
+    return tuple(dataclasses.replace(s, match=(*s.match, ("lidar_encoder", LEGACY_LIDAR_ENCODER))) for s in sections)
+
+
+SECTIONS: tuple[Section, ...] = (*_ours(_OURS_LIGHTS), *PAPER_WORLD_LIGHTS, *_ours(_OURS_REST))
 
 def section(key: str) -> Section:
     """The section with this key; ``KeyError`` naming the known keys."""

@@ -30,6 +30,13 @@ class WeightsError(ValueError):
     """The checkpoint's network cannot be carried over to this model."""
 
 
+def weights_encoder(state: dict[str, th.Tensor]) -> str:
+    """The LiDAR encoder a policy's weights were built with: ``original`` (the paper code's: its
+    second convolution is ``conv.1``, with no ReLU between) or ``relu`` (ours: ``conv.2``)."""
+    original = any(k.endswith("actor_encoder.conv.1.weight") for k in state)
+    return "original" if original else "relu"
+
+
 def source_fields(checkpoint_dir: Path) -> tuple[str, ...]:
     """Sat-nav field names of the env a checkpoint folder was trained on (from its config.json)."""
     path = checkpoint_dir / "config.json"

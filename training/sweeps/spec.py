@@ -71,6 +71,7 @@ class SweepSpec:
 def spec_differences(saved: dict, spec: "SweepSpec") -> list[str]:
     """The settings in which a saved sweep (``sweep.json``, a summary's ``sweep``) differs from ``spec``."""
     mine = json.loads(json.dumps(dataclasses.asdict(spec)))
+    saved, mine = {**saved, "fixed": saved_fixed(saved)}, {**mine, "fixed": saved_fixed(mine)}
     return [k for k in mine if saved.get(k) != mine[k]]
 
 
@@ -84,7 +85,7 @@ def extension_differences(saved: dict, spec: "SweepSpec") -> list[str]:
     larger budget, one entry per culprit (empty: it can): every setting the same but the number of
     seeds and a larger budget (``timesteps``, or the fixed ``rounds`` of a bilevel sweep)."""
     mine = json.loads(json.dumps(dataclasses.asdict(spec)))
-    old_fixed, new_fixed = dict(saved.get("fixed") or {}), dict(mine["fixed"])
+    old_fixed, new_fixed = saved_fixed(saved), saved_fixed(mine)
     out = [k for k in mine if k not in ("seeds", "timesteps", "fixed") and saved.get(k) != mine[k]]
     old_budget = (saved.get("timesteps"), old_fixed.pop("rounds", None))
     new_budget = (mine["timesteps"], new_fixed.pop("rounds", None))
@@ -172,6 +173,7 @@ def check_spec(spec: SweepSpec) -> None:
     overlap = set(spec.grid) & set(spec.fixed)
     if overlap:
         raise SweepError(f"{', '.join(sorted(overlap))} both in --grid and --set")
+    encoders = set()
     for trial in spec.trials():
         argv = trial["argv"] + ["--out", "unused"]
         try:
@@ -179,6 +181,26 @@ def check_spec(spec: SweepSpec) -> None:
         except SystemExit:  # argparse has printed which option and value
             raise SweepError(f"trial {trial['name']}: its options do not parse: {' '.join(argv)}") from None
         try:
-            trainer.config(script.ENV_ID, args)
+            config = trainer.config(script.ENV_ID, args)
         except ValueError as exc:
             raise SweepError(f"trial {trial['name']}: {exc}") from None
+        encoders.add(getattr(getattr(config, "accel", config), "lidar_encoder", None))
+    # the encoder its trials build, recorded though not given: a summary says what it ran with,
+    # whatever a later default is (saved_fixed reads sweeps from before this)
+    if "lidar_encoder" not in spec.grid and "lidar_encoder" not in spec.fixed and len(encoders) == 1 \
+            and None not in encoders:
+        spec.fixed["lidar_encoder"] = str(encoders.pop())
+
+
+def saved_fixed(saved: dict) -> dict[str, str]:
+    """The fixed options of a saved sweep (``sweep.json``, a summary's ``sweep``), with the LiDAR
+    encoder of one from before it was recorded: ours (``relu``, the default then), or its
+    preset's."""
+    from training.ppo.encoder import LEGACY_LIDAR_ENCODER
+    from training.trainers.presets import TRAINING_PRESETS
+
+    fixed = dict(saved.get("fixed") or {})
+    if "lidar_encoder" not in fixed and "lidar_encoder" not in (saved.get("grid") or {}):
+        preset = TRAINING_PRESETS.get(str(fixed.get("preset")))
+        fixed["lidar_encoder"] = preset.lidar_encoder if preset is not None else LEGACY_LIDAR_ENCODER
+    return fixed

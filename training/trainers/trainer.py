@@ -43,6 +43,7 @@ from training.runs.inference import find_config
 from box2d_driving.config import ConfigError
 from box2d_driving.fields import check_bounds, coerce_fields
 from box2d_driving.outputs import GracefulStop
+from training.ppo.encoder import LEGACY_LIDAR_ENCODER
 from training.ppo.policy import CRITICS, ENCODERS, CTDEPolicy, policy_kwargs_for
 from training.ppo.overlapped import OverlappedPPO
 from training.common.seeds import MAX_RUN_SEED, TRAINING
@@ -51,7 +52,7 @@ from training.runs.progress import RolloutMetrics, save_checkpoint
 from training.ppo.original_update import ActorStopAdam, KLWatch
 from training.ppo.vec_env import TRANSPORTS, SlotVecEnv, make_vec_env_from
 from training.ppo.workers import worker_processes
-from training.runs.weights import WeightsError, source_fields, widen_state_dict
+from training.runs.weights import WeightsError, source_fields, weights_encoder, widen_state_dict
 
 
 @dataclass
@@ -75,10 +76,13 @@ class TrainConfig:
         learning_rate, gamma, gae_lambda, clip_range, target_kl: PPO settings (the paper's).
         ent_coef: entropy bonus (a resumed run takes the value given now).
         critic: ``mean`` (one team value, the paper) or ``own+mean``.
-        lidar_encoder: the actor's and critic's LiDAR encoder: ``relu`` (ours: two circular
-            convolutions of 8 channels, kernel 5, ReLU after each) or ``original`` (the paper's
-            code: two linear strided convolutions to one channel; the ``paper`` preset's). Ours can
-            end with its one-channel ReLU dead, the actor then blind to its LiDAR.
+        lidar_encoder: the actor's and critic's LiDAR encoder: ``original`` (the paper's code:
+            two linear strided convolutions to one channel; the default since 2026-12-06) or
+            ``relu`` (ours before: two circular convolutions of 8 channels, kernel 5, ReLU after
+            each; runs and shipped policies from before are read as it). Ours can end, or even
+            start, with its one-channel ReLU dead, the actor then blind to its LiDAR
+            (docs/paper_world.md, "The LiDAR encoder"). A fine-tune (``init_from``) must build
+            the encoder of the weights it starts from.
         checkpoint_every: updates between checkpoints.
         threads: torch CPU threads (None: while collecting rollouts the cores the env worker
             processes leave free, during the update every core, as the workers wait then).
@@ -130,7 +134,7 @@ class TrainConfig:
     target_kl: Optional[float] = 0.2
     ent_coef: float = 0.01
     critic: str = "mean"
-    lidar_encoder: str = "relu"
+    lidar_encoder: str = "original"
     checkpoint_every: int = 10
     threads: Optional[int] = None
     num_cpus: int = 0
@@ -305,13 +309,14 @@ def read_train_config(path: Path) -> TrainConfig:
     defaults; fields it dropped are ignored)."""
     saved = json.loads(Path(path).read_text())
     known = {f.name for f in dataclasses.fields(TrainConfig)}
-    return TrainConfig(**{k: v for k, v in saved.items() if k in known})
+    # a run from before the choice existed was built with ours (the default then)
+    return TrainConfig(**{"lidar_encoder": LEGACY_LIDAR_ENCODER, **{k: v for k, v in saved.items() if k in known}})
 
 
 def resumed_config(out: Path, config: TrainConfig) -> TrainConfig:
-    """The model settings of a resumed run: the first leg's (``config.json``), with the entropy
-    bonus, the number of env instances and how they run (workers, transport, overlap, threads,
-    device) given now."""
+    """The model settings of a resumed run: the first leg's (``config.json``: its LiDAR encoder
+    too, whatever the default now is), with the entropy bonus, the number of env instances and how
+    they run (workers, transport, overlap, threads, device) given now."""
     first = read_train_config(out / "config.json")
     return dataclasses.replace(first, ent_coef=config.ent_coef, n_envs=config.n_envs,
                                threads=config.threads, num_cpus=config.num_cpus, device=config.device,
@@ -427,6 +432,10 @@ def load_weights(model: PPO, checkpoint: Path) -> bool:
         raise RunError(f"--init-from: {exc}") from None
     path = source.path
     full, theirs = model.policy.state_dict(), source.policy
+    built, given = weights_encoder(full), weights_encoder(theirs)
+    if built != given:
+        raise RunError(f"--init-from: {path} was trained with the LiDAR encoder {given!r} and this run builds "
+                       f"{built!r}; give --lidar-encoder {given} (sweeps: lidar_encoder={given})")
     actor_keys = {k for k in full if is_actor_key(k)}
     with_critic = full.keys() == theirs.keys()
     if not with_critic and theirs.keys() != actor_keys:
