@@ -57,3 +57,26 @@ def test_the_page_counts_blind_actors_per_grid_point_from_their_kept_measurement
     noise1 = blind_line({"path": str(tmp_path / "grid.json"), "trials": trials[:2],
                          "sweep": {"fixed": {"lidar_noise": "1.0"}}}, [])
     assert noise1 is not None and "1 of 2 blind (at LiDAR noise 1.0 every ray is dropped" in noise1
+
+
+def test_the_page_says_whether_the_policy_a_fine_tune_starts_from_is_blind(tmp_path):
+    """A blind starting policy (a dead unit stays dead) is said, and whether the trials' own
+    actors were kept to tell; a policy whose features vary, or no ``init_from``, says no more."""
+    from training.results.lidar_blind import start_line
+
+    def start(name, spread):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "model.safetensors").write_bytes(b"")  # measured already: the file beside it is read
+        (folder / "lidar_use.json").write_text(json.dumps({"encoder": "relu", "decisions": 100,
+                                                           "feature_spread": spread, "actions_changed": 0.0}))
+        return {"sweep": {"fixed": {"init_from": str(folder)}}}
+
+    blind = start("blind", 1.2e-5)
+    line = start_line(blind, kept=0)
+    assert line is not None and "**blind**" in line and "1.2e-05" in line and "is not known" in line
+    assert "measured below" in start_line(blind, kept=3)
+    seeing = start_line(start("seeing", 8.7e-3), kept=0)
+    assert seeing is not None and "features vary" in seeing and "blind" not in seeing
+    assert start_line({"sweep": {"fixed": {}}}, kept=0) is None
+    assert start_line({"sweep": {"fixed": {"init_from": str(tmp_path / "gone")}}}, kept=0) is None

@@ -3,7 +3,9 @@
 An actor whose LiDAR encoder went dead drives blind to the other cars (docs/paper_world.md, "The
 LiDAR encoder"); a reader weighing a claim about LiDAR noise needs to know how many of the trials
 behind a row are such actors. Each finished trial with kept weights is measured once by
-:func:`training.evaluation.lidar_use.kept_lidar_use` (the result kept beside its weights).
+:func:`training.evaluation.lidar_use.kept_lidar_use` (the result kept beside its weights), and so
+is the policy a fine-tune starts from: a dead unit passes no gradient, so a fine-tune of a blind
+actor is blind too unless something revives it.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Optional
 
-__all__ = ["blind_line"]
+__all__ = ["blind_line", "start_line"]
 
 
 def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
@@ -48,3 +50,24 @@ def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
             + (" (at LiDAR noise 1.0 every ray is dropped: every actor is blind there by design)" if all_dropped
                else "") + ".")
 
+
+def start_line(summary: dict[str, Any], kept: int) -> Optional[str]:
+    """Whether the policy the trials of ``summary`` fine-tune (its fixed ``init_from``, where that
+    is a flat policy's folder here) uses its LiDAR; None for trials trained from scratch. ``kept``:
+    how many of the trials' own final weights are kept (measured in :func:`blind_line`'s line)."""
+    from training.evaluation.lidar_use import KEPT_EPISODES, kept_lidar_use
+
+    start = summary.get("sweep", {}).get("fixed", {}).get("init_from")
+    use = kept_lidar_use(Path(start)) if start and Path(start).is_dir() else None
+    if use is None:
+        return None
+    measured = (f"`box2d-driving lidar-use`, {KEPT_EPISODES} selection episodes: LiDAR feature spread "
+                f"{use.feature_spread:.1e}, an empty scan changes {100 * use.actions_changed:.1f} % of its actions; "
+                "[why](paper_world.md#the-lidar-encoder)")
+    if use.blind:
+        return (f"These trials start from `{start}`, whose actor is **blind** to its LiDAR ({measured}): its "
+                "encoder's last unit is dead or nearly so. A dead unit passes no gradient and stays dead; a nearly "
+                "dead one may revive in training. " + (
+                    "The trials' own kept actors are measured below." if kept else
+                    "Their own final weights were not kept, so whether these actors see the other cars is not known."))
+    return f"These trials start from `{start}`, whose actor's LiDAR features vary ({measured})."

@@ -29,7 +29,7 @@ from training.results.readme import README_START, readme_table, readme_text, upd
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
 from training.results.figures import COMPARED
 from training.results.data import Group, ResultsError, grid_product, groups_of, load_summary
-from training.results.lidar_blind import blind_line
+from training.results.lidar_blind import blind_line, start_line
 from training.results.reevaluate import kept_count
 from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
 from training.results.sections import SECTIONS, PaperValue, Section, statements
@@ -196,9 +196,10 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
         cells += [_estimate_cell(g.estimates[m], g.seeds, section.seeds_before_look) for m in metrics]
         parts.append(row(cells))
     parts.append("")
-    blind = blind_line(summary, keys) if section.behaviour == "lights" else None
-    if blind:
-        parts += [blind, ""]
+    blind = blind_line(summary, keys)
+    for line in (start_line(summary, kept), blind):
+        if line:
+            parts += [line, ""]
     if section.seeds_before_look is not None and any(s >= section.seeds_before_look for g in groups for s in g.seeds):
         parts += [f"Values marked {ADDED_MARK} are of seeds added after an interim look at the results (seeds "
                   f"0-{section.seeds_before_look - 1} were planned first; the setting above says why more were "
