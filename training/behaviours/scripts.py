@@ -120,16 +120,17 @@ class ScriptArgs(CommonArgs):
     timesteps: int = TrainConfig.timesteps
 
 
-def init_from_encoder(init_from: str) -> str:
-    """The LiDAR encoder of the weights ``--init-from`` names (one :class:`ConfigError` if they
-    cannot be read)."""
+def init_from_encoder(init_from: str) -> Optional[str]:
+    """The LiDAR encoder of the weights ``--init-from`` names; None where they cannot be read (the
+    trainer then refuses them, naming why, before it writes anything: in a sweep that trial fails
+    alone)."""
     from training.runs.checkpoint import CheckpointError, read_checkpoint
     from training.runs.weights import weights_encoder
 
     try:
         return weights_encoder(read_checkpoint(init_from).policy)
-    except CheckpointError as exc:
-        raise ConfigError(f"--init-from: {exc}") from None
+    except CheckpointError:
+        return None
 
 
 def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) -> TrainConfig:
@@ -167,7 +168,7 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
     if args.lidar_encoder is not None:
         cfg.lidar_encoder = args.lidar_encoder
     elif args.preset is None and args.init_from:  # a fine-tune builds the encoder of its weights
-        cfg.lidar_encoder = init_from_encoder(args.init_from)
+        cfg.lidar_encoder = init_from_encoder(args.init_from) or cfg.lidar_encoder
     if args.original_epochs is not None:
         if args.original_epochs < 1:
             raise ConfigError(f"--original-epochs must be >= 1, got {args.original_epochs}")
