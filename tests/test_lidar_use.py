@@ -79,4 +79,8 @@ def test_the_page_says_whether_the_policy_a_fine_tune_starts_from_is_blind(tmp_p
     seeing = start_line(start("seeing", 8.7e-3), kept=0)
     assert seeing is not None and "features vary" in seeing and "blind" not in seeing
     assert start_line({"sweep": {"fixed": {}}}, kept=0) is None
+    scratch = start_line({"sweep": {"fixed": {"lidar_encoder": "relu"}}}, kept=0)
+    assert scratch is not None and "from scratch with our LiDAR encoder" in scratch and "not known" in scratch
+    assert start_line({"sweep": {"fixed": {"lidar_encoder": "relu"}}}, kept=2) is None  # counted below
+    assert start_line({"sweep": {"fixed": {"lidar_encoder": "original"}}}, kept=0) is None
     assert start_line({"sweep": {"fixed": {"init_from": str(tmp_path / "gone")}}}, kept=0) is None

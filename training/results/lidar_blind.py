@@ -53,11 +53,18 @@ def blind_line(summary: dict[str, Any], keys: list[str]) -> Optional[str]:
 
 def start_line(summary: dict[str, Any], kept: int) -> Optional[str]:
     """Whether the policy the trials of ``summary`` fine-tune (its fixed ``init_from``, where that
-    is a flat policy's folder here) uses its LiDAR; None for trials trained from scratch. ``kept``:
-    how many of the trials' own final weights are kept (measured in :func:`blind_line`'s line)."""
+    is a flat policy's folder here) uses its LiDAR; for trials from scratch with our encoder and
+    no kept weights, that their LiDAR use is unknown; else None. ``kept``: how many of the trials'
+    own final weights are kept (measured in :func:`blind_line`'s line)."""
     from training.evaluation.lidar_use import KEPT_EPISODES, kept_lidar_use
 
-    start = summary.get("sweep", {}).get("fixed", {}).get("init_from")
+    fixed = summary.get("sweep", {}).get("fixed", {})
+    start = fixed.get("init_from")
+    if not start and fixed.get("lidar_encoder") == "relu" and not kept:
+        return ("These trials start from scratch with our LiDAR encoder (`lidar_encoder=relu`), whose last unit "
+                "is dead from the start for 6 of 20 training seeds in the 4-car lights world and can die in "
+                "training ([why](paper_world.md#the-lidar-encoder)); their final weights were not kept, so how "
+                "many of these actors see the other cars is not known.")
     use = kept_lidar_use(Path(start)) if start and Path(start).is_dir() else None
     if use is None:
         return None
