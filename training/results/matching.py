@@ -10,21 +10,14 @@ from typing import Any, Optional
 
 from training.results.data import Group, Metric, as_number, groups_of
 from training.results.sections import IN_GRID, SECTIONS, Section, section as section_by_key
-from training.trainers.presets import TRAINING_PRESETS
 
 __all__ = ["group_at", "grid_order", "grid_value", "joined_groups", "reference", "section_summaries"]
 
 
 def _setting(settings: dict[str, Any], key: str) -> str:
-    """``key``'s value in a sweep's ``settings`` as a section's match spells it: a value the sweep
-    did not set is its preset's (a ``preset=paper`` sweep without ``lidar_encoder`` ran with the
-    preset's encoder), else ``"false"``."""
-    if key in settings:
-        return str(settings[key]).lower()
-    preset = TRAINING_PRESETS.get(str(settings.get("preset", "")))
-    if preset is not None and hasattr(preset, key):
-        return str(getattr(preset, key)).lower()
-    return "false"
+    """``key``'s value in a sweep's ``settings`` as a section's match spells it (``"false"`` where
+    the sweep did not set it; a preset's encoder is filled in by ``load_summary``)."""
+    return str(settings.get(key, "false")).lower()
 
 
 def _matches(section: Section, summary: dict[str, Any]) -> bool:
