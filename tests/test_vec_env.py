@@ -233,7 +233,10 @@ def test_the_training_benchmark_measures_what_train_lights_trains_under_a_preset
     resized = config_from("intersection-v0", ScriptArgs(preset="paper", num_cars=4, lidar_noise=0.25, n_envs=2,
                                                        batch_decisions=200))
     assert {f: getattr(small, f) for f in fields} == {f: getattr(resized, f) for f in fields}
+    assert bench.lidar_encoder == "original"  # the preset's (the paper code's), unless asked otherwise
+    assert bench_config(preset="paper", lidar_encoder="relu", **common).lidar_encoder == "relu"
     ours = bench_config(**common)
+    assert ours.lidar_encoder == TrainConfig.lidar_encoder
     assert (ours.n_envs, ours.batch_decisions, ours.minibatch, ours.epochs, ours.preset) == (
         TrainConfig.n_envs, TrainConfig.batch_decisions, TrainConfig.minibatch, TrainConfig.epochs, None)
     assert ours.env_overrides == {"num_cars": 4, "lidar_noise": 0.25}
@@ -245,9 +248,12 @@ def test_the_training_benchmark_runs_a_preset_and_times_its_epochs(tmp_path, cap
     out = tmp_path / "paper.json"
     assert bench(["--train", "--preset", "paper", "--cars", "2", "--n-envs", "2", "--batch-decisions", "200",
                   "--warmup", "1", "--updates", "1", "--num-cpus", "0", "--threads", "1", "--device", "cpu",
-                  "--json", str(out)]) == 0
+                  "--lidar-encoder", "original", "relu", "--json", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "(preset paper), 2 cars" in printed
+    # one row per encoder asked for, each naming the encoder it trained
+    assert [r["lidar_encoder"] for r in json.loads(out.read_text())["rows"]] == ["original", "relu"]
+    assert "| LiDAR encoder |" in printed and "| cpu | relu | 1 / 1 |" in printed
     assert "200 slot-decisions per update (1 epoch(s) of minibatch 10)" in printed
     assert "| s per epoch of 32,000 joint steps |" in printed
     row = json.loads(out.read_text())["rows"][0]

@@ -77,6 +77,8 @@ class TrainBenchRow:
             ``-`` without workers).
         overlap: whether the overlapped rollout loop ran (:mod:`training.ppo.overlapped`; only
             with workers).
+        lidar_encoder: the actor's and critic's LiDAR encoder (``original`` or ``relu``:
+            :mod:`training.ppo.encoder`).
     """
 
     num_cpus: int
@@ -102,6 +104,7 @@ class TrainBenchRow:
     overlap: bool = False
     update_threads: int = 0
     joint_steps_per_s: float = 0.0
+    lidar_encoder: str = "original"
 
 
 class _Clock(BaseCallback):
@@ -267,4 +270,5 @@ def bench_row(config: TrainConfig, warmup: int, updates: int) -> TrainBenchRow:
         steps=clock.steps, env_ms=env_s * per_step, inference_ms=inference_s * per_step,
         update_ms=learn_s * per_step, limit_agent_steps_per_s=limit,
         transport=config.transport if venv.worker_processes else "-", overlap=overlap,
-        update_threads=update_threads(config), joint_steps_per_s=clock.steps * config.n_envs / wall)
+        update_threads=update_threads(config), joint_steps_per_s=clock.steps * config.n_envs / wall,
+        lidar_encoder=config.lidar_encoder)

@@ -1,7 +1,7 @@
 """Training throughput benchmark: ``box2d-driving bench --train``.
 
 For each number of env worker processes (0 = in the learner's process, then 1, 2, 4, ... up to the
-machine's cores), transport, rollout loop and thread count asked for, and on the CPU and, where
+machine's cores), transport, rollout loop, thread count and LiDAR encoder asked for, and on the CPU and, where
 torch sees one, the GPU, trains real PPO updates on ``intersection-v0`` and measures agent-steps
 per second with the updates included (:mod:`training.trainers.bench_rows` defines every figure of
 a row). The world and update are our defaults (4 cars, LiDAR noise 0.5, 16 env instances, 32,000
@@ -19,6 +19,7 @@ import os
 import platform
 import sys
 from dataclasses import asdict
+from itertools import product
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -30,6 +31,7 @@ from box2d_driving.config import ConfigError
 from box2d_driving.presets import preset_overrides
 
 from training.common.cli_args import OneLineParser
+from training.ppo.encoder import ENCODERS
 from training.ppo.workers import worker_processes
 from training.ppo.vec_env import TRANSPORTS
 from training.trainers.bench_rows import TrainBenchRow, bench_row
@@ -42,11 +44,12 @@ JOINT_STEPS_PER_EPOCH = 32_000  # the original trainer's epoch (sdriving's steps
 
 def bench_config(*, cars: int, lidar_noise: float, num_cpus: int, transport: str, overlap: bool, device: str,
                  minibatch_by_step: bool, threads: Optional[int], n_envs: Optional[int] = None,
-                 batch_decisions: Optional[int] = None, preset: Optional[str] = None) -> TrainConfig:
+                 batch_decisions: Optional[int] = None, preset: Optional[str] = None,
+                 lidar_encoder: Optional[str] = None) -> TrainConfig:
     """The training config of one row: our defaults, or ``preset``'s world and update
-    (:func:`box2d_driving.presets.preset_overrides`, :meth:`TrainingPreset.apply`); ``n_envs`` and
-    ``batch_decisions`` replace the defaults' or the preset's when given (under a preset the
-    minibatch stays its share of the batch: a 20th for ``paper``)."""
+    (:func:`box2d_driving.presets.preset_overrides`, :meth:`TrainingPreset.apply`); ``n_envs``,
+    ``batch_decisions`` and ``lidar_encoder`` replace the defaults' or the preset's when given (under
+    a preset the minibatch stays its share of the batch: a 20th for ``paper``)."""
     overrides = {} if preset is None else preset_overrides(preset, ENV_ID)
     overrides.update({"num_cars": cars, "lidar_noise": lidar_noise})
     cfg = TrainConfig(env_id=ENV_ID, env_overrides=overrides, num_cpus=num_cpus, transport=transport,
@@ -59,6 +62,8 @@ def bench_config(*, cars: int, lidar_noise: float, num_cpus: int, transport: str
     else:
         cfg.n_envs = cfg.n_envs if n_envs is None else n_envs
         cfg.batch_decisions = cfg.batch_decisions if batch_decisions is None else batch_decisions
+    if lidar_encoder is not None:
+        cfg.lidar_encoder = lidar_encoder
     cfg.validate()
     return cfg
 
@@ -89,17 +94,17 @@ def distinct_worker_counts(counts: Sequence[int], n_envs: int) -> list[int]:
 
 def format_table(rows: list[TrainBenchRow]) -> str:
     """The markdown table ``bench --train`` prints, one row per measured setting."""
-    lines = ["| env workers | transport | overlap | device | torch threads: rollout / update | "
+    lines = ["| env workers | transport | overlap | device | LiDAR encoder | torch threads: rollout / update | "
              "agent-steps/s (with updates) | s per epoch of 32,000 joint steps | "
              "limit: random actions, no learner | of limit | env | inference | update | "
              "ms per env step: env / inference / update "
              "| update GFLOP | update GFLOP/s | matmul GFLOP/s | of matmul | encoders free: GFLOP/s | of matmul |",
-             "|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
+             "|---:|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         workers = f"{r.worker_processes}" + ("" if r.worker_processes == r.num_cpus else f" (of {r.num_cpus} asked)")
         epoch_s = f"{JOINT_STEPS_PER_EPOCH / r.joint_steps_per_s:,.0f}" if r.joint_steps_per_s else "n/a"
         of_limit = f"{r.agent_steps_per_s / r.limit_agent_steps_per_s:.0%}" if r.limit_agent_steps_per_s else "n/a"
-        lines.append(f"| {workers} | {r.transport} | {'yes' if r.overlap else 'no'} | {r.device} | "
+        lines.append(f"| {workers} | {r.transport} | {'yes' if r.overlap else 'no'} | {r.device} | {r.lidar_encoder} | "
                      f"{r.threads} / {r.update_threads} | "
                      f"{r.agent_steps_per_s:,.0f} | {epoch_s} | "
                      f"{r.limit_agent_steps_per_s:,.0f} | {of_limit} | "
@@ -137,6 +142,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="torch threads of the learner, rollouts and update alike, each a row per worker count "
                         "(default: as training sets them: while collecting the cores the env worker processes "
                         "leave free, during the update every core)")
+    p.add_argument("--lidar-encoder", nargs="+", choices=ENCODERS,
+                   help="the actor's and critic's LiDAR encoder, each a row per setting (default: training's, "
+                        "original: the paper code's; relu: ours before 2026-12-06)")
     p.add_argument("--devices", "--device", nargs="+", choices=DEVICES,
                    help="devices (default: cpu, and cuda when torch sees a GPU; auto: the GPU when "
                         "torch sees one, else the CPU, as train --device auto)")
@@ -152,11 +160,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if args.json and Path(args.json).exists():
         p.error(f"{args.json} exists; choose another --json")
 
-    def config(n: int, transport: str, overlap: bool, device: str, threads: Optional[int]) -> TrainConfig:
+    def config(n: int, transport: str, overlap: bool, device: str, threads: Optional[int],
+               encoder: Optional[str] = None) -> TrainConfig:
         return bench_config(cars=args.cars, lidar_noise=args.lidar_noise, num_cpus=n, transport=transport,
                             overlap=overlap, device=device, minibatch_by_step=args.minibatch_by_step,
                             threads=threads, n_envs=args.n_envs, batch_decisions=args.batch_decisions,
-                            preset=args.preset)
+                            preset=args.preset, lidar_encoder=encoder)
 
     try:  # what every row shares: checked (the world's settings too) and printed before anything runs
         first = config(0, args.transport[0], False, "cpu", None)
@@ -179,11 +188,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         for n in counts:
             ways = [(t, o) for t in args.transport for o in args.overlap] if n else [(args.transport[0], "off")]
             for transport, overlap in ways:
-                for threads in args.threads or [None]:
-                    row = bench_row(config(n, transport, overlap == "on", device, threads), args.warmup,
+                for threads, encoder in product(args.threads or [None], args.lidar_encoder or [None]):
+                    row = bench_row(config(n, transport, overlap == "on", device, threads, encoder), args.warmup,
                                     args.updates)
                     rows.append(row)
                     print(f"  workers {row.worker_processes:>2} ({row.transport}, overlap {overlap}), {device}, "
+                          f"encoder {row.lidar_encoder}, "
                           f"{row.threads} / {row.update_threads} threads: {row.agent_steps_per_s:,.0f} agent-steps/s "
                           f"(limit {row.limit_agent_steps_per_s:,.0f}), "
                           f"{JOINT_STEPS_PER_EPOCH / row.joint_steps_per_s:,.0f} s per epoch of "
