@@ -14,7 +14,8 @@ import numpy as np
 
 from training.common.markdown import all_of
 from training.results.data import LEARNT_SUCCESS, SINGLE_POINT, Baseline, Group, Metric, PaperValue, as_number
-from box2d_driving.metrics.stats import Estimate, half_width, mean_ci, mean_var, t95, t_test_p, welch_p
+from box2d_driving.metrics.stats import Estimate, mean_ci, t_test_p, welch_p
+from training.results.seed_counts import paired_differences, seeds_needed, seeds_needed_apart
 
 # the sections name their statements and gather them (``sections.statements``): this module never
 # imports the sections
@@ -224,49 +225,6 @@ def level_change_statement(key: str, low: str, high: str, metrics: tuple[tuple[M
         lines = [line for line in lines if line]
         return lines + [f"- {paper_words}"] if lines and paper_words else lines
     return say
-
-
-def paired_differences(a: Group, b: Group, metric: Metric) -> list[float]:
-    """``b``'s value minus ``a``'s for every training seed both grid points have (empty where a
-    seed's value is missing at either, so seeds cannot be matched)."""
-    ea, eb = a.estimates[metric], b.estimates[metric]
-    if len(ea.values) != len(a.seeds) or len(eb.values) != len(b.seeds):
-        return []
-    va, vb = dict(zip(a.seeds, ea.values)), dict(zip(b.seeds, eb.values))
-    return [vb[s] - va[s] for s in sorted(set(va) & set(vb))]
-
-
-def seeds_needed(diffs: Sequence[float], most: int = 200) -> str:
-    """How many seeds the observed differences (paired, or each seed's value minus a reference
-    number; their mean and spread taken as true) would need for a 95 % interval that excludes
-    zero, in words ("" when they cannot tell)."""
-    mean, var = mean_var(diffs)
-    sd = math.sqrt(var)
-    if mean == 0.0 or sd == 0.0:
-        return ""
-    for k in range(2, most + 1):
-        if half_width(sd, k) < abs(mean):
-            return f"; a planning estimate, taking this mean and spread as true: about {k} seeds would tell"
-    return f"; a planning estimate, taking this mean and spread as true: more than {most} seeds would be needed"
-
-
-def seeds_needed_apart(a: Sequence[float], b: Sequence[float], most: int = 200) -> str:
-    """How many seeds per row two independent rows (their means and spreads taken as true) would
-    need for a 95 % interval of their difference (Welch) that excludes zero, in words ("" when
-    they cannot tell)."""
-    if len(a) < 2 or len(b) < 2:
-        return ""
-    (ma, va), (mb, vb) = mean_var(a), mean_var(b)
-    if ma == mb or va + vb == 0.0:
-        return ""
-    for k in range(2, most + 1):
-        # Welch-Satterthwaite degrees of freedom with k seeds in each row
-        dof = (va + vb) ** 2 * (k - 1) / (va * va + vb * vb) if va * vb else k - 1
-        if t95(max(1, int(dof))) * math.sqrt((va + vb) / k) < abs(ma - mb):
-            return (f"; a planning estimate, taking this difference and spread as true: about {k} seeds per row "
-                    f"would tell")
-    return (f"; a planning estimate, taking this difference and spread as true: more than {most} seeds per row "
-            f"would be needed")
 
 
 def unlearnt_statement(groups: list[Group]) -> list[str]:
