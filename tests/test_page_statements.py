@@ -549,3 +549,12 @@ def test_a_sweep_with_no_trial_finished_yet_is_written_as_planned(tmp_path):
     assert main([str(summary), "--out", str(page)]) == 0
     part = page.read_text().split("## Stopping at red lights")[1].split("\n## ")[0]
     assert "0 of 12 planned trials done" in part
+
+
+def test_a_value_that_rounds_to_zero_reads_without_a_minus_sign():
+    from box2d_driving.metrics.stats import fixed
+
+    # a least-squares slope over identical values comes out as -1e-17, not 0: the page said "-0.000"
+    assert mean_ci([-1e-17, -2e-17, -3e-17]).format() == "0.000 ± 0.000"
+    assert fixed(-0.0004) == "0.000" and fixed(-0.0006) == "-0.001" and fixed(-1e-17, 1) == "0.0"
+    assert mean_ci([-0.2, -0.1, -0.3]).format().startswith("-0.200 ± ")

@@ -70,11 +70,18 @@ class Estimate:
 
     def format(self, digits: int = 3) -> str:
         if self.low is None or self.high is None:
-            return f"{self.mean:.{digits}f} {ONE_SEED}"
+            return f"{fixed(self.mean, digits)} {ONE_SEED}"
         if self.clipped:  # asymmetric once cut: both ends
-            return f"{self.mean:.{digits}f} [{self.low:.{digits}f}, {self.high:.{digits}f}]"
+            return f"{fixed(self.mean, digits)} [{fixed(self.low, digits)}, {fixed(self.high, digits)}]"
         half = (self.high - self.low) / 2
-        return f"{self.mean:.{digits}f} ± {half:.{digits}f}"
+        return f"{fixed(self.mean, digits)} ± {fixed(half, digits)}"
+
+
+def fixed(x: float, digits: int = 3) -> str:
+    """``x`` with ``digits`` decimals, and no minus sign on a value that rounds to zero (a change
+    of -1e-17 reads "0.000", not "-0.000")."""
+    text = f"{x:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
 def finite(values: Iterable[Optional[float]]) -> tuple[float, ...]:
