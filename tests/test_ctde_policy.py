@@ -67,24 +67,42 @@ def test_the_paper_codes_encoder_is_sdrivings_convolutions_and_linear(rows):
     assert th.allclose(fresh.layer1.weight.flatten().norm(), th.tensor(1.0))
 
 
-def test_encoder_without_gradients_equals_the_convolution_and_follows_weight_updates():
+@pytest.mark.parametrize("kind", ["relu", "original"])
+def test_encoder_without_gradients_equals_the_convolution_and_follows_weight_updates(kind):
     """The rollout's fused no-gradient path (few rows) and the training path (many rows) give the
-    reference convolution's values, also after an optimiser step changes the weights it caches."""
-    from training.ppo.encoder import FUSED_ROWS, LidarEncoder, encode
+    reference convolution's values, also after an optimiser step changes the weights it caches
+    and after other weights are loaded; for ours and for the paper code's encoder (whose
+    no-gradient path is one product with a kept matrix, alone or beside the critic's)."""
+    from training.ppo.encoder import FUSED_ROWS, encode, make_encoder
 
     th.manual_seed(1)
-    encoders = [LidarEncoder(5, 100, 4), LidarEncoder(5, 100, 4)]
-    opt = th.optim.SGD([p for e in encoders for p in e.parameters()], lr=0.5)
+    encoders = [make_encoder(kind, 5, 100, 4), make_encoder(kind, 5, 100, 4)]
+    # a linear encoder's squared outputs grow without bound under large steps: a smaller one
+    opt = th.optim.SGD([p for e in encoders for p in e.parameters()], lr=0.5 if kind == "relu" else 1e-4)
+    before = None
     for rows in (64, FUSED_ROWS + 1):
         x = th.randn(rows, 520)
         for _ in range(2):
+            # the step moved the outputs (ours can die under such steps and stop moving: see above)
+            if kind == "original" and before is not None and before.shape[0] == rows:
+                with th.no_grad():
+                    assert not th.allclose(encode(encoders, x)[0], before, atol=1e-3)
             with th.no_grad():
                 fast, slow = encode(encoders, x), [e.reference(x) for e in encoders]
-            for a, b in zip(fast, slow):
-                assert th.allclose(a, b, atol=1e-5)
+                alone = encoders[1](x)
+            with th.inference_mode():  # what a rollout step runs in
+                inferred = encode(encoders, x)
+            for a, b, c in zip(fast, slow, inferred):  # float rounding at the values' own scale
+                assert th.allclose(a, b, atol=1e-5 * (1 + float(b.abs().max()))) and th.equal(a, c)
+            assert th.allclose(alone, slow[1], atol=1e-5 * (1 + float(slow[1].abs().max())))
+            before = fast[0]
             opt.zero_grad()
             sum((o * o).sum() for o in encode(encoders, x)).backward()
             opt.step()  # new weights: the cached fused matrices must not be reused
+    other = make_encoder(kind, 5, 100, 4)
+    encoders[0].load_state_dict(other.state_dict())  # replaced weights: not the kept matrices either
+    with th.no_grad():
+        assert th.allclose(encode(encoders, x)[0], other.reference(x), atol=1e-5)
 
 
 def test_encoder_stand_ins_keep_shapes_and_gradients_and_only_inside_their_block():

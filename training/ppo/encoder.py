@@ -143,13 +143,25 @@ class OriginalLidarEncoder(nn.Module):
         return cast(int, cast(nn.AdaptiveAvgPool1d, self.conv._modules["2"]).output_size)
 
     def forward(self, obs: th.Tensor) -> th.Tensor:
+        if not th.is_grad_enabled():  # a rollout, an evaluation: the product kept from the weights
+            return _encode_original_no_grad([self], obs)[0]
         n = self.history * self.n_rays
-        if obs.shape[0] <= n:  # few rows (a rollout step): the convolutions themselves
+        if obs.shape[0] <= n:  # few rows with gradients: the convolutions themselves
             return self.reference(obs)
-        basis = th.eye(n, dtype=obs.dtype, device=obs.device).reshape(n, self.history, self.n_rays)
-        matrix = self._weights_only(basis).flatten(1)  # (n, 25): what each LiDAR column adds
-        offset = self.conv(obs.new_zeros(1, self.history, self.n_rays)).flatten(1)  # (1, 25): the biases'
+        matrix, offset = self.as_matrix()
         return th.cat([th.addmm(offset, obs[:, :n], matrix), obs[:, n:]], dim=1)
+
+    def as_matrix(self) -> tuple[th.Tensor, th.Tensor]:
+        """``(matrix, offset)``: the encoder as one affine map of the flat LiDAR history,
+        ``features = lidar @ matrix + offset`` with ``matrix`` ``(H * n_rays, 25)`` (what each LiDAR
+        column adds: the encoder applied to the unit vectors) and ``offset`` ``(1, 25)`` (the
+        biases' part); gradients reach the kernels through both."""
+        n = self.history * self.n_rays
+        weight = self.layer1.weight
+        basis = th.eye(n, dtype=weight.dtype, device=weight.device).reshape(n, self.history, self.n_rays)
+        matrix = self._weights_only(basis).flatten(1)
+        offset = self.conv(weight.new_zeros(1, self.history, self.n_rays)).flatten(1)
+        return matrix, offset
 
     def _weights_only(self, x: th.Tensor) -> th.Tensor:
         """The encoder without its biases (their part is added once, not cancelled out of every
@@ -275,6 +287,8 @@ def encode(encoders: Sequence[Any], obs: th.Tensor) -> list[th.Tensor]:
     if _STAND_IN:
         return [obs[:, :enc.out_dim] * enc.layer2.bias for enc in encoders]
     if not isinstance(encoders[0], LidarEncoder):  # the paper code's linear encoders: each its own product
+        if not th.is_grad_enabled():
+            return _encode_original_no_grad(encoders, obs)
         return [enc(obs) for enc in encoders]
     if obs.shape[0] <= FUSED_ROWS and not th.is_grad_enabled():
         return _encode_no_grad(encoders, obs)
@@ -354,3 +368,35 @@ def _encode_no_grad(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th
     pooled = F.adaptive_avg_pool1d(out, first.pooled)  # (B, E, 25)
     rest = obs[:, h * r: first.out_dim - pooled.shape[2] + h * r]
     return [th.cat([pooled[:, i], rest], dim=1) for i in range(e)]
+
+
+def _original_fused(encoders: Sequence[OriginalLidarEncoder]) -> tuple[th.Tensor, th.Tensor]:
+    """Every paper-code encoder's :meth:`~OriginalLidarEncoder.as_matrix` side by side,
+    ``(H * n_rays, E * 25)`` and ``(1, E * 25)``: built once and kept on the first encoder until an
+    optimiser step changes a weight (its version counter) or the weights are replaced, as
+    :func:`_fused_weights` does for ours."""
+    params = [cast(th.Tensor, p) for enc in encoders for layer in (enc.layer1, enc.layer2)
+              for p in (layer.weight, layer.bias)]
+    key = [p._version for p in params]
+    cached = encoders[0].__dict__.get("_fused_original")
+    if cached is not None and cached[0] == key and all(a is b for a, b in zip(cached[1], params)):
+        return cached[2]
+    with th.no_grad():
+        parts = [enc.as_matrix() for enc in encoders]
+        weights = (th.cat([m for m, _ in parts], dim=1), th.cat([o for _, o in parts], dim=1))
+    encoders[0].__dict__["_fused_original"] = (key, params, weights)  # not a module attribute: no state
+    return weights
+
+
+def _encode_original_no_grad(encoders: Sequence[OriginalLidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
+    """:func:`encode` of the paper code's encoders without gradients (a rollout step's few dozen
+    rows, where the count of operations sets the time: two padded strided convolutions per encoder
+    cost about 1 ms a step on a 2-core CPU): one product of the rows with every encoder's kept
+    matrix; within float rounding of the convolutions."""
+    first = encoders[0]
+    n, pooled = first.history * first.n_rays, first.pooled
+    matrix, offset = _original_fused(encoders)
+    features = th.addmm(offset, obs[:, :n], matrix)  # (B, E * 25)
+    rest = obs[:, n:]
+    return [th.cat([features[:, i * pooled:(i + 1) * pooled], rest], dim=1) for i in range(len(encoders))]
+
