@@ -193,3 +193,20 @@ def test_holm_adjusts_the_tables_family_of_p_values():
                          "y: p = 0.040 (Holm-adjusted over the table's 3 tests: 0.080)")
     assert out[1][4] == "z: p = 0.300 (Holm-adjusted over the table's 3 tests: 0.300)."
     assert out[2] == rows[2] and rows[0][4] == "x: p = 0.010, y: p = 0.040"  # the input is left alone
+
+
+def test_the_table_says_which_rows_come_from_the_papers_own_world():
+    """The sentence above the claims table names the rows read from ``paper``-preset sections and
+    says the rest come from our default world; with none or all, it says so."""
+    from training.results.claims import worlds_sentence
+
+    noise, lone = CLAIMS[0], CLAIMS[1]
+    assert noise.sections[0] == "traffic-lights-preset" and lone.sections[0] == "traffic-lights-preset-1car"
+    says = "- red-light violations: noise 1.0 against 0.25: fewer with noise, as in the paper."
+    default_only = {noise.sections[-1]: _result([says])}  # the noise claim read from our default world
+    assert worlds_sentence({}).startswith("None of these runs is yet in the paper's own world")
+    assert worlds_sentence(default_only).startswith("None of these runs is yet")
+    some = worlds_sentence({**default_only, "traffic-lights-preset": _result([says]),
+                            "traffic-lights-preset-1car": _result([])})
+    assert some.startswith(f"2 of the {len(CLAIMS)} rows are read from runs in the paper's own world")
+    assert f"*{noise.words}*; *{lone.words}*; the others from our default world" in some

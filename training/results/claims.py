@@ -201,22 +201,31 @@ def _speaks_to_every_part(claim: Claim, result: SectionResult) -> bool:
     return {r for _, r in _deciding_lines(claim, result) if r.decides} == {r for r in claim.readings if r.decides}
 
 
+def deciding_section(claim: Claim, found: dict[str, SectionResult]) -> Optional[str]:
+    """The key of the section that decides ``claim`` among those found on the page: the first of
+    its sections (largest budget first) with a statement for every part of the claim, else the
+    first with any statement on it, else the first with trials; None where none has trials."""
+    tried = [k for k in claim.sections if k in found]
+    if not tried:
+        return None
+    return next((k for k in tried if _speaks_to_every_part(claim, found[k])),
+                next((k for k in tried if _deciding_lines(claim, found[k])), tried[0]))
+
+
 def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     """The table's cells for ``claim``, from the sections found on the page (by key): the first of
     its sections (largest budget first) with a statement for every part of the claim (each of its
     readings), else the first with any statement on it, else the first with trials (a larger run
     whose trials are still too few for an interval). A claim none of whose sections has trials yet
     names the paper's run and the page section (:data:`SECTIONS`) that will test it."""
-    tried = [k for k in claim.sections if k in found]
-    if not tried:
+    key = deciding_section(claim, found)
+    if key is None:
         try:
             planned = section(claim.sections[0])
             paper, where = planned.paper_budget, f"[{planned.title}](#{anchor(planned.title)}): "
         except KeyError:  # a claim whose section is not on the page
             paper, where = "", ""
         return [claim.words, paper, f"{where}not run yet", f"**{NOT_RUN}**", "no trials yet"]
-    key = next((k for k in tried if _speaks_to_every_part(claim, found[k])),
-               next((k for k in tried if _deciding_lines(claim, found[k])), tried[0]))
     result = found[key]
     lines = _deciding_lines(claim, result)
     verdict = combined_verdict({reading_verdict(line, r) for line, r in lines if r.decides})
@@ -278,3 +287,20 @@ def claims_table(found: dict[str, SectionResult], arbiter: str = NOT_RUN_THERE) 
     rows = with_holm([claim_row(c, found) for c in CLAIMS])
     return [row(header), separator(len(header)),
             *(row(cells + [arbiter if c.arbiter else NOT_RUN_THERE]) for c, cells in zip(CLAIMS, rows))]
+
+
+def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
+    """Which of the claims table's rows are read from runs in the paper's own world and update
+    (sections of the ``paper`` preset) and which from our default world, in words."""
+    preset = [c.words for c in CLAIMS
+              if (key := deciding_section(c, found_sections)) is not None and ("preset", "paper") in section(key).match]
+    world = ("the paper's own world and update (its arrived cars stay, its epochs are 32,000 joint steps, its "
+             "entropy 1e-4: the `paper` preset, [paper_world.md](paper_world.md))")
+    if not preset:
+        return f"None of these runs is yet in {world}; each row gives its share of the paper's joint steps."
+    if len(preset) == len(CLAIMS):
+        return f"Every one of these runs is in {world}; each row gives its share of the paper's joint steps."
+    return (f"{len(preset)} of the {len(CLAIMS)} rows are read from runs in {world}: "
+            + "; ".join(f"*{w}*" for w in preset)
+            + "; the others from our default world (what differs: the same page); each row gives its share of the "
+              "paper's joint steps.")

@@ -23,7 +23,7 @@ from typing import Any, Optional
 
 from training.common.markdown import row, separator
 from training.results.arbiter import ORIGINAL_RUNS, arbiter_cell, arbiter_section, load_original_runs
-from training.results.claims import SectionResult, claims_table
+from training.results.claims import SectionResult, claims_table, worlds_sentence
 from training.results.matching import grid_order, joined_groups, reference, section_summaries
 from training.results.readme import README_START, readme_table, readme_text, update_readme
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
@@ -239,9 +239,7 @@ def _claims_part(found_sections: dict[str, SectionResult], arbiter: str) -> list
     return ["## Where the page stands on the paper's claims", "",
             "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
             "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
-            "section below). None of these runs is yet in the paper's own world and update (its arrived cars stay, "
-            "its epochs are 32,000 joint steps, its entropy 1e-4: the `paper` preset, "
-            "[paper_world.md](paper_world.md)); each row gives its share of the paper's joint steps. "
+            f"section below). {worlds_sentence(found_sections)} "
             "One rule decides every verdict: *reproduced* where the interval shows the effect in "
             "the paper's direction (excludes no effect), or holds the paper's value; *opposite* where it excludes no "
             "effect in the other direction; *not detected* where it straddles no effect (the statement says the "
