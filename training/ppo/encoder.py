@@ -32,7 +32,7 @@ first runs: docs/paper_world.md). A linear encoder cannot.
 from __future__ import annotations
 
 from contextlib import contextmanager
-from typing import Any, Iterator, Sequence, cast
+from typing import Any, Callable, Iterator, Sequence, cast
 
 import torch as th
 import torch.nn.functional as F
@@ -329,11 +329,25 @@ def _fused_weights(encoders: Sequence[LidarEncoder], device: th.device) -> tuple
     biases, the layer-2 tap matrices on one block diagonal ``(E * P * out_ch, E * P * kernel)`` and
     the layer-2 biases ``(E,)``: built from the weights once and kept on the first encoder until
     an optimiser step changes a weight (its version counter) or the weights are replaced."""
-    params = [p for enc in encoders for layer in (enc.layer1, enc.layer2) for p in (layer.weight, layer.bias)]
+    return _kept(encoders, "_fused", lambda: _build_fused_weights(encoders, device))
+
+
+def _kept(encoders: Sequence[Any], slot: str, build: Callable[[], tuple[th.Tensor, ...]]) -> tuple[th.Tensor, ...]:
+    """``build()``'s tensors, kept on the first encoder under ``slot`` (not a module attribute: no
+    state) and built again only once an optimiser step changes one of the encoders' weights (its
+    version counter) or the weights are replaced."""
+    params = [cast(th.Tensor, p) for enc in encoders for layer in (enc.layer1, enc.layer2)
+              for p in (layer.weight, layer.bias)]
     key = [p._version for p in params]
-    cached = encoders[0].__dict__.get("_fused")
+    cached = encoders[0].__dict__.get(slot)
     if cached is not None and cached[0] == key and all(a is b for a, b in zip(cached[1], params)):
-        return cached[2]
+        return cast(tuple[th.Tensor, ...], cached[2])
+    weights = build()
+    encoders[0].__dict__[slot] = (key, params, weights)
+    return weights
+
+
+def _build_fused_weights(encoders: Sequence[LidarEncoder], device: th.device) -> tuple[th.Tensor, ...]:
     conv1 = encoders[0].layer1
     out_ch, kernel = conv1.out_channels, conv1.kernel_size[0]
     block = block_size(encoders[0].n_rays)
@@ -343,9 +357,7 @@ def _fused_weights(encoders: Sequence[LidarEncoder], device: th.device) -> tuple
     b1 = th.cat([enc.layer1.bias.repeat(block) for enc in encoders])
     m2 = th.block_diag(*[enc.layer2.weight[0] for enc in encoders for _ in range(block)])
     b2 = th.cat([enc.layer2.bias for enc in encoders])
-    weights = (m1, b1, m2, b2)
-    encoders[0].__dict__["_fused"] = (key, params, weights)  # not a module attribute: no state
-    return weights
+    return m1, b1, m2, b2
 
 
 def _encode_no_grad(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
@@ -372,20 +384,14 @@ def _encode_no_grad(encoders: Sequence[LidarEncoder], obs: th.Tensor) -> list[th
 
 def _original_fused(encoders: Sequence[OriginalLidarEncoder]) -> tuple[th.Tensor, th.Tensor]:
     """Every paper-code encoder's :meth:`~OriginalLidarEncoder.as_matrix` side by side,
-    ``(H * n_rays, E * 25)`` and ``(1, E * 25)``: built once and kept on the first encoder until an
-    optimiser step changes a weight (its version counter) or the weights are replaced, as
-    :func:`_fused_weights` does for ours."""
-    params = [cast(th.Tensor, p) for enc in encoders for layer in (enc.layer1, enc.layer2)
-              for p in (layer.weight, layer.bias)]
-    key = [p._version for p in params]
-    cached = encoders[0].__dict__.get("_fused_original")
-    if cached is not None and cached[0] == key and all(a is b for a, b in zip(cached[1], params)):
-        return cached[2]
-    with th.no_grad():
-        parts = [enc.as_matrix() for enc in encoders]
-        weights = (th.cat([m for m, _ in parts], dim=1), th.cat([o for _, o in parts], dim=1))
-    encoders[0].__dict__["_fused_original"] = (key, params, weights)  # not a module attribute: no state
-    return weights
+    ``(H * n_rays, E * 25)`` and ``(1, E * 25)``, kept until the weights change (:func:`_kept`, as
+    :func:`_fused_weights` keeps ours)."""
+    def build() -> tuple[th.Tensor, ...]:
+        with th.no_grad():
+            parts = [enc.as_matrix() for enc in encoders]
+            return th.cat([m for m, _ in parts], dim=1), th.cat([o for _, o in parts], dim=1)
+    matrix, offset = _kept(encoders, "_fused_original", build)
+    return matrix, offset
 
 
 def _encode_original_no_grad(encoders: Sequence[OriginalLidarEncoder], obs: th.Tensor) -> list[th.Tensor]:
