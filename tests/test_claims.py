@@ -195,6 +195,22 @@ def test_holm_adjusts_the_tables_family_of_p_values():
     assert out[2] == rows[2] and rows[0][4] == "x: p = 0.010, y: p = 0.040"  # the input is left alone
 
 
+def test_a_p_value_below_the_printed_digits_is_adjusted_as_a_bound():
+    from training.results.claims import with_holm
+
+    # "p < 0.001" is taken as at most 0.001: its adjusted value is a bound, and so is any value
+    # the bound carries up the step-down (here 3 x 0.001 against the exact 2 x 0.001)
+    rows = [["a", "", "", "", "x: p < 0.001, y: p = 0.001"], ["b", "", "", "", "z: p = 0.200"]]
+    out = with_holm(rows)
+    assert out[0][4] == ("x: p < 0.001 (Holm-adjusted over the table's 3 tests: < 0.003), "
+                         "y: p = 0.001 (Holm-adjusted over the table's 3 tests: < 0.003)")
+    assert out[1][4] == "z: p = 0.200 (Holm-adjusted over the table's 3 tests: 0.200)"
+    # where an exact value dominates, the bound is exact too
+    out = with_holm([["a", "", "", "", "x: p < 0.001, y: p = 0.010"]])
+    assert out[0][4] == ("x: p < 0.001 (Holm-adjusted over the table's 2 tests: < 0.002), "
+                         "y: p = 0.010 (Holm-adjusted over the table's 2 tests: 0.010)")
+
+
 def test_the_table_says_which_rows_come_from_the_papers_own_world():
     """The sentence above the claims table names the rows read from ``paper``-preset sections and
     says the rest come from our default world; with none or all, it says so."""

@@ -47,10 +47,18 @@ def test_noise_runs_are_the_original_commands():
     json.dumps(OriginalRun(lidar_noise=0.25).spec())  # the worker reads it as JSON
 
 
+def test_cars_are_balanced_as_the_original_commands_place_them():
+    assert OriginalRun(lidar_noise=0.25).spec()["env_kwargs"]["balance_cars"] is True  # the noise runs
+    assert OriginalRun(lidar_noise=0.0, epochs=1, nagents=8).spec()["env_kwargs"]["balance_cars"] is False
+    assert OriginalRun(lidar_noise=0.0, epochs=1, nagents=8, balance_cars=True).balanced
+    assert not OriginalRun(lidar_noise=0.25, balance_cars=False).balanced
+
+
 @pytest.mark.parametrize("kwargs, field", [
     ({"lidar_noise": 0.3}, "give epochs"), ({"lidar_noise": 1.5}, "lidar_noise"),
     ({"lidar_noise": 0.25, "seed": -1}, "seed"), ({"lidar_noise": 0.25, "seed": True}, "seed"),
     ({"lidar_noise": 0.25, "epochs": 0}, "epochs"), ({"lidar_noise": 0.25, "nagents": 0}, "nagents"),
+    ({"lidar_noise": 0.25, "balance_cars": "no"}, "balance_cars"),
 ])
 def test_bad_settings_name_the_field(kwargs, field):
     with pytest.raises(OriginalError, match=field):
@@ -217,6 +225,31 @@ def test_our_side_records_the_same_columns_and_compares():
     assert [r["statistic"] for r in rows] == list(STATISTICS)
     text = format_rows("full-throttle", rows)
     assert text.count("\n") == len(STATISTICS) + 1
+
+
+def test_both_worlds_must_place_cars_by_the_same_rule(tmp_path, monkeypatch, capsys):
+    from training.original.compare import check_spawns
+
+    check_spawns(4, {}, "paper")  # the preset's round robin is the 4-car runs' balance_cars=True
+    check_spawns(8, {"approach_order": "random"}, "paper")  # the 8-car run's balance_cars=False
+    check_spawns(8, {}, None)  # our default order has no counterpart: a listed difference
+    with pytest.raises(OriginalError, match="approach_order=random"):
+        check_spawns(8, {}, "paper")
+    with pytest.raises(OriginalError, match="approach_order=rotate"):
+        check_spawns(4, {"approach_order": "random"}, None)
+    with pytest.raises(OriginalError, match="nagents"):
+        check_spawns(0, {}, "paper")
+    # through the command: one line, before either world runs or anything is written
+    fake = tmp_path / "venv" / "bin"
+    fake.mkdir(parents=True)
+    (fake / "python").write_text("")
+    monkeypatch.setenv("BOX2D_DRIVING_SDRIVING_VENV", str(tmp_path / "venv"))
+    assert cli.main(["compare", "--cars", "8", "--preset", "paper", "--out", str(tmp_path / "c")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(err) == 1 and "approach_order=random" in err[0]
+    assert not (tmp_path / "c").exists()
+    assert cli.section_name("paper", 4) == "paper" and cli.section_name("paper", 8) == "paper-8cars"
+    assert cli.section_name(None, 4) == "default"
 
 
 def test_the_page_section_is_replaced_whole_and_only_it(tmp_path):

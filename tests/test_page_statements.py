@@ -326,7 +326,7 @@ def test_lights_violations_against_noise_are_read_per_number_of_cars_learnt_poin
     # the same seeds at both levels: a paired test (each seed 0.15 lower)
     assert lines == [f"- 4 cars, red-light violations: noise 0 {mean_ci([0.20, 0.21, 0.22]).format()}, noise 0.75 "
                      f"{mean_ci([0.05, 0.06, 0.07]).format()}: falls, paired by seed (3 seeds), high minus low noise "
-                     "-0.150 ± 0.000, p = 0.000, as in the paper."]
+                     "-0.150 ± 0.000, p < 0.001, as in the paper."]
     groups[2] = point("0.75", "4", [0.30, 0.31, 0.32])
     text = "\n".join(statements(section("traffic-lights"), groups, {}))
     assert "- 4 cars, red-light violations: noise 0" in text and "rises, paired by seed (3 seeds)" in text
@@ -551,10 +551,12 @@ def test_a_sweep_with_no_trial_finished_yet_is_written_as_planned(tmp_path):
     assert "0 of 12 planned trials done" in part
 
 
-def test_a_value_that_rounds_to_zero_reads_without_a_minus_sign():
-    from box2d_driving.metrics.stats import fixed
+def test_a_value_that_rounds_to_zero_reads_without_a_minus_sign_and_a_tiny_p_as_a_bound():
+    from box2d_driving.metrics.stats import fixed, p_text
 
     # a least-squares slope over identical values comes out as -1e-17, not 0: the page said "-0.000"
     assert mean_ci([-1e-17, -2e-17, -3e-17]).format() == "0.000 ± 0.000"
     assert fixed(-0.0004) == "0.000" and fixed(-0.0006) == "-0.001" and fixed(-1e-17, 1) == "0.0"
+    assert p_text(1e-30) == "p < 0.001" and p_text(0.0004) == "p < 0.001" and p_text(0.0141) == "p = 0.014"
+    assert p_text(None).startswith("no p-value")
     assert mean_ci([-0.2, -0.1, -0.3]).format().startswith("-0.200 ± ")

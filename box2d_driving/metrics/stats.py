@@ -84,6 +84,15 @@ def fixed(x: float, digits: int = 3) -> str:
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
+def p_text(p: Optional[float]) -> str:
+    """A p-value as a statement prints it: ``p = 0.014``, or ``p < 0.001`` for one that three
+    decimals would show as zero (a test against a row of identical values can give 1e-30);
+    None (a test of fewer than two values) reads ``no p-value (fewer than two seeds)``."""
+    if p is None:
+        return "no p-value (fewer than two seeds)"
+    return "p < 0.001" if p < 0.0005 else f"p = {p:.3f}"
+
+
 def finite(values: Iterable[Optional[float]]) -> tuple[float, ...]:
     """The finite ``values`` as floats (None and NaN, e.g. a metric a run could not measure, left out)."""
     return tuple(float(v) for v in values if v is not None and math.isfinite(float(v)))

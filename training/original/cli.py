@@ -101,6 +101,12 @@ def prepare_folder(run: OriginalRun, out: Path, resume: bool) -> None:
     os.replace(tmp, spec_path)
 
 
+def section_name(preset: str | None, cars: int) -> str:
+    """The page section a comparison writes by default: the preset's name (``default`` without
+    one), with ``-Ncars`` appended unless the cars are the noise runs' 4."""
+    return (preset or "default") + ("" if cars == 4 else f"-{cars}cars")
+
+
 def _compare(args) -> int:
     from box2d_driving.cli import _parse_overrides
     from box2d_driving.presets import preset_overrides
@@ -116,7 +122,7 @@ def _compare(args) -> int:
                        args.out, args.preset)
         print(text)
         if args.page is not None:
-            write_section(args.page, args.section or args.preset or "default", text)
+            write_section(args.page, args.section or section_name(args.preset, args.cars), text)
     except (OriginalError, SeedError, ValueError, OSError) as exc:  # ConfigError is a ValueError
         return error(str(exc))
     return 0
@@ -279,7 +285,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     c.add_argument("--page", type=Path, default=None,
                    help="also write the tables into this page's <!-- compare: NAME --> section")
     c.add_argument("--section", default=None,
-                   help="the page's section name (default: the preset's name, or 'default')")
+                   help="the page's section name (default: the preset's name, or 'default'; "
+                        "'-Ncars' appended for N cars other than 4)")
     e = sub.add_parser("evaluate", help="an original-code run's policy on report episodes, scored by our metrics")
     e.add_argument("--run", type=Path, required=True, help="an original train run folder")
     e.add_argument("--epoch", type=int, default=None,

@@ -70,6 +70,9 @@ class OriginalRun:
         seed: training seed (the run seeds torch, numpy and Python's ``random`` with it).
         epochs: epochs of ``trainer.steps_per_epoch`` joint steps; None: the original command's.
         nagents: cars per instance.
+        balance_cars: approaches in round robin from a random first one (True) or each drawn
+            at random (False); None: the original commands' choice, True up to 4 cars (the noise
+            runs) and False beyond (the 8-car run).
         trainer: the update's settings.
     """
 
@@ -77,6 +80,7 @@ class OriginalRun:
     seed: int = 0
     epochs: int | None = None
     nagents: int = 4
+    balance_cars: bool | None = None
     trainer: TrainerSettings = field(default_factory=TrainerSettings)
 
     def __post_init__(self) -> None:
@@ -91,6 +95,8 @@ class OriginalRun:
             raise OriginalError(f"epochs must be an integer >= 1, got {self.epochs!r}")
         if not isinstance(self.nagents, int) or not 1 <= self.nagents <= 16:
             raise OriginalError(f"nagents must be an integer in [1, 16], got {self.nagents!r}")
+        if self.balance_cars is not None and not isinstance(self.balance_cars, bool):
+            raise OriginalError(f"balance_cars must be True, False or None, got {self.balance_cars!r}")
         t = self.trainer
         if t.steps_per_epoch < t.train_iters or t.train_iters < 1:
             raise OriginalError(f"trainer.steps_per_epoch ({t.steps_per_epoch}) must be at least "
@@ -100,13 +106,18 @@ class OriginalRun:
     def total_epochs(self) -> int:
         return self.epochs if self.epochs is not None else NOISE_EPOCHS[float(self.lidar_noise)]
 
+    @property
+    def balanced(self) -> bool:
+        """Whether the cars' approaches go round robin (the original's ``balance_cars``)."""
+        return self.nagents <= 4 if self.balance_cars is None else self.balance_cars
+
     def spec(self) -> dict[str, Any]:
         """The JSON the worker reads (``run.json``)."""
         return {
             "env": ENV, "seed": self.seed, "epochs": self.total_epochs,
             "env_kwargs": {"horizon": 250, "nagents": self.nagents, "lidar_noise": float(self.lidar_noise),
                            "history_len": 5, "timesteps": 10, "npoints": 100, "turns": False,
-                           "learn_right_of_way": False, "default_color": True, "balance_cars": True},
+                           "learn_right_of_way": False, "default_color": True, "balance_cars": self.balanced},
             "ac_kwargs": {"hidden_sizes": [256, 256], "history_len": 5, "permutation_invariant": True},
             "trainer": asdict(self.trainer),
         }

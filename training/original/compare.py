@@ -21,7 +21,7 @@ from box2d_driving.metrics.rollouts import RolloutRecorder, load_table, save_tab
 from box2d_driving.metrics.world_compare import agree, world_statistics
 from box2d_driving.policies.scripted import make_policy
 from box2d_driving.registry import make
-from training.original.commands import OriginalRun
+from training.original.commands import OriginalError, OriginalRun
 
 DRIVERS = ("full-throttle", "rule", "random")
 
@@ -74,9 +74,27 @@ def ours_table(driver: str, episodes: int, first_seed: int, overrides: dict[str,
     return recorder.table()
 
 
+def check_spawns(nagents: int, overrides: dict[str, Any], preset: Optional[str]) -> None:
+    """Refuse a comparison whose two worlds place cars by different rules: where our side sets an
+    approach order the original has (``rotate`` is its ``balance_cars=True``, ``random`` its
+    ``False``), it must be the one the original uses with ``nagents`` cars (round robin up to 4,
+    random beyond: the 8-car command). Our default ``fixed`` order has no counterpart and is a
+    listed difference of the default world, so it passes."""
+    from box2d_driving.presets import preset_overrides
+
+    ours = {**(preset_overrides(preset, "intersection-v0") if preset else {}), **overrides}.get("approach_order")
+    theirs = "rotate" if OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents).balanced else "random"
+    if ours in ("rotate", "random") and ours != theirs:
+        raise OriginalError(
+            f"approach_order={ours!r} on our side, but the original places {nagents} cars "
+            f"{'round robin' if theirs == 'rotate' else 'each on a random approach'} "
+            f"(balance_cars={theirs == 'rotate'}): add --set approach_order={theirs}")
+
+
 def original_table(python: Path, worker: Path, driver: str, episodes: int, first_seed: int, nagents: int,
                    out: Path) -> dict[str, np.ndarray]:
-    """The same in sdriving's world (the 4-car light runs' env settings, LiDAR noise 0)."""
+    """The same in sdriving's world (the light runs' env settings for ``nagents`` cars, LiDAR
+    noise 0: ``balance_cars`` as the original commands set it, see :attr:`OriginalRun.balanced`)."""
     spec = OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents).spec()
     spec_path = out.with_suffix(".run.json")
     spec_path.write_text(json.dumps(spec))
@@ -110,6 +128,7 @@ def format_rows(driver: str, rows: Sequence[dict[str, Any]]) -> str:
 def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, first_seed: int, nagents: int,
             overrides: dict[str, Any], out: Path, preset: Optional[str] = None) -> str:
     """Record both worlds per driver into ``out`` and return the markdown tables."""
+    check_spawns(nagents, overrides, preset)
     out.mkdir(parents=True, exist_ok=True)
     parts = []
     for driver in drivers:

@@ -240,8 +240,9 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     return [claim.words, result.paper_budget, ours, now, said]
 
 
-# a test's p-value as its statement prints it ("p = 0.014", "p = 0.164")
-P_VALUE = re.compile(r"\bp = (\d\.\d{3})\b")
+# a test's p-value as its statement prints it ("p = 0.014", "p = 0.164", or "p < 0.001":
+# :func:`box2d_driving.metrics.stats.p_text`)
+P_VALUE = re.compile(r"\bp ([=<]) (\d\.\d{3})\b")
 
 
 def holm(p_values: list[float]) -> list[float]:
@@ -255,21 +256,31 @@ def holm(p_values: list[float]) -> list[float]:
     return out
 
 
+def _adjusted_text(exact: float, bound: float) -> str:
+    """A Holm-adjusted value for print: ``bound`` is the adjustment with every printed "p < 0.001"
+    taken as 0.001, ``exact`` with those taken as 0; where they differ the true value lies
+    between them, so the bound is printed as one ("< 0.004")."""
+    if bound > exact:
+        return f"< {bound:.3f}"
+    return "< 0.001" if bound < 0.0005 else f"{bound:.3f}"
+
+
 def with_holm(rows: list[list[str]]) -> list[list[str]]:
     """The claims rows with every printed p-value of their deciding statements followed by its
     Holm-adjusted value over the table's family (all the tests the table's verdicts rest on)."""
     found = [(r, m) for r, cells in enumerate(rows) for m in P_VALUE.finditer(cells[4])]
     if len(found) < 2:
         return rows
-    adjusted = holm([float(m.group(1)) for _, m in found])
+    bound = holm([float(m.group(2)) for _, m in found])
+    exact = holm([float(m.group(2)) if m.group(1) == "=" else 0.0 for _, m in found])
     out = [list(cells) for cells in rows]
-    by_row: dict[int, list[tuple[re.Match, float]]] = {}
-    for (r, m), a in zip(found, adjusted):
-        by_row.setdefault(r, []).append((m, a))
+    by_row: dict[int, list[tuple[re.Match, str]]] = {}
+    for (r, m), e, b in zip(found, exact, bound):
+        by_row.setdefault(r, []).append((m, _adjusted_text(e, b)))
     for r, items in by_row.items():
         text = rows[r][4]
         for m, a in reversed(items):  # from the end, so earlier positions stay valid
-            text = f"{text[:m.end()]} (Holm-adjusted over the table's {len(found)} tests: {a:.3f}){text[m.end():]}"
+            text = f"{text[:m.end()]} (Holm-adjusted over the table's {len(found)} tests: {a}){text[m.end():]}"
         out[r][4] = text
     return out
 

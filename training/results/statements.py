@@ -14,7 +14,7 @@ import numpy as np
 
 from training.common.markdown import all_of
 from training.results.data import LEARNT_SUCCESS, SINGLE_POINT, Baseline, Group, Metric, PaperValue, as_number
-from box2d_driving.metrics.stats import Estimate, mean_ci, t_test_p, welch_p
+from box2d_driving.metrics.stats import Estimate, mean_ci, p_text, t_test_p, welch_p
 from training.results.seed_counts import paired_differences, seeds_needed, seeds_needed_apart
 
 # the sections name their statements and gather them (``sections.statements``): this module never
@@ -79,7 +79,7 @@ def _against_value(e: Estimate, value: float) -> str:
     p = t_test_p(e.values, value)
     where = "inside" if e.contains(value) else "outside"
     more = seeds_needed([v - value for v in e.values]) if e.contains(value) else ""
-    return f"the paper's value lies {where} our interval; {sides}; one-sample t-test p = {p:.3f}{more}"
+    return f"the paper's value lies {where} our interval; {sides}; one-sample t-test {p_text(p)}{more}"
 
 
 def more_cars_verdict(fewer: Estimate, more: Estimate) -> str:
@@ -171,7 +171,7 @@ def change_line(low: Group, high: Group, key: str, metric: Metric, label: str, p
         d_low, d_high = d.interval
         seen = 0 if d_low <= 0.0 <= d_high else (1 if d.mean > 0 else -1)
         how = (f"paired by seed ({len(diffs)} seeds), high minus low {name} {d.mean:+.3f} ± "
-               f"{(d_high - d_low) / 2:.3f}, p = {p:.3f}")
+               f"{(d_high - d_low) / 2:.3f}, {p_text(p)}")
         moved, unmoved, more = f", {how}", f" detected ({how})", seeds_needed(diffs)
         allows = d_high if paper > 0 else -d_low  # the largest effect the paper's way the interval keeps
     else:
@@ -318,7 +318,7 @@ def reference_statement(groups: list[Group], reference: Group, label: str, more_
         p = welch_p(e.values, ref.values)
         if p is None:  # not reached: both rows have 2+ seeds here (an interval each)
             continue
-        test = f" (Welch's t-test p = {p:.3f}"
+        test = f" (Welch's t-test {p_text(p)}"
         if apart(ref, e) == 0:
             if p < 0.05:
                 # two 95 % intervals of the means may overlap while their difference is still
