@@ -36,7 +36,8 @@ from training.ppo.workers import worker_processes
 from training.ppo.vec_env import TRANSPORTS
 from training.trainers.bench_rows import TrainBenchRow, bench_row
 from training.trainers.presets import TRAINING_PRESETS, training_preset
-from training.trainers.trainer import DEVICES, TrainConfig, resolve_device
+from training.trainers.train_config import DEVICES, TrainConfig
+from training.trainers.trainer import resolve_device
 
 ENV_ID = "intersection-v0"
 JOINT_STEPS_PER_EPOCH = 32_000  # the original trainer's epoch (sdriving's steps_per_epoch), the table's time unit
