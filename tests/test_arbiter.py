@@ -39,19 +39,21 @@ def test_no_verdict_without_both_ends_and_two_paired_seeds(tmp_path):
     assert noise_verdict(load_original_runs(tmp_path))[0] == "no interval yet"
 
 
-@pytest.mark.parametrize("low, high, verdict", [
-    ((0.10, 0.12, 0.11), (0.02, 0.03, 0.01), "reproduced"),
-    ((0.02, 0.03, 0.01), (0.10, 0.12, 0.11), "opposite"),
-    ((0.05, 0.10, 0.02), (0.09, 0.01, 0.06), "not detected"),
+@pytest.mark.parametrize("low, high, verdict, falls", [
+    ((0.10, 0.12, 0.11), (0.02, 0.03, 0.01), "reproduced", 3),
+    ((0.02, 0.03, 0.01), (0.10, 0.12, 0.11), "opposite", 0),
+    ((0.05, 0.10, 0.02), (0.09, 0.01, 0.06), "not detected", 1),
 ])
-def test_the_paired_difference_decides_by_the_pages_rule(tmp_path, low, high, verdict):
+def test_the_paired_difference_decides_by_the_pages_rule(tmp_path, low, high, verdict, falls):
     for seed, (a, b) in enumerate(zip(low, high)):
         _run(tmp_path, 0.25, seed, a)
         _run(tmp_path, 1.0, seed, b)
     got, words = noise_verdict(load_original_runs(tmp_path))
     assert got == verdict and "paired by seed (3 seeds)" in words
+    assert f"; {falls} of 3 seeds fall" in words and ", p = 0." in words
     if verdict == "not detected":
-        assert "the interval allows a fall of up to" in words
+        # the differences +0.04, -0.09, +0.04: mean -0.003, too small against their spread to tell
+        assert "the interval allows a fall of up to" in words and "a planning estimate" in words
 
 
 def test_unfinished_or_unevaluated_runs_are_shown_but_do_not_count(tmp_path):

@@ -21,7 +21,8 @@ from typing import Any, Optional
 
 from training.common.markdown import anchor, row, separator
 from training.results.data import ResultsError
-from box2d_driving.metrics.stats import mean_ci
+from box2d_driving.metrics.stats import mean_ci, p_text, t_test_p
+from training.results.seed_counts import seeds_needed
 
 __all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "OriginalRun", "arbiter_cell", "arbiter_section", "load_original_runs",
            "training_curve_figure"]
@@ -170,14 +171,18 @@ def noise_verdict(runs: list[OriginalRun]) -> tuple[str, str]:
         return "not run yet", f"{ends}; a verdict needs both ends"
     if len(paired) < 2:
         return "no interval yet", f"{ends}; an interval needs two seeds run at both ends"
-    diff = mean_ci([high[s] - low[s] for s in paired], bounds=(-1.0, 1.0))
-    words = (f"{ends}; paired by seed ({len(paired)} seeds), high minus low noise {diff.format()}")
+    diffs = [high[s] - low[s] for s in paired]
+    diff = mean_ci(diffs, bounds=(-1.0, 1.0))
+    falls = sum(d < 0 for d in diffs)
+    words = (f"{ends}; paired by seed ({len(paired)} seeds), high minus low noise {diff.format()}, "
+             f"{p_text(t_test_p(diffs, 0.0))}; {falls} of {len(paired)} seeds fall")
     low_end, high_end = diff.interval
     if high_end < 0:
         return "reproduced", words + ": fewer violations with more noise, as in the paper"
     if low_end > 0:
         return "opposite", words + ": more violations with more noise, unlike the paper"
-    return "not detected", words + f": no fall detected; the interval allows a fall of up to {-low_end:.3f}"
+    return "not detected", (words + f": no fall detected; the interval allows a fall of up to {-low_end:.3f}"
+                            + seeds_needed(diffs))
 
 
 def arbiter_cell(runs: list[OriginalRun]) -> str:
