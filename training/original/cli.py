@@ -6,7 +6,9 @@
   level (:mod:`training.original.commands`), run by sdriving's own ``ppo_distributed`` trainer in
   one process (``sdriving_worker.py``); ``--time-limit`` stops after the last epoch that fits, and
   ``--resume`` continues a folder from its last epoch;
-* ``original evaluate --run DIR``: a run's policy on report episodes, scored by our metric code;
+* ``original evaluate --run DIR`` (or ``--policy P``, one of ours): a policy on report episodes of
+  either world (``--world original | ours``), scored by our metric code;
+* ``original export --run DIR --out P``: a run's actor as a policy of ours (``export.py``);
 * ``original curve --run DIR``: every actor the run kept, on the same selection episodes, one CSV
   row per epoch (a learning curve; selection seeds, since reading a curve is choosing).
 
@@ -219,41 +221,111 @@ def _write_curve(path: Path, rows: list[dict]) -> None:
     os.replace(tmp, path)
 
 
+def _run_weights(run: Path, epoch: Optional[int]) -> Path:
+    """The actor file of run folder ``run`` after ``epoch`` (None: its last), checked to exist
+    with the run's ``run.json``: :class:`OriginalError` naming what is missing."""
+    weights = latest_weights(run) if epoch is None else run / "actors" / f"epoch_{epoch:04d}.safetensors"
+    for path in (run / "run.json", weights):
+        if not path.is_file():
+            raise OriginalError(f"--run {run}: {path.relative_to(run)} is missing")
+    return weights
+
+
+def ours_table(policy_path: Path, episodes: int, first_seed: int) -> dict:
+    """The rollout table of a policy of ours (a folder ``load_trained`` reads) driving its own
+    world (the ``paper`` preset's, for an exported original actor)."""
+    from box2d_driving.metrics.rollouts import run_episodes
+    from box2d_driving.policies import load_trained
+
+    policy = load_trained(policy_path)
+    env = policy.make_env()
+    try:
+        return run_episodes(env, policy, episodes, seed=first_seed)
+    finally:
+        env.close()
+
+
+def original_table(spec_path: Path, weights: Path, episodes: int, first_seed: int, table_path: Path) -> None:
+    """Write the rollout table of an actor in sdriving's names (``weights``) driving the original
+    world of ``spec_path`` (a ``run.json``), through the worker."""
+    subprocess.run([str(venv_python()), str(WORKER), "rollout", str(spec_path), "--driver", "trained",
+                    "--weights", str(weights), "--episodes", str(episodes), "--first-seed", str(first_seed),
+                    "--out", str(table_path)], check=True, stderr=subprocess.DEVNULL)
+
+
+def _policy_source(policy: Path) -> tuple[dict, dict]:
+    """A policy of ours as the original's actor: (run.json for the worker, sdriving tensors)."""
+    from box2d_driving.policies.checkpoint_file import find_config, read_arrays, read_json
+    from box2d_driving.policies.shipped import resolve_policy_path
+    from training.original.export import original_spec, to_original
+
+    path, arrays, _ = read_arrays(resolve_policy_path(policy))  # policy arrays by state_dict name
+    return original_spec(read_json(find_config(path))), to_original({f"policy/{k}": v for k, v in arrays.items()})
+
+
 def _evaluate(args) -> int:
-    from box2d_driving.metrics.rollouts import load_table
+    from safetensors.numpy import save_file
+
+    from box2d_driving.metrics.rollouts import load_table, save_table
+    from training.original.export import export_policy
 
     table_path = args.out.with_suffix(".npz")
     try:
         check_report_episodes(args.episodes, args.first_seed)
-        weights = latest_weights(args.run) if args.epoch is None else \
-            args.run / "actors" / f"epoch_{args.epoch:04d}.safetensors"
-        for path in (args.run / "run.json", weights):
-            if not path.is_file():
-                raise OriginalError(f"--run {args.run}: {path.relative_to(args.run)} is missing")
+        if args.run is not None:
+            weights = _run_weights(args.run, args.epoch)
+        elif args.epoch is not None:
+            raise OriginalError("--epoch picks an actor of an original run (--run), not of --policy")
+        else:  # a policy of ours: refused here, before anything is written, if the original cannot run it
+            spec, actor = _policy_source(args.policy) if args.world == "original" else ({}, {})
         for path in (args.out, table_path):
             if path.exists():
                 raise OriginalError(f"--out: {path} exists (choose another name)")
-        require_venv()
+        if args.world == "original":
+            require_venv()
         args.out.parent.mkdir(parents=True, exist_ok=True)
-    except (OriginalError, SeedError, OSError) as exc:
+        with tempfile.TemporaryDirectory() as tmp:
+            if args.run is not None and args.world == "original":
+                original_table(args.run / "run.json", weights, args.episodes, args.first_seed, table_path)
+            elif args.run is not None:
+                policy = export_policy(args.run, weights, Path(tmp) / "policy", args.epoch)
+                save_table(ours_table(policy, args.episodes, args.first_seed), table_path)
+            elif args.world == "original":
+                (Path(tmp) / "run.json").write_text(json.dumps(spec))
+                save_file(actor, str(Path(tmp) / "actor.safetensors"))
+                original_table(Path(tmp) / "run.json", Path(tmp) / "actor.safetensors", args.episodes,
+                               args.first_seed, table_path)
+            else:
+                save_table(ours_table(args.policy, args.episodes, args.first_seed), table_path)
+    except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
         return error(str(exc))
-    subprocess.run([str(venv_python()), str(WORKER), "rollout", str(args.run / "run.json"), "--driver", "trained",
-                    "--weights", str(weights), "--episodes", str(args.episodes),
-                    "--first-seed", str(args.first_seed), "--out", str(table_path)], check=True,
-                   stderr=subprocess.DEVNULL)
-    state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
-    latest = args.epoch is None
     metrics = score_table(load_table(table_path))
-    # the weights named within the run folder: a report travels with its run (carried, copied)
-    metrics.update(episodes=args.episodes, first_seed=args.first_seed, run=args.run.name,
-                   epochs=state.get("epochs_done") if latest else args.epoch,
-                   weights=weights.relative_to(args.run).as_posix(),
-                   joint_steps=state.get("joint_steps") if latest else None,
-                   car_decisions=state.get("car_decisions") if latest else None)
-    tmp = args.out.with_name(args.out.name + ".partial")
-    tmp.write_text(json.dumps(metrics, indent=1, default=float) + "\n")
-    os.replace(tmp, args.out)
+    metrics.update(episodes=args.episodes, first_seed=args.first_seed, world=args.world)
+    if args.run is not None:
+        state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
+        latest = args.epoch is None
+        # the weights named within the run folder: a report travels with its run (carried, copied)
+        metrics.update(run=args.run.name, epochs=state.get("epochs_done") if latest else args.epoch,
+                       weights=weights.relative_to(args.run).as_posix(),
+                       joint_steps=state.get("joint_steps") if latest else None,
+                       car_decisions=state.get("car_decisions") if latest else None)
+    else:
+        metrics.update(policy=str(args.policy))
+    tmp_out = args.out.with_name(args.out.name + ".partial")
+    tmp_out.write_text(json.dumps(metrics, indent=1, default=float) + "\n")
+    os.replace(tmp_out, args.out)
     print(json.dumps({k: v for k, v in metrics.items() if not isinstance(v, dict)}, default=float))
+    return 0
+
+
+def _export(args) -> int:
+    from training.original.export import export_policy
+
+    try:
+        out = export_policy(args.run, _run_weights(args.run, args.epoch), args.out, args.epoch)
+    except (OriginalError, ValueError, OSError) as exc:
+        return error(str(exc))
+    print(f"{out}: the actor as our policy (box2d-driving evaluate --checkpoint {out})")
     return 0
 
 
@@ -287,8 +359,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     c.add_argument("--section", default=None,
                    help="the page's section name (default: the preset's name, or 'default'; "
                         "'-Ncars' appended for N cars other than 4)")
-    e = sub.add_parser("evaluate", help="an original-code run's policy on report episodes, scored by our metrics")
-    e.add_argument("--run", type=Path, required=True, help="an original train run folder")
+    e = sub.add_parser("evaluate", help="an original-code run's policy, or one of ours, on report episodes of "
+                                        "either world, scored by our metrics")
+    who = e.add_mutually_exclusive_group(required=True)
+    who.add_argument("--run", type=Path, help="an original train run folder (its actor)")
+    who.add_argument("--policy", type=Path,
+                     help="a policy of ours trained with the paper preset and the paper code's LiDAR encoder "
+                          "(a run folder, a kept trial, a shipped name)")
     e.add_argument("--epoch", type=int, default=None,
                    help="score the actor kept after this epoch (actors/epoch_NNNN.safetensors; default: the latest)")
     e.add_argument("--episodes", type=int, default=200, help="report episodes (default: 200)")
@@ -296,6 +373,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help=f"first report seed (default: {REPORT.start})")
     e.add_argument("--out", type=Path, required=True,
                    help="metrics JSON to write (must not exist); the rollout table goes beside it (.npz)")
+    e.add_argument("--world", choices=("original", "ours"), default="original",
+                   help="drive the original's world (sdriving) or ours with the paper preset, the actor "
+                        "renamed for the other's network where needed (default: original)")
+    x = sub.add_parser("export", help="an original-code run's actor as our policy (the paper preset's world)")
+    x.add_argument("--run", type=Path, required=True, help="an original train run folder")
+    x.add_argument("--epoch", type=int, default=None,
+                   help="the actor kept after this epoch (default: the latest)")
+    x.add_argument("--out", type=Path, required=True, help="policy folder to write (must not exist)")
     k = sub.add_parser("curve", help="every kept actor of a run on the same selection episodes (a learning curve)")
     k.add_argument("--run", type=Path, required=True, help="an original train run folder")
     k.add_argument("--episodes", type=int, default=100, help="selection episodes per actor (default: 100)")
@@ -308,6 +393,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return setup()
     if args.command == "evaluate":
         return _evaluate(args)
+    if args.command == "export":
+        return _export(args)
     if args.command == "curve":
         return _curve(args)
     if args.command == "compare":
