@@ -32,6 +32,7 @@ COMM_FALLBACKS = ("zero", "own")
 LIGHT_STARTS = ("random_phase", "green_or_red")
 LIDAR_DROPOUTS = ("exact", "independent")
 SMOOTHNESS = ("linear", "squared")
+ARRIVED_HEADING_ERRORS = ("zero", "minus_heading")
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,10 @@ class DrivingConfig:
         lidar_min_range: returns nearer than this are dropped (m); the paper's code uses 5 m.
         smoothness: ``"linear"`` (``-(1/H) |a_t - a_{t-1}| / (a_hi - a_lo)``) or ``"squared"``
             (``-(1/H) ((a_t - a_{t-1}) / (a_hi - a_lo))^2``, the paper's code).
+        arrived_heading_error: the sat-nav heading error of a car past its goal: ``"zero"``, or
+            ``"minus_heading"``, minus the car's heading in world coordinates wrapped to
+            ``[-pi, pi]`` (rad), as the paper's code reads it once it has moved an arrived car's
+            goal onto the car (``atan2(0, 0) - heading``).
     """
 
     num_cars: int = 4
@@ -138,6 +143,7 @@ class DrivingConfig:
     lidar_dropout: str = "exact"
     lidar_min_range: float = 0.0
     smoothness: str = "linear"
+    arrived_heading_error: str = "zero"
 
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
@@ -176,6 +182,7 @@ class DrivingConfig:
         _choice(self, "light_start", LIGHT_STARTS)
         _choice(self, "lidar_dropout", LIDAR_DROPOUTS)
         _choice(self, "smoothness", SMOOTHNESS)
+        _choice(self, "arrived_heading_error", ARRIVED_HEADING_ERRORS)
         for name in ("light_period_step", "lidar_min_range"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < math.inf:

@@ -49,6 +49,8 @@ PAPER = Preset(
             "light_start": "green_or_red", "light_period_step": 0.1,  # start_signal 0 or 2; int steps
             "lidar_dropout": "independent", "lidar_min_range": 5.0,  # rand > p; BatchedVehicle min_lidar_range=5.0
             "smoothness": "squared",  # (a_t - a_{t-1})^2 / (2 * 1.5)^2
+            "drive_on": "left",  # lane_side=1: every car left of its road's axis
+            "arrived_heading_error": "minus_heading",  # destination := position, atan2(0, 0) - heading
         },
     },
 )

@@ -226,3 +226,4 @@ def test_the_table_says_which_rows_come_from_the_papers_own_world():
                             "traffic-lights-preset-1car": _result([])})
     assert some.startswith(f"2 of the {len(CLAIMS)} rows are read from runs in the paper's own world")
     assert f"*{noise.words}*; *{lone.words}*; the others from our default world" in some
+    assert "the mirror image of that world, on the right" in some  # these sections pin the preset's earlier world

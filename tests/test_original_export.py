@@ -127,8 +127,13 @@ def test_evaluate_drives_either_world_and_refuses_in_one_line(tmp_path, capsys):
     assert cli.main(["evaluate", "--policy", "traffic_lights_4cars", "--epoch", "3", "--world", "ours",
                      "--out", str(kept)]) == 2
     assert cli.main(["evaluate", "--run", str(RUN), "--world", "ours", "--episodes", "2", "--out", str(report)]) == 2
+    assert cli.main(["evaluate", "--run", str(RUN), "--set", "drive_on=right", "--out", str(kept)]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line]
-    assert len(err) == 5 and all("error:" in line for line in err)
+    assert len(err) == 6 and all("error:" in line for line in err)
     assert "preset None" in err[1] and "our own LiDAR encoder" in err[2] and "--epoch" in err[3]
-    assert "exists" in err[4]
+    assert "exists" in err[4] and "--world ours" in err[5]
+    mirrored = tmp_path / "mirrored.json"  # our world's settings changed for the drive
+    assert cli.main(["evaluate", "--run", str(RUN), "--world", "ours", "--set", "drive_on=right", "--episodes", "2",
+                     "--out", str(mirrored)]) == 0
+    assert json.loads(mirrored.read_text())["overrides"] == {"drive_on": "right"}
     assert not kept.exists()

@@ -124,7 +124,8 @@ def test_arm_spawns_rotating_approaches_and_no_overlap():
         for i in info.values():
             before = i["stop_line_distance"]  # from the lane's stop point: the junction's edge
             assert 0.2 * arm - 1e-9 <= before <= 0.8 * arm + 1e-9
-            assert 0.15 - 1e-9 <= i["lane_offset"] / 2 <= 0.30 + 1e-9  # offset / (W/2) = 2 * offset / W
+            # offset / (W/2) = 2 * offset / W, negative: the paper's cars keep to the left
+            assert 0.15 - 1e-9 <= -i["lane_offset"] / 2 <= 0.30 + 1e-9
         del half
     crowded = _paper(num_cars=12, approach_order="random")
     for seed in range(10):
@@ -213,12 +214,49 @@ def test_squared_smoothness_on_a_worked_case():
     assert info["car_0"]["reward_terms"]["smoothness"] == pytest.approx(-(1.5 / 3.0) ** 2 / 25)
 
 
+def test_driving_on_the_left_is_the_mirror_image_of_the_right():
+    right, left = _paper(drive_on="right"), _paper()
+    for seed in range(5):
+        _, a = right.reset(seed=seed)
+        _, b = left.reset(seed=seed)
+        for car in a:  # the same draws, each car on the other side of its road
+            assert b[car]["lane_offset"] == pytest.approx(-a[car]["lane_offset"])
+            assert b[car]["stop_line_distance"] == pytest.approx(a[car]["stop_line_distance"])
+            assert b[car]["approach"] == a[car]["approach"]
+        # the stop lines cover the half of the road the cars come in on
+        lines = left.layout.stop_lines
+        for car in left.layout.cars:
+            start, end = lines[car.approach]
+            assert np.dot(np.asarray(car.path.points[0]) - start, end - start) > 0  # the track's side of the axis
+    with pytest.raises(ConfigError, match="drive_on"):
+        box2d_driving.make("intersection-spline-v0", drive_on="left")
+
+
+def test_an_arrived_cars_heading_error_is_minus_its_heading_as_the_paper_reads_it():
+    env = _paper(num_cars=1, horizon=40)
+    zero = _paper(num_cars=1, horizon=40, arrived_heading_error="zero")
+    layout = env.observation_layout
+    for seed in range(4):
+        seen = {}
+        for name, e in (("minus", env), ("zero", zero)):
+            obs, _ = e.reset(seed=seed)
+            while e.agents:
+                obs, _, _, _, info = e.step({"car_0": GO if not seen.get(name) else BRAKE})
+                if "car_0" in info and info["car_0"]["arrived"]:
+                    heading = e.world.headings[0]
+                    seen[name] = float(obs["car_0"][layout.satnav].reshape(layout.history, -1)[-1, 2])
+                    break
+        expected = (-heading + math.pi) % (2 * math.pi) - math.pi  # atan2(0, 0) - heading, wrapped
+        assert seen["minus"] == pytest.approx(expected, abs=1e-6) and seen["zero"] == 0.0
+
+
 @pytest.mark.parametrize("overrides, field", [
     ({"spawn_mode": "everywhere"}, "spawn_mode"), ({"approach_order": "left"}, "approach_order"),
     ({"arm_spawn_range": (0.9, 0.1)}, "arm_spawn_range"), ({"lane_offset_range": (0.3, 0.6)}, "lane_offset_range"),
     ({"goal_radius": 0.1, "lane_offset_range": (0.15, 0.3)}, "goal_radius"), ({"light_start": "red"}, "light_start"),
     ({"lidar_dropout": "some"}, "lidar_dropout"), ({"smoothness": "cubic"}, "smoothness"),
-    ({"light_period_step": -0.1}, "light_period_step"),
+    ({"light_period_step": -0.1}, "light_period_step"), ({"drive_on": "middle"}, "drive_on"),
+    ({"arrived_heading_error": "pi"}, "arrived_heading_error"),
 ])
 def test_bad_values_name_their_field(overrides, field):
     with pytest.raises(ConfigError, match=field):

@@ -404,10 +404,32 @@ def test_a_sweep_records_the_lidar_encoder_its_trials_build_and_reads_older_ones
     old = {"behaviour": "lights", "grid": {"lidar_noise": ["0"]}, "seeds": 3, "fixed": {}, "timesteps": None,
            "minutes": None, "episodes": 200, "quick": False}  # a sweep.json of before
     assert saved_fixed(old) == {"lidar_encoder": "relu"}
-    assert saved_fixed({**old, "fixed": {"preset": "paper"}}) == {"preset": "paper", "lidar_encoder": "original"}
+    assert saved_fixed({**old, "fixed": {"preset": "paper"}}) == {
+        "preset": "paper", "lidar_encoder": "original", "drive_on": "right", "arrived_heading_error": "zero"}
     today = SweepSpec("lights", grid={"lidar_noise": ["0"]})
     check_spec(today)
     assert spec_differences(old, today) == ["fixed"]  # would mix encoders: refused
     ours = SweepSpec("lights", grid={"lidar_noise": ["0"]}, fixed={"lidar_encoder": "relu"})
     check_spec(ours)
     assert spec_differences(old, ours) == []
+
+
+def test_a_paper_preset_sweep_records_the_world_its_trials_build_and_reads_older_ones_in_the_mirror_world():
+    """The preset drives on the left since 2026-12-06: a sweep records that, one from before ran on
+    the right (with an arrived car's heading error 0) and is continued only by a sweep that pins
+    that world."""
+    from training.sweeps.spec import saved_fixed, spec_differences
+
+    now = SweepSpec("lights", fixed={"preset": "paper", "num_cars": "4"})
+    check_spec(now)
+    assert now.fixed["drive_on"] == "left" and now.fixed["arrived_heading_error"] == "minus_heading"
+    default = SweepSpec("lights", fixed={"num_cars": "4"})
+    check_spec(default)
+    assert "drive_on" not in default.fixed  # our default world: nothing to record
+    old = {"behaviour": "lights", "grid": {}, "seeds": 3, "fixed": {"preset": "paper", "num_cars": "4"},
+           "timesteps": None, "minutes": None, "episodes": 200, "quick": False}  # a preset sweep of before
+    assert spec_differences(old, now) == ["fixed"]  # would mix the two worlds: refused
+    pinned = SweepSpec("lights", fixed={"preset": "paper", "num_cars": "4", "drive_on": "right",
+                                        "arrived_heading_error": "zero"})
+    check_spec(pinned)
+    assert spec_differences(old, pinned) == [] and saved_fixed(old)["drive_on"] == "right"

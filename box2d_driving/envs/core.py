@@ -184,7 +184,9 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     # numpy's arctan2, as before (its vectorised and the C library's scalar versions may round
     # differently)
     heading_error = wrap_angle(np.arctan2(to_goal[1], to_goal[0]) - head)
-    heading_error[remaining <= 0] = 0.0
+    past = remaining <= 0
+    # past its goal: 0, or the paper's code's reading with the goal moved onto the car
+    heading_error[past] = wrap_angle(-head[past]) if cfg.arrived_heading_error == "minus_heading" else 0.0
     satnav[:, 2] = heading_error
     if n_extra:
         satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])

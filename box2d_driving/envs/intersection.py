@@ -26,6 +26,7 @@ from box2d_driving.road.lights import sample_lights
 
 N_APPROACHES = 4
 SPAWN_MODES = ("slots", "arm")
+DRIVE_SIDES = ("right", "left")
 APPROACH_ORDERS = ("fixed", "rotate", "random")
 
 
@@ -58,6 +59,10 @@ class IntersectionConfig(DrivingConfig):
             axis, and a car arrives once within ``r * W`` of it (the paper's code: 1/3).
         road_end_walls: the far end of every arm is a wall (the paper's code), which a car that
             drives on past its goal (``arrived_cars_stay``) or backs up (``reverse``) can hit.
+        drive_on: the side of the road the cars keep to, with their stop lines and lights:
+            ``"right"``, or ``"left"`` (the paper's code: the mirror image, which its scripted
+            drivers cannot tell apart but a trained policy's LiDAR and heading error can). Lane
+            offsets (``lane_offset`` in rollouts) stay positive to the right of travel.
     """
 
     horizon: int = 36
@@ -75,6 +80,7 @@ class IntersectionConfig(DrivingConfig):
     approach_order: str = "fixed"
     goal_radius: Optional[float] = None
     road_end_walls: bool = False
+    drive_on: str = "right"
 
     def _validate(self) -> None:
         require(self, 1 <= self.slots_per_approach <= 16, ("slots_per_approach",),
@@ -105,6 +111,7 @@ class IntersectionConfig(DrivingConfig):
         require(self, self.spawn_mode in SPAWN_MODES, ("spawn_mode",), f"spawn_mode must be one of {SPAWN_MODES}")
         require(self, self.approach_order in APPROACH_ORDERS, ("approach_order",),
                 f"approach_order must be one of {APPROACH_ORDERS}")
+        require(self, self.drive_on in DRIVE_SIDES, ("drive_on",), f"drive_on must be one of {DRIVE_SIDES}")
         a_lo, a_hi = self.arm_spawn_range
         require(self, 0.0 <= a_lo < a_hi <= 1.0 and a_lo * lo_l >= self.car_length / 2,
                 ("arm_spawn_range", "road_length_range", "car_length"),
@@ -157,6 +164,8 @@ class IntersectionEnv(DrivingEnv):
         dirs = np.array([[math.cos(a * math.pi / 2), math.sin(a * math.pi / 2)]
                          for a in range(N_APPROACHES)])
         rights = np.stack([dirs[:, 1], -dirs[:, 0]], axis=1)
+        # the side the cars keep to: the right of travel, or its mirror image
+        sides = rights if cfg.drive_on == "right" else -rights
 
         edges, drivable = [], [np.array([[-half, -half], [half, -half], [half, half], [-half, half]])]
         for u, r in zip(dirs, rights):  # arm pointing along u
@@ -166,8 +175,8 @@ class IntersectionEnv(DrivingEnv):
                                       u * (half + length) + r * half, u * half + r * half]))
 
         lane = cfg.lane_fraction * half
-        stop_points = -half * dirs + lane * rights
-        stop_lines = np.stack([-half * dirs, -half * dirs + half * rights], axis=1)
+        stop_points = -half * dirs + lane * sides
+        stop_lines = np.stack([-half * dirs, -half * dirs + half * sides], axis=1)
         lights = sample_lights(rng, stop_points, dirs, np.arange(N_APPROACHES) % 2,
                                cfg.light_period_range, cfg.light_yellow, cfg.light_start, cfg.light_period_step)
         if cfg.road_end_walls:  # across the far end of every arm
@@ -176,7 +185,7 @@ class IntersectionEnv(DrivingEnv):
         goal_dist = 0.5 * (cfg.goal_fraction * length + width)
         if cfg.spawn_mode == "arm" or cfg.approach_order != "fixed" or cfg.lane_offset_range is not None \
                 or cfg.goal_radius is not None or cfg.arrived_cars_stay or cfg.reverse:
-            cars = self._paper_spawns(rng, length, width, dirs, rights, goal_dist)
+            cars = self._paper_spawns(rng, length, width, dirs, sides, goal_dist)
             return Layout(edges=np.array(edges), cars=cars, lights=lights,
                           junction_box=(-half, -half, half, half), drivable=drivable, stop_lines=stop_lines)
         free = [list(rng.permutation(cfg.slots_per_approach)) for _ in range(N_APPROACHES)]
@@ -186,7 +195,7 @@ class IntersectionEnv(DrivingEnv):
             slot = int(free[a].pop())
             back = half + cfg.spawn_first_slot + slot * cfg.spawn_slot_spacing
             back += float(rng.uniform(-cfg.spawn_jitter, cfg.spawn_jitter))
-            d, r = dirs[a], rights[a]
+            d, r = dirs[a], sides[a]
             path = Path.straight(-back * d + lane * r, goal_dist * d + lane * r)
             cars.append(CarSpawn(path=path, light_index=a, rating=1.0,
                                  lane_axis=LaneAxis(np.zeros(2), d.copy(), half), approach=a))
@@ -195,7 +204,7 @@ class IntersectionEnv(DrivingEnv):
                       stop_lines=stop_lines)
 
     def _paper_spawns(self, rng: np.random.Generator, length: float, width: float, dirs: np.ndarray,
-                      rights: np.ndarray, goal_dist: float) -> list[CarSpawn]:
+                      sides: np.ndarray, goal_dist: float) -> list[CarSpawn]:
         """Spawns by the options the paper's code uses (``spawn_mode``, ``lane_offset_range``,
         ``approach_order``, ``goal_radius``) on straight tracks; a track reaches back to the start
         arm's far end when cars ``reverse`` and on to the goal arm's far end when they stay after
@@ -233,7 +242,7 @@ class IntersectionEnv(DrivingEnv):
                 raise ConfigError(f"{type(cfg).__name__}: no free spawn for car {i} after {_MAX_SPAWN_TRIES} draws "
                                   f"(num_cars={cfg.num_cars} on arms of {length:.0f} m): use fewer cars")
             placed.append((a, back, lane))
-            d, r = dirs[a], rights[a]
+            d, r = dirs[a], sides[a]
             far = half + length
             start = (-far if cfg.reverse else -back) * d + lane * r
             if cfg.goal_radius is None:

@@ -68,6 +68,9 @@ class IntersectionSplineConfig(IntersectionConfig):
                 "spline_action must be 'per_waypoint' or 'joint'")
         require(self, 4 <= self.spline_samples <= 1000, ("spline_samples",), "spline_samples must be in [4, 1000]")
         require(self, self.spline_obs_scale > 0, ("spline_obs_scale",), "spline_obs_scale must be positive")
+        # the routes are planned with offsets to the right of travel and its stop lines there
+        require(self, self.drive_on == "right", ("drive_on",), "the spline stage plans routes on the right: drive_on "
+                "must be 'right'")
 
     @property
     def choices_per_waypoint(self) -> int:

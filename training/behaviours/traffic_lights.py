@@ -26,14 +26,22 @@ class Args(ScriptArgs):
     approach_order: which arm each car starts on: fixed (car i on arm i mod 4), rotate (round robin
         from a random first arm: the paper's 4-car runs) or random (each car's arm uniform at random:
         the paper's 8-car run); default: the scenario's, or the preset's
+    drive_on: the side of the road the cars keep to: right, or left (the paper's code, its mirror
+        image); default: the scenario's, or the preset's
+    arrived_heading_error: an arrived car's heading error: zero, or minus_heading (the paper's code);
+        default: the scenario's, or the preset's
     """
 
     num_cars: int = IntersectionConfig.num_cars  # the scenario's, declared once in its config
     out: str = "runs/traffic_lights"
     approach_order: Optional[str] = None
+    drive_on: Optional[str] = None
+    arrived_heading_error: Optional[str] = None
 
     def env_overrides(self) -> dict:
-        return {} if self.approach_order is None else {"approach_order": self.approach_order}
+        given = {"approach_order": self.approach_order, "drive_on": self.drive_on,
+                 "arrived_heading_error": self.arrived_heading_error}
+        return {k: v for k, v in given.items() if v is not None}
 
 
 def main(argv: Optional[list[str]] = None) -> int:

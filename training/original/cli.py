@@ -231,14 +231,15 @@ def _run_weights(run: Path, epoch: Optional[int]) -> Path:
     return weights
 
 
-def ours_table(policy_path: Path, episodes: int, first_seed: int) -> dict:
+def ours_table(policy_path: Path, episodes: int, first_seed: int, overrides: Optional[dict] = None) -> dict:
     """The rollout table of a policy of ours (a folder ``load_trained`` reads) driving its own
-    world (the ``paper`` preset's, for an exported original actor)."""
+    world (the ``paper`` preset's, for an exported original actor), with ``overrides`` of that
+    world's config."""
     from box2d_driving.metrics.rollouts import run_episodes
     from box2d_driving.policies import load_trained
 
     policy = load_trained(policy_path)
-    env = policy.make_env()
+    env = policy.make_env(**(overrides or {}))
     try:
         return run_episodes(env, policy, episodes, seed=first_seed)
     finally:
@@ -269,9 +270,14 @@ def _evaluate(args) -> int:
     from box2d_driving.metrics.rollouts import load_table, save_table
     from training.original.export import export_policy
 
+    from box2d_driving.cli import _parse_overrides
+
     table_path = args.out.with_suffix(".npz")
     try:
         check_report_episodes(args.episodes, args.first_seed)
+        overrides = _parse_overrides(args.set)
+        if overrides and args.world != "ours":
+            raise OriginalError("--set changes our world's settings: it needs --world ours")
         if args.run is not None:
             weights = _run_weights(args.run, args.epoch)
         elif args.epoch is not None:
@@ -289,18 +295,18 @@ def _evaluate(args) -> int:
                 original_table(args.run / "run.json", weights, args.episodes, args.first_seed, table_path)
             elif args.run is not None:
                 policy = export_policy(args.run, weights, Path(tmp) / "policy", args.epoch)
-                save_table(ours_table(policy, args.episodes, args.first_seed), table_path)
+                save_table(ours_table(policy, args.episodes, args.first_seed, overrides), table_path)
             elif args.world == "original":
                 (Path(tmp) / "run.json").write_text(json.dumps(spec))
                 save_file(actor, str(Path(tmp) / "actor.safetensors"))
                 original_table(Path(tmp) / "run.json", Path(tmp) / "actor.safetensors", args.episodes,
                                args.first_seed, table_path)
             else:
-                save_table(ours_table(args.policy, args.episodes, args.first_seed), table_path)
+                save_table(ours_table(args.policy, args.episodes, args.first_seed, overrides), table_path)
     except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
         return error(str(exc))
     metrics = score_table(load_table(table_path))
-    metrics.update(episodes=args.episodes, first_seed=args.first_seed, world=args.world)
+    metrics.update(episodes=args.episodes, first_seed=args.first_seed, world=args.world, overrides=overrides)
     if args.run is not None:
         state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
         latest = args.epoch is None
@@ -376,6 +382,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     e.add_argument("--world", choices=("original", "ours"), default="original",
                    help="drive the original's world (sdriving) or ours with the paper preset, the actor "
                         "renamed for the other's network where needed (default: original)")
+    e.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="with --world ours: an override of our world's config, e.g. --set drive_on=right")
     x = sub.add_parser("export", help="an original-code run's actor as our policy (the paper preset's world)")
     x.add_argument("--run", type=Path, required=True, help="an original train run folder")
     x.add_argument("--epoch", type=int, default=None,

@@ -198,29 +198,38 @@ def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Base
             for metric, value in scripted_junction_metrics(driver, n, first, episodes)}
 
 
+# the world settings a lights sweep may fix, as text, that the scripted drivers' world must share
+# with its trials (where the cars start, which side they keep to, what an arrived car reads)
+WORLD_KEYS = ("approach_order", "drive_on", "arrived_heading_error")
+
+
 @functools.lru_cache(maxsize=None)
 def scripted_violation_rate(driver: str, num_cars: int, first_seed: int, episodes: int,
-                            preset: Optional[str] = None) -> float:
+                            preset: Optional[str] = None, world: tuple[tuple[str, str], ...] = ()) -> float:
     """The red-light violation rate of a scripted driver that knows no rule (``full-throttle``,
     ``random``) on the given report episodes of ``intersection-v0`` with ``num_cars`` cars, in the
-    world of ``preset`` (None: our defaults; LiDAR noise does not matter to either driver: neither
-    reads the LiDAR)."""
+    world of ``preset`` (None: our defaults) with the settings ``world`` (:data:`WORLD_KEYS`)
+    over it; LiDAR noise does not matter to either driver: neither reads the LiDAR."""
     from box2d_driving.metrics.lights import traffic_light_metrics
 
-    world = {} if preset is None else {"preset": preset}
-    table, _ = scripted_table("intersection-v0", driver, first_seed, episodes, num_cars=num_cars, **world)
+    settings = {**({} if preset is None else {"preset": preset}), **dict(world)}
+    table, _ = scripted_table("intersection-v0", driver, first_seed, episodes, num_cars=num_cars, **settings)
     return float(traffic_light_metrics(table)["red_light_violation_rate"])
 
 
 def lights_baselines(summary: dict[str, Any], groups: list[Group]) -> Baseline:
     """The rule-free scripted drivers' red-light violation rates on the trials' report episodes, in
-    the trials' world (their sweep's ``preset``, if any), keyed ``DRIVER/red_light_violation_rate``
-    (a section whose trials share one car count)."""
+    the trials' world (their sweep's ``preset``, if any, and the :data:`WORLD_KEYS` it fixes, as a
+    sweep from before it recorded them ran: ``saved_fixed``), keyed
+    ``DRIVER/red_light_violation_rate`` (a section whose trials share one car count)."""
+    from training.sweeps.spec import saved_fixed
+
     first, episodes = report_episodes(summary)
     n = _one_car_count(summary)
     if n is None:
         return {}
-    preset = summary["sweep"].get("fixed", {}).get("preset")
-    return {f"{driver}/red_light_violation_rate": (scripted_violation_rate(driver, n, first, episodes, preset),
-                                                   episodes)
+    fixed = saved_fixed(summary["sweep"])
+    world = tuple((k, str(fixed[k])) for k in WORLD_KEYS if k in fixed)
+    return {f"{driver}/red_light_violation_rate": (scripted_violation_rate(driver, n, first, episodes,
+                                                                           fixed.get("preset"), world), episodes)
             for driver in SCRIPTED_BASELINES}

@@ -303,10 +303,16 @@ def claims_table(found: dict[str, SectionResult], arbiter: str = NOT_RUN_THERE) 
 def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
     """Which of the claims table's rows are read from runs in the paper's own world and update
     (sections of the ``paper`` preset) and which from our default world, in words."""
-    preset = [c.words for c in CLAIMS
-              if (key := deciding_section(c, found_sections)) is not None and ("preset", "paper") in section(key).match]
+    keys = [(c, key) for c in CLAIMS if (key := deciding_section(c, found_sections)) is not None
+            and ("preset", "paper") in section(key).match]
+    preset = [c.words for c, _ in keys]
+    # runs from before the preset drove on the left pin its mirror image (paper_world_sections.MIRROR_WORLD)
+    mirrored = any(("drive_on", "right") in section(key).match for _, key in keys)
     world = ("the paper's own world and update (its arrived cars stay, its epochs are 32,000 joint steps, its "
-             "entropy 1e-4: the `paper` preset, [paper_world.md](paper_world.md))")
+             "entropy 1e-4: the `paper` preset, [paper_world.md](paper_world.md)"
+             + ("; as the preset stood before 2026-12-06, the mirror image of that world, on the right, with an "
+                "arrived car's heading error 0: [what that changes](paper_world.md#policies-in-both-worlds)"
+                if mirrored else "") + ")")
     if not preset:
         return f"None of these runs is yet in {world}; each row gives its share of the paper's joint steps."
     if len(preset) == len(CLAIMS):

@@ -5,6 +5,8 @@ then the preset's first runs with ours (kept apart: most of their actors were bl
 
 from __future__ import annotations
 
+import dataclasses
+
 from training.original.commands import TrainerSettings
 from training.results.baselines import lights_baselines
 from training.results.figures import bars_figure
@@ -31,6 +33,15 @@ LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of 
                     "planned before any was run.")
 LONE_CAR_BUDGET = ("1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, horizon "
                    "20 decisions, entropy 1e-3, LiDAR noise 0")
+# the world every section here ran in: the preset as it stood before 2026-12-06, on the right and
+# reading an arrived car's heading error as 0 (training/sweeps/spec.py, PINNED_WORLD)
+MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"))
+PAPER_BEFORE = "preset=paper drive_on=right arrived_heading_error=zero"  # the same, in a sweep command
+MIRROR_NOTE = ("Run before the preset drove on the left as the paper's code does (`drive_on=right`, pinned in the "
+               "command): the mirror image of the paper's world, which no scripted driver's statistics tell apart, "
+               "and with an arrived car's heading error 0 where the paper's code reads minus its heading "
+               "(`arrived_heading_error=zero`). A policy trained in one does worse in the other (the paper's own "
+               "policies in both worlds: [paper_world.md](paper_world.md#policies-in-both-worlds)).")
 # why the preset's first runs stand apart (docs/paper_world.md, "The LiDAR encoder")
 RELU_NOTE = ("Run before the preset had the paper code's LiDAR encoder, with ours (`lidar_encoder=relu`: its last "
              "ReLU sits on a single channel). In most of these actors that ReLU is dead: their LiDAR features are "
@@ -41,12 +52,13 @@ RELU_NOTE = ("Run before the preset had the paper code's LiDAR encoder, with our
 
 
 # the paper-world lights sections, in page order: the paper code's encoder first, then the preset's first runs
-PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
+_PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
     Section("traffic-lights-preset", "Stopping at red lights in the paper's world, update and network", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_encoder", "original")),
+            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD,
+             ("lidar_encoder", "original")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 preset=paper "
+            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_BEFORE} "
             "lidar_encoder=original original_epochs=75 --out runs/sweep-lights-paper-net",
             setting="Each trial trains 4 cars from scratch with our trainer in the paper's own world, update and "
                     "network (`--preset paper`: an arrived car stays until the horizon of 25 decisions, every car "
@@ -67,12 +79,12 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
                                 ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
     Section("traffic-lights-preset-noise1", "Stopping at red lights in the paper's world, update and network, "
             "LiDAR noise 1.0", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_noise", "1.0"),
+            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_noise", "1.0"),
              ("lidar_encoder", "original")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
             "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 preset=paper lidar_encoder=original "
+            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_BEFORE} lidar_encoder=original "
             "original_epochs=50 --out runs/sweep-lights-paper-net-noise1",
             setting="The section above at LiDAR noise 1.0 (every ray dropped: the cars see no other car), for the "
                     "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
@@ -81,9 +93,10 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             statements=(LIGHTS_BASELINE_STATEMENT,),
             paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
     Section("traffic-lights-preset-1car", "A lone car in the paper's world, update and network", "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), ("lidar_encoder", "original")),
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_WORLD,
+             ("lidar_encoder", "original")),
             LIGHTS_METRICS, LONE_CAR_CLAIM,
-            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 preset=paper lidar_encoder=original "
+            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 {PAPER_BEFORE} lidar_encoder=original "
             "original_epochs=75 --out runs/sweep-lights-paper-net-1car",
             setting=LONE_CAR_SETTING,
             baseline=lights_baselines, statements=(lone_car_statement,),
@@ -91,10 +104,11 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
     Section("traffic-lights-preset-8cars", "Denser traffic in the paper's world, update and network (8 cars)",
             "lights",
-            (("num_cars", "8"), ("preset", "paper"), ("approach_order", "random"), ("lidar_encoder", "original")),
+            (("num_cars", "8"), ("preset", "paper"), *MIRROR_WORLD,
+             ("approach_order", "random"), ("lidar_encoder", "original")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red (the paper's 8-car run, fine-tuned from its 4-car policy).",
-            f"{SWEEP} lights --seeds 4 --set num_cars=8 lidar_noise=0.5 preset=paper lidar_encoder=original "
+            f"{SWEEP} lights --seeds 4 --set num_cars=8 lidar_noise=0.5 {PAPER_BEFORE} lidar_encoder=original "
             f"approach_order=random original_epochs=75 init_from={PRESET_8CARS_FROM} "
             "--out runs/sweep-lights-paper-net-8cars",
             setting="Each trial fine-tunes, with 8 cars, one 4-car policy of the grid above (its noise-0.5 "
@@ -112,10 +126,10 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
     # the preset's first runs, before it had the paper code's LiDAR encoder: ours, often dead
     Section("traffic-lights-preset-relu", "Stopping at red lights in the paper's world and update, our LiDAR "
             "encoder", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_encoder", "relu")),
+            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_encoder", "relu")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 preset=paper "
+            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_BEFORE} "
             "lidar_encoder=relu original_epochs=75 --out runs/sweep-lights-preset",
             setting=f"{RELU_NOTE} Otherwise the section \"Stopping at red lights in the paper's world, update and "
                     "network\": 4 cars from scratch, `--preset paper`, 75 epochs of 32,000 joint steps at noise "
@@ -127,12 +141,12 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             joins=("traffic-lights-preset-relu-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
     Section("traffic-lights-preset-relu-noise1", "Stopping at red lights in the paper's world and update, LiDAR "
             "noise 1.0, our LiDAR encoder", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), ("lidar_noise", "1.0"),
+            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_noise", "1.0"),
              ("lidar_encoder", "relu")),
             LIGHTS_METRICS,
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
             "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 preset=paper lidar_encoder=relu "
+            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_BEFORE} lidar_encoder=relu "
             "original_epochs=50 --out runs/sweep-lights-preset-noise1",
             setting="The section above at LiDAR noise 1.0 for 50 epochs, with our LiDAR encoder; at noise 1.0 "
                     "every ray is dropped, so no encoder can see another car.",
@@ -141,9 +155,9 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
     Section("traffic-lights-preset-relu-1car", "A lone car in the paper's world and update, our LiDAR encoder",
             "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), ("lidar_encoder", "relu")),
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_encoder", "relu")),
             LIGHTS_METRICS, LONE_CAR_CLAIM,
-            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 preset=paper lidar_encoder=relu "
+            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 {PAPER_BEFORE} lidar_encoder=relu "
             "original_epochs=75 --out runs/sweep-lights-preset-1car",
             setting=f"{RELU_NOTE} A lone car has no other car to see, so its LiDAR matters less here. "
                     + LONE_CAR_SETTING,
@@ -151,3 +165,6 @@ PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             compare_with=("traffic-lights-preset-relu", (("lidar_noise", "0.25"),)),
             paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
 )
+# every one of them ran in the preset's earlier world, which each setting says
+PAPER_WORLD_LIGHTS: tuple[Section, ...] = tuple(dataclasses.replace(s, setting=f"{s.setting} {MIRROR_NOTE}")
+                                                for s in _PAPER_WORLD_LIGHTS)

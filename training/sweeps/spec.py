@@ -174,6 +174,7 @@ def check_spec(spec: SweepSpec) -> None:
     if overlap:
         raise SweepError(f"{', '.join(sorted(overlap))} both in --grid and --set")
     encoders = set()
+    worlds: dict[str, set] = {key: set() for key in PINNED_WORLD}
     for trial in spec.trials():
         argv = trial["argv"] + ["--out", "unused"]
         try:
@@ -185,17 +186,30 @@ def check_spec(spec: SweepSpec) -> None:
         except ValueError as exc:
             raise SweepError(f"trial {trial['name']}: {exc}") from None
         encoders.add(getattr(getattr(config, "accel", config), "lidar_encoder", None))
+        env = getattr(getattr(config, "accel", config), "env_overrides", {}) or {}
+        for key, values in worlds.items():
+            values.add(env.get(key))
     # the encoder its trials build, recorded though not given: a summary says what it ran with,
     # whatever a later default is (saved_fixed reads sweeps from before this)
     if "lidar_encoder" not in spec.grid and "lidar_encoder" not in spec.fixed and len(encoders) == 1 \
             and None not in encoders:
         spec.fixed["lidar_encoder"] = str(encoders.pop())
+    for key, values in worlds.items():  # likewise the world settings a preset changed later
+        if key not in spec.grid and key not in spec.fixed and len(values) == 1 and None not in values:
+            spec.fixed[key] = str(values.pop())
+
+
+# world settings the paper preset changed on 2026-12-06, after sweeps had run with it, and their
+# values before: a sweep records what its trials build (check_spec), and one from before is read
+# with these (saved_fixed), so its trials are never taken for runs of the preset's world now
+PINNED_WORLD = {"drive_on": "right", "arrived_heading_error": "zero"}
 
 
 def saved_fixed(saved: dict) -> dict[str, str]:
     """The fixed options of a saved sweep (``sweep.json``, a summary's ``sweep``), with the LiDAR
     encoder of one from before it was recorded: ours (``relu``, the default then), or its
-    preset's."""
+    preset's; and, for a ``paper`` preset sweep from before the preset drove on the left, the
+    world it ran in (:data:`PINNED_WORLD`)."""
     from training.ppo.encoder import LEGACY_LIDAR_ENCODER
     from training.trainers.presets import TRAINING_PRESETS
 
@@ -203,4 +217,8 @@ def saved_fixed(saved: dict) -> dict[str, str]:
     if "lidar_encoder" not in fixed and "lidar_encoder" not in (saved.get("grid") or {}):
         preset = TRAINING_PRESETS.get(str(fixed.get("preset")))
         fixed["lidar_encoder"] = preset.lidar_encoder if preset is not None else LEGACY_LIDAR_ENCODER
+    if fixed.get("preset") == "paper":
+        for key, before in PINNED_WORLD.items():
+            if key not in fixed and key not in (saved.get("grid") or {}):
+                fixed[key] = before
     return fixed
