@@ -33,6 +33,7 @@ LIGHT_STARTS = ("random_phase", "green_or_red")
 LIDAR_DROPOUTS = ("exact", "independent")
 SMOOTHNESS = ("linear", "squared")
 ARRIVED_HEADING_ERRORS = ("zero", "minus_heading")
+GOAL_DISTANCES = ("path", "straight")
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,11 @@ class DrivingConfig:
             ``"minus_heading"``, minus the car's heading in world coordinates wrapped to
             ``[-pi, pi]`` (rad), as the paper's code reads it once it has moved an arrived car's
             goal onto the car (``atan2(0, 0) - heading``).
+        goal_distance: the distance the sat-nav's ``1 / max(distance, 1)`` reads: ``"path"``, the
+            length of track left to drive to the arrival point (m), or ``"straight"``, the
+            straight-line distance from the car to its goal point (m), as the paper's code reads it
+            (with a ``goal_radius`` that point is on the road axis and a car arrives ``r * W``
+            short of it); once a car is past its goal, either reads 1.
     """
 
     num_cars: int = 4
@@ -144,6 +150,7 @@ class DrivingConfig:
     lidar_min_range: float = 0.0
     smoothness: str = "linear"
     arrived_heading_error: str = "zero"
+    goal_distance: str = "path"
 
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
@@ -183,6 +190,7 @@ class DrivingConfig:
         _choice(self, "lidar_dropout", LIDAR_DROPOUTS)
         _choice(self, "smoothness", SMOOTHNESS)
         _choice(self, "arrived_heading_error", ARRIVED_HEADING_ERRORS)
+        _choice(self, "goal_distance", GOAL_DISTANCES)
         for name in ("light_period_step", "lidar_min_range"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < math.inf:

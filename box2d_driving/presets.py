@@ -51,6 +51,7 @@ PAPER = Preset(
             "smoothness": "squared",  # (a_t - a_{t-1})^2 / (2 * 1.5)^2
             "drive_on": "left",  # lane_side=1: every car left of its road's axis
             "arrived_heading_error": "minus_heading",  # destination := position, atan2(0, 0) - heading
+            "goal_distance": "straight",  # 1 / clamp(distance_from_destination(), min=1)
         },
     },
 )

@@ -250,13 +250,35 @@ def test_an_arrived_cars_heading_error_is_minus_its_heading_as_the_paper_reads_i
         assert seen["minus"] == pytest.approx(expected, abs=1e-6) and seen["zero"] == 0.0
 
 
+def test_the_goal_distance_is_read_in_a_straight_line_to_the_axis_goal_as_the_paper_reads_it():
+    env, path = _paper(num_cars=1, horizon=40), _paper(num_cars=1, horizon=40, goal_distance="path")
+    layout = env.observation_layout
+
+    def inv(obs):  # the newest frame's 1 / max(distance, 1)
+        return float(obs["car_0"][layout.satnav].reshape(layout.history, -1)[-1, 3])
+
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        along, _ = path.reset(seed=seed)
+        goal = np.asarray(env.layout.cars[0].goal)  # on the road axis
+        arrived = False
+        while env.agents and not arrived:
+            assert inv(obs) == pytest.approx(1.0 / max(np.linalg.norm(goal - env.world.positions[0]), 1.0), rel=1e-6)
+            # the track's reading: the length left to the arrival point, r * W short of the goal
+            assert inv(along) == pytest.approx(1.0 / max(path.world.s_goal[0] - path.world.s[0], 1.0), rel=1e-6)
+            obs, _, _, _, info = env.step({"car_0": GO})
+            along, *_ = path.step({"car_0": GO})
+            arrived = bool(info["car_0"]["arrived"])
+        assert arrived and inv(obs) == 1.0 and inv(along) == 1.0  # past the goal: 1 either way
+
+
 @pytest.mark.parametrize("overrides, field", [
     ({"spawn_mode": "everywhere"}, "spawn_mode"), ({"approach_order": "left"}, "approach_order"),
     ({"arm_spawn_range": (0.9, 0.1)}, "arm_spawn_range"), ({"lane_offset_range": (0.3, 0.6)}, "lane_offset_range"),
     ({"goal_radius": 0.1, "lane_offset_range": (0.15, 0.3)}, "goal_radius"), ({"light_start": "red"}, "light_start"),
     ({"lidar_dropout": "some"}, "lidar_dropout"), ({"smoothness": "cubic"}, "smoothness"),
     ({"light_period_step": -0.1}, "light_period_step"), ({"drive_on": "middle"}, "drive_on"),
-    ({"arrived_heading_error": "pi"}, "arrived_heading_error"),
+    ({"arrived_heading_error": "pi"}, "arrived_heading_error"), ({"goal_distance": "sideways"}, "goal_distance"),
 ])
 def test_bad_values_name_their_field(overrides, field):
     with pytest.raises(ConfigError, match=field):

@@ -185,6 +185,8 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     # differently)
     heading_error = wrap_angle(np.arctan2(to_goal[1], to_goal[0]) - head)
     past = remaining <= 0
+    if cfg.goal_distance == "straight":  # the paper's code: to the goal point, 1 once past it
+        satnav[:, 3] = np.where(past, 1.0, 1.0 / np.maximum(np.hypot(to_goal[0], to_goal[1]), 1.0))
     # past its goal: 0, or the paper's code's reading with the goal moved onto the car
     heading_error[past] = wrap_angle(-head[past]) if cfg.arrived_heading_error == "minus_heading" else 0.0
     satnav[:, 2] = heading_error

@@ -30,6 +30,8 @@ class Args(ScriptArgs):
         image); default: the scenario's, or the preset's
     arrived_heading_error: an arrived car's heading error: zero, or minus_heading (the paper's code);
         default: the scenario's, or the preset's
+    goal_distance: the sat-nav's distance to the goal: path (along the track), or straight (to the
+        goal point, the paper's code); default: the scenario's, or the preset's
     """
 
     num_cars: int = IntersectionConfig.num_cars  # the scenario's, declared once in its config
@@ -37,10 +39,11 @@ class Args(ScriptArgs):
     approach_order: Optional[str] = None
     drive_on: Optional[str] = None
     arrived_heading_error: Optional[str] = None
+    goal_distance: Optional[str] = None
 
     def env_overrides(self) -> dict:
         given = {"approach_order": self.approach_order, "drive_on": self.drive_on,
-                 "arrived_heading_error": self.arrived_heading_error}
+                 "arrived_heading_error": self.arrived_heading_error, "goal_distance": self.goal_distance}
         return {k: v for k, v in given.items() if v is not None}
 
 

@@ -200,7 +200,7 @@ def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Base
 
 # the world settings a lights sweep may fix, as text, that the scripted drivers' world must share
 # with its trials (where the cars start, which side they keep to, what an arrived car reads)
-WORLD_KEYS = ("approach_order", "drive_on", "arrived_heading_error")
+WORLD_KEYS = ("approach_order", "drive_on", "arrived_heading_error", "goal_distance")
 
 
 @functools.lru_cache(maxsize=None)

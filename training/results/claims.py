@@ -311,7 +311,8 @@ def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
     world = ("the paper's own world and update (its arrived cars stay, its epochs are 32,000 joint steps, its "
              "entropy 1e-4: the `paper` preset, [paper_world.md](paper_world.md)"
              + ("; as the preset stood before 2026-12-06, the mirror image of that world, on the right, with an "
-                "arrived car's heading error 0: [what that changes](paper_world.md#policies-in-both-worlds)"
+                "arrived car's heading error 0 and the distance to the goal read along the track: "
+                "[what that changes](paper_world.md#policies-in-both-worlds)"
                 if mirrored else "") + ")")
     if not preset:
         return f"None of these runs is yet in {world}; each row gives its share of the paper's joint steps."

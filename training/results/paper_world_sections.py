@@ -33,15 +33,20 @@ LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of 
                     "planned before any was run.")
 LONE_CAR_BUDGET = ("1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, horizon "
                    "20 decisions, entropy 1e-3, LiDAR noise 0")
-# the world every section here ran in: the preset as it stood before 2026-12-06, on the right and
-# reading an arrived car's heading error as 0 (training/sweeps/spec.py, PINNED_WORLD)
-MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"))
-PAPER_BEFORE = "preset=paper drive_on=right arrived_heading_error=zero"  # the same, in a sweep command
+# the world every section here ran in: the preset as it stood before 2026-12-06, on the right,
+# reading an arrived car's heading error as 0 and the goal distance along the track
+# (training/sweeps/spec.py, PINNED_WORLD)
+MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"))
+# the same, in a sweep command
+PAPER_BEFORE = "preset=paper drive_on=right arrived_heading_error=zero goal_distance=path"
 MIRROR_NOTE = ("Run before the preset drove on the left as the paper's code does (`drive_on=right`, pinned in the "
                "command): the mirror image of the paper's world, which no scripted driver's statistics tell apart, "
                "and with an arrived car's heading error 0 where the paper's code reads minus its heading "
-               "(`arrived_heading_error=zero`). A policy trained in one does worse in the other (the paper's own "
-               "policies in both worlds: [paper_world.md](paper_world.md#policies-in-both-worlds)).")
+               "(`arrived_heading_error=zero`), and the distance to the goal read along the track where the "
+               "paper's code reads it in a straight line to the goal on the road axis (`goal_distance=path`). "
+               "These policies drive the paper's own world differently: their red entries there follow those "
+               "on the left of ours, seed by seed, and they crash more after arriving (the paper's own "
+               "policies drive both worlds alike: [paper_world.md](paper_world.md#policies-in-both-worlds)).")
 # why the preset's first runs stand apart (docs/paper_world.md, "The LiDAR encoder")
 RELU_NOTE = ("Run before the preset had the paper code's LiDAR encoder, with ours (`lidar_encoder=relu`: its last "
              "ReLU sits on a single channel). In most of these actors that ReLU is dead: their LiDAR features are "

@@ -143,8 +143,9 @@ def _page_intro() -> list[str]:
             "trial), and `box2d-driving reproduce --reevaluate [--only RULE]` measures those trials again on their own "
             "report episodes with today's metric code (a new measure, baseline or definition without retraining; "
             "each section says for how many of its trials); trials landed before 2026-12-04 kept none. "
-            "`assets/` stays within 25 MiB besides those kept actors, which have 12 MiB of their own, "
-            "no file over 2 MiB (`tests/test_shipped_policies.py`).", ""]
+            "`assets/` stays within 25 MiB besides those kept actors, which have 24 MiB of their own, and the "
+            "paper's own trainer's runs (`assets/original/`, 10 MiB: a run still training carries its optimiser "
+            "state to resume from), no file over 2 MiB (`tests/test_shipped_policies.py`).", ""]
 
 
 def _section_head(section: Section, figures: Path, rel: Path, gifs: bool) -> list[str]:
