@@ -168,9 +168,7 @@ def score_actor(run: Path, weights: Path, episodes: int, first_seed: int) -> dic
 
     with tempfile.TemporaryDirectory() as tmp:
         table = Path(tmp) / "rollouts.npz"
-        subprocess.run([str(venv_python()), str(WORKER), "rollout", str(run / "run.json"), "--driver", "trained",
-                        "--weights", str(weights), "--episodes", str(episodes), "--first-seed", str(first_seed),
-                        "--out", str(table)], check=True, stderr=subprocess.DEVNULL)
+        trained_original_table(run / "run.json", weights, episodes, first_seed, table)
         return score_table(load_table(table))
 
 
@@ -231,7 +229,7 @@ def _run_weights(run: Path, epoch: Optional[int]) -> Path:
     return weights
 
 
-def ours_table(policy_path: Path, episodes: int, first_seed: int, overrides: Optional[dict] = None) -> dict:
+def trained_our_table(policy_path: Path, episodes: int, first_seed: int, overrides: Optional[dict] = None) -> dict:
     """The rollout table of a policy of ours (a folder ``load_trained`` reads) driving its own
     world (the ``paper`` preset's, for an exported original actor), with ``overrides`` of that
     world's config."""
@@ -246,7 +244,7 @@ def ours_table(policy_path: Path, episodes: int, first_seed: int, overrides: Opt
         env.close()
 
 
-def original_table(spec_path: Path, weights: Path, episodes: int, first_seed: int, table_path: Path) -> None:
+def trained_original_table(spec_path: Path, weights: Path, episodes: int, first_seed: int, table_path: Path) -> None:
     """Write the rollout table of an actor in sdriving's names (``weights``) driving the original
     world of ``spec_path`` (a ``run.json``), through the worker."""
     subprocess.run([str(venv_python()), str(WORKER), "rollout", str(spec_path), "--driver", "trained",
@@ -267,10 +265,9 @@ def _policy_source(policy: Path) -> tuple[dict, dict]:
 def _evaluate(args) -> int:
     from safetensors.numpy import save_file
 
+    from box2d_driving.cli import _parse_overrides
     from box2d_driving.metrics.rollouts import load_table, save_table
     from training.original.export import export_policy
-
-    from box2d_driving.cli import _parse_overrides
 
     table_path = args.out.with_suffix(".npz")
     try:
@@ -292,17 +289,17 @@ def _evaluate(args) -> int:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory() as tmp:
             if args.run is not None and args.world == "original":
-                original_table(args.run / "run.json", weights, args.episodes, args.first_seed, table_path)
+                trained_original_table(args.run / "run.json", weights, args.episodes, args.first_seed, table_path)
             elif args.run is not None:
                 policy = export_policy(args.run, weights, Path(tmp) / "policy", args.epoch)
-                save_table(ours_table(policy, args.episodes, args.first_seed, overrides), table_path)
+                save_table(trained_our_table(policy, args.episodes, args.first_seed, overrides), table_path)
             elif args.world == "original":
                 (Path(tmp) / "run.json").write_text(json.dumps(spec))
                 save_file(actor, str(Path(tmp) / "actor.safetensors"))
-                original_table(Path(tmp) / "run.json", Path(tmp) / "actor.safetensors", args.episodes,
+                trained_original_table(Path(tmp) / "run.json", Path(tmp) / "actor.safetensors", args.episodes,
                                args.first_seed, table_path)
             else:
-                save_table(ours_table(args.policy, args.episodes, args.first_seed, overrides), table_path)
+                save_table(trained_our_table(args.policy, args.episodes, args.first_seed, overrides), table_path)
     except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
         return error(str(exc))
     metrics = score_table(load_table(table_path))
