@@ -102,8 +102,9 @@ class DrivingConfig:
             (``-(1/H) ((a_t - a_{t-1}) / (a_hi - a_lo))^2``, the paper's code).
         arrived_heading_error: the sat-nav heading error of a car past its goal: ``"zero"``, or
             ``"minus_heading"``, minus the car's heading in world coordinates wrapped to
-            ``[-pi, pi]`` (rad), as the paper's code reads it once it has moved an arrived car's
-            goal onto the car (``atan2(0, 0) - heading``).
+            ``[-pi, pi)`` (rad), as the paper's code reads it once it has moved an arrived car's
+            goal onto the car (``atan2(0, 0) - heading``; a car heading due west reads -pi there,
+            and here).
         goal_distance: the distance the sat-nav's ``1 / max(distance, 1)`` reads: ``"path"``, the
             length of track left to drive to the arrival point (m), or ``"straight"``, the
             straight-line distance from the car to its goal point (m), as the paper's code reads it

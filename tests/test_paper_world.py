@@ -11,6 +11,7 @@ import pytest
 
 import box2d_driving
 from box2d_driving import ConfigError
+from box2d_driving.envs.core import arrived_heading_reading
 from box2d_driving.presets import PAPER, preset_overrides
 from box2d_driving.road.lights import sample_lights
 from box2d_driving.sensors import readout
@@ -236,7 +237,11 @@ def test_an_arrived_cars_heading_error_is_minus_its_heading_as_the_paper_reads_i
     env = _paper(num_cars=1, horizon=40)
     zero = _paper(num_cars=1, horizon=40, arrived_heading_error="zero")
     layout = env.observation_layout
-    for seed in range(4):
+    # the paper's code, by direction of travel (its headings in (-pi, pi], due west +pi as a
+    # float32): east 0 -> 0, north pi/2 -> -pi/2, west +pi -> -pi, south -pi/2 -> +pi/2
+    paper_reads = {0: 0.0, 1: -math.pi / 2, 2: -math.pi, 3: math.pi / 2}
+    seen_directions = set()
+    for seed in range(24):
         seen = {}
         for name, e in (("minus", env), ("zero", zero)):
             obs, _ = e.reset(seed=seed)
@@ -246,8 +251,14 @@ def test_an_arrived_cars_heading_error_is_minus_its_heading_as_the_paper_reads_i
                     heading = e.world.headings[0]
                     seen[name] = float(obs["car_0"][layout.satnav].reshape(layout.history, -1)[-1, 2])
                     break
-        expected = (-heading + math.pi) % (2 * math.pi) - math.pi  # atan2(0, 0) - heading, wrapped
-        assert seen["minus"] == pytest.approx(expected, abs=1e-6) and seen["zero"] == 0.0
+        direction = round(heading / (math.pi / 2)) % 4
+        seen_directions.add(direction)
+        assert seen["minus"] == pytest.approx(paper_reads[direction], abs=1e-6) and seen["zero"] == 0.0
+    assert seen_directions == {0, 1, 2, 3}
+    # at the cut: a heading just either side of +-pi is due west, read as -pi
+    for heading in (math.pi, -math.pi, np.nextafter(-math.pi, 0.0), -3.14159257, 3.1415927):
+        assert arrived_heading_reading(np.array([heading]))[0] == pytest.approx(-math.pi, abs=1e-6)
+    assert arrived_heading_reading(np.array([3.0]))[0] == pytest.approx(-3.0)  # away from it, minus the heading
 
 
 def test_the_goal_distance_is_read_in_a_straight_line_to_the_axis_goal_as_the_paper_reads_it():

@@ -188,7 +188,7 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     if cfg.goal_distance == "straight":  # the paper's code: to the goal point, 1 once past it
         satnav[:, 3] = np.where(past, 1.0, 1.0 / np.maximum(np.hypot(to_goal[0], to_goal[1]), 1.0))
     # past its goal: 0, or the paper's code's reading with the goal moved onto the car
-    heading_error[past] = wrap_angle(-head[past]) if cfg.arrived_heading_error == "minus_heading" else 0.0
+    heading_error[past] = arrived_heading_reading(head[past]) if cfg.arrived_heading_error == "minus_heading" else 0.0
     satnav[:, 2] = heading_error
     if n_extra:
         satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])
@@ -197,6 +197,22 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
             env._received[c] = env._receive(c, s) if cfg.messages_heard else 0.0
         satnav[:, -1] = _cat([env._received for env in envs])[flat]
     return lidar_frame, satnav
+
+
+# a heading this close to +-pi counts as due west (rad)
+DUE_WEST_TOLERANCE = 1e-6
+
+
+def arrived_heading_reading(heading: np.ndarray) -> np.ndarray:
+    """The paper's code's heading error of an arrived car (its goal moved onto it): minus its
+    ``heading`` (rad), wrapped to ``[-pi, pi)``. That code holds a car heading due west as +pi
+    (float32), so it reads -pi; ours may hold the same car just above -pi, which negated would
+    land on the other side of the cut (+pi): a heading within :data:`DUE_WEST_TOLERANCE` of +-pi
+    is taken as +pi first. Only the sign at the cut changes, but a policy reads -pi and +pi as
+    far apart as two inputs can be."""
+    heading = np.asarray(heading, dtype=float)
+    west = np.abs(np.abs(heading) - np.pi) < DUE_WEST_TOLERANCE
+    return wrap_angle(-np.where(west, np.pi, heading))
 
 
 def _update_lights_seen(envs: Envs, cars: Sequence[np.ndarray], flat: np.ndarray, pos: np.ndarray,
