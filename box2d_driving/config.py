@@ -104,12 +104,14 @@ class DrivingConfig:
             ``"minus_heading"``, minus the car's heading in world coordinates wrapped to
             ``[-pi, pi)`` (rad), as the paper's code reads it once it has moved an arrived car's
             goal onto the car (``atan2(0, 0) - heading``; a car heading due west reads -pi there,
-            and here).
+            and here), for good: a car that backs out past its goal still reads it (with
+            ``"zero"``, such a car reads its track again).
         goal_distance: the distance the sat-nav's ``1 / max(distance, 1)`` reads: ``"path"``, the
             length of track left to drive to the arrival point (m), or ``"straight"``, the
             straight-line distance from the car to its goal point (m), as the paper's code reads it
             (with a ``goal_radius`` that point is on the road axis and a car arrives ``r * W``
-            short of it); once a car is past its goal, either reads 1.
+            short of it); once a car is past its goal, either reads 1 (``"straight"`` from its
+            arrival on, as the paper's code, even if it backs out past its goal again).
     """
 
     num_cars: int = 4

@@ -6,6 +6,7 @@ report episodes of the light rule, 4 cars, noise 0, made by ``sdriving_worker.py
 from __future__ import annotations
 
 import importlib.util
+import math
 import json
 import types
 from pathlib import Path
@@ -166,6 +167,12 @@ def test_sdriving_rollout_reads_as_our_table():
     assert stats["red_entry_share"]["value"] == 0.0  # the rule never enters on red here
     assert stats["collision_rate"]["value"] == 0.5
     assert stats["arrival_decision"]["value"] == pytest.approx(18.5)
+    # what its cars read: heading errors to the goal below 0 before arriving (they drive left of
+    # the axis), then minus the heading, due west -pi
+    assert stats["heading_reading"]["value"] < 0
+    assert 0 < stats["goal_reading"]["value"] < 0.1
+    for name, value in (("east", 0.0), ("north", -math.pi / 2), ("west", -math.pi), ("south", math.pi / 2)):
+        assert stats[f"arrived_heading_reading_{name}"]["value"] == pytest.approx(value, abs=1e-4)
     # our lights report reads it too; time to goal is each car's first arrival, not its last row
     report = cli.score_table(table)
     assert report["mean_time_to_goal"] == pytest.approx(18.5)
@@ -210,6 +217,33 @@ def test_statistics_on_a_hand_built_table():
     assert s["light_in_view"]["value"] == pytest.approx(4 / 8)
 
 
+def test_satnav_statistics_on_a_hand_built_table():
+    rows = [  # episode, car, decision, in_junction, light, arrived, collided, speed, stop_line_distance
+        (0, 0, 0, False, 0.75, False, False, 0.0, 10.0),
+        (0, 0, 1, False, 0.75, False, False, 8.0, 2.0),
+        (0, 0, 2, False, 0.75, True, False, 8.0, -30.0),
+        (0, 1, 0, False, 0.75, False, False, 0.0, 10.0),
+        (0, 1, 1, False, 0.75, True, False, 8.0, -30.0),
+        (1, 0, 0, False, 0.75, False, False, 0.0, 10.0),
+        (1, 0, 1, False, 0.75, True, False, 8.0, -30.0),
+    ]
+    t = _table(rows)
+    assert not any("reading" in name for name in world_statistics(t))  # no sat-nav columns: left out
+    t["heading"] = np.array([np.pi, np.pi, -np.pi + 1e-7, np.pi / 2, np.pi / 2, 0.0, 0.0])
+    t["satnav_heading"] = np.array([-0.1, -0.2, -np.pi, 0.3, -np.pi / 2, 0.0, 0.0])
+    t["satnav_goal"] = np.array([0.01, 0.02, 1.0, 0.03, 1.0, 0.04, 1.0])
+    s = world_statistics(t)
+    assert s["heading_reading"]["value"] == pytest.approx((-0.1 - 0.2 + 0.3 + 0.0) / 4)  # before arriving
+    assert s["goal_reading"]["value"] == pytest.approx((0.01 + 0.02 + 0.03 + 0.04) / 4)
+    assert s["arrived_heading_reading_west"]["value"] == pytest.approx(-3.1416)  # heading just above -pi: west
+    assert s["arrived_heading_reading_north"]["value"] == pytest.approx(-1.5708)
+    assert s["arrived_heading_reading_east"]["value"] == 0.0
+    assert s["arrived_heading_reading_south"]["units"] == 0
+    # a reading on the other side of the cut is another value, not the same one
+    flipped = dict(t, satnav_heading=np.where(t["satnav_heading"] == -np.pi, np.pi, t["satnav_heading"]))
+    assert not agree(s["arrived_heading_reading_west"], world_statistics(flipped)["arrived_heading_reading_west"])
+
+
 def test_agreement_is_the_interval_of_the_difference():
     assert agree({"value": 0.5, "half_width": 0.03}, {"value": 0.54, "half_width": 0.03})
     assert not agree({"value": 0.5, "half_width": 0.02}, {"value": 0.54, "half_width": 0.02})
@@ -225,6 +259,18 @@ def test_our_side_records_the_same_columns_and_compares():
     assert [r["statistic"] for r in rows] == list(STATISTICS)
     text = format_rows("full-throttle", rows)
     assert text.count("\n") == len(STATISTICS) + 1
+
+
+def test_the_paper_preset_reads_its_sat_nav_as_the_original_recording_does():
+    """The readings no statistic of motion sees (which side of the axis, an arrived car's
+    heading error at the cut): the preset's against the committed sdriving recording."""
+    ours = world_statistics(ours_table("rule", 3, 1_500_000_000, {"num_cars": 4}, "paper"))
+    theirs = world_statistics(load_table(FIXTURE))
+    for name in (f"arrived_heading_reading_{d}" for d in ("east", "north", "west", "south")):
+        assert ours[name]["units"] > 0 and agree(ours[name], theirs[name]), name
+    assert agree(ours["heading_reading"], theirs["heading_reading"])
+    right = world_statistics(ours_table("rule", 3, 1_500_000_000, {"num_cars": 4, "drive_on": "right"}, "paper"))
+    assert not agree(right["heading_reading"], theirs["heading_reading"])  # the mirror image reads the other sign
 
 
 def test_both_worlds_must_place_cars_by_the_same_rule(tmp_path, monkeypatch, capsys):

@@ -261,6 +261,29 @@ def test_an_arrived_cars_heading_error_is_minus_its_heading_as_the_paper_reads_i
     assert arrived_heading_reading(np.array([3.0]))[0] == pytest.approx(-3.0)  # away from it, minus the heading
 
 
+def test_an_arrived_car_that_backs_out_past_its_goal_still_reads_as_arrived_as_the_paper_reads_it():
+    """The paper's code moves an arrived car's goal onto it for good; our own readings (heading
+    error 0, the track's distance) follow the track again once the car is behind its goal."""
+    paper = _paper(num_cars=1, horizon=60)
+    ours = _paper(num_cars=1, horizon=60, arrived_heading_error="zero", goal_distance="path")
+    layout = paper.observation_layout
+    for env, backed_out_reads_arrived in ((paper, True), (ours, False)):
+        obs, _ = env.reset(seed=3)
+        arrived, behind = False, None
+        while env.agents and behind is None:
+            obs, _, _, _, info = env.step({"car_0": BRAKE if arrived else GO})
+            arrived = arrived or bool(info["car_0"]["arrived"])
+            if arrived and env.world.s[0] < env.world.s_goal[0]:  # reversed back behind its goal
+                behind = obs["car_0"][layout.satnav].reshape(layout.history, -1)[-1]
+        assert behind is not None and env.world.speed[0] < 0
+        heading = env.world.headings[0]
+        if backed_out_reads_arrived:
+            assert behind[3] == 1.0
+            assert behind[2] == pytest.approx(float(arrived_heading_reading(np.array([heading]))[0]), abs=1e-6)
+        else:
+            assert behind[3] < 1.0 and abs(behind[2]) < 0.5  # towards its goal again, along the track
+
+
 def test_the_goal_distance_is_read_in_a_straight_line_to_the_axis_goal_as_the_paper_reads_it():
     env, path = _paper(num_cars=1, horizon=40), _paper(num_cars=1, horizon=40, goal_distance="path")
     layout = env.observation_layout

@@ -185,10 +185,16 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     # differently)
     heading_error = wrap_angle(np.arctan2(to_goal[1], to_goal[0]) - head)
     past = remaining <= 0
-    if cfg.goal_distance == "straight":  # the paper's code: to the goal point, 1 once past it
-        satnav[:, 3] = np.where(past, 1.0, 1.0 / np.maximum(np.hypot(to_goal[0], to_goal[1]), 1.0))
+    # the paper's code moves an arrived car's goal onto it for good: its readings stay an arrived
+    # car's even after it backs out past its goal (ours read the track again)
+    arrived = past | _cat([w.has_arrived for w in worlds])[flat]
+    if cfg.goal_distance == "straight":  # the paper's code: to the goal point, 1 once arrived
+        satnav[:, 3] = np.where(arrived, 1.0, 1.0 / np.maximum(np.hypot(to_goal[0], to_goal[1]), 1.0))
     # past its goal: 0, or the paper's code's reading with the goal moved onto the car
-    heading_error[past] = arrived_heading_reading(head[past]) if cfg.arrived_heading_error == "minus_heading" else 0.0
+    if cfg.arrived_heading_error == "minus_heading":
+        heading_error[arrived] = arrived_heading_reading(head[arrived])
+    else:
+        heading_error[past] = 0.0
     satnav[:, 2] = heading_error
     if n_extra:
         satnav[:, 4:4 + n_extra] = _cat([env.satnav_extra_values()[c] for env, c in zip(envs, cars)])

@@ -19,7 +19,14 @@ episode is the unit of sampling, since the cars of one episode share its map and
 * ``light_in_view``: decisions on which the car sees a light (any value but 0.75 = none), of all
   car-decisions;
 * ``lidar_returns``, ``lidar_nearest``: rays with a return per decision, and the nearest return
-  (m) over the decisions with one, where the table has the noise-free LiDAR columns.
+  (m) over the decisions with one, where the table has the noise-free LiDAR columns;
+* ``heading_reading``, ``goal_reading``: what a car's sat-nav reads before it has arrived, its
+  heading error to the goal (rad) and ``1 / max(distance, 1)`` (1/m), means over those
+  decisions; ``arrived_heading_reading_east`` (and ``_north``, ``_west``, ``_south``): its heading
+  error once arrived, by the direction it drives (from the ``heading`` column), rounded to 1e-4
+  rad so that two float32 spellings of one value agree. Where the table has the sat-nav columns
+  (``satnav_heading``, ``satnav_goal``). No statistic of motion sees these: a world and its
+  mirror image give the same entries and crashes, but the first reading changes sign.
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from box2d_driving.metrics.rollouts import last_rows
 from box2d_driving.road.lights import NO_LIGHT, RED, YELLOW
 
 Units = tuple[np.ndarray, np.ndarray]  # (value per unit, its episode)
+ROUNDING = 1e-9  # float summation error allowed when two estimates are compared
 
 
 def _by_car(table: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -128,6 +136,24 @@ def _lidar_nearest(t: dict[str, np.ndarray]) -> Units:
     return t["lidar_nearest"][seen].astype(float), t["episode"][seen]
 
 
+def _before_arrival(column: str) -> Callable[[dict[str, np.ndarray]], Units]:
+    def reading(t: dict[str, np.ndarray]) -> Units:
+        rows = ~t["arrived"]
+        return t[column][rows].astype(float), t["episode"][rows]
+    return reading
+
+
+DIRECTIONS = ("east", "north", "west", "south")  # heading 0, pi/2, pi, -pi/2 (rad)
+
+
+def _arrived_heading(direction: int) -> Callable[[dict[str, np.ndarray]], Units]:
+    def reading(t: dict[str, np.ndarray]) -> Units:
+        way = np.round(np.asarray(t["heading"], dtype=float) / (np.pi / 2)).astype(np.int64) % 4
+        rows = t["arrived"] & (way == direction)
+        return np.round(t["satnav_heading"][rows].astype(float), 4), t["episode"][rows]
+    return reading
+
+
 STATISTICS: dict[str, Callable[[dict[str, np.ndarray]], Units]] = {
     "entries_per_car": _entries_per_car,
     "red_entry_share": _entry_share(RED),
@@ -140,16 +166,24 @@ STATISTICS: dict[str, Callable[[dict[str, np.ndarray]], Units]] = {
     "light_in_view": _light_in_view,
     "lidar_returns": _lidar_returns,
     "lidar_nearest": _lidar_nearest,
+    "heading_reading": _before_arrival("satnav_heading"),
+    "goal_reading": _before_arrival("satnav_goal"),
+    **{f"arrived_heading_reading_{name}": _arrived_heading(k) for k, name in enumerate(DIRECTIONS)},
 }
 LIDAR_COLUMNS = ("lidar_returns", "lidar_nearest")
+SATNAV_COLUMNS = ("satnav_heading", "satnav_goal")
+# the columns each statistic needs beyond those every rollout table has
+_NEEDS = {**{name: (name,) for name in LIDAR_COLUMNS},
+          **{name: SATNAV_COLUMNS for name in STATISTICS if "reading" in name}}
 
 
 def world_statistics(table: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
     """``{"value", "half_width", "units"}`` per statistic of :data:`STATISTICS`; the LiDAR ones
-    only where the table has :data:`LIDAR_COLUMNS`. A statistic with no units is NaN."""
+    only where the table has :data:`LIDAR_COLUMNS`, the sat-nav ones where it has
+    :data:`SATNAV_COLUMNS`. A statistic with no units is NaN."""
     out = {}
     for name, units in STATISTICS.items():
-        if name in LIDAR_COLUMNS and name not in table:
+        if any(column not in table for column in _NEEDS.get(name, ())):
             continue
         values, episodes = units(table)
         value, _, half = clustered_share(values, episodes)
@@ -159,5 +193,6 @@ def world_statistics(table: dict[str, np.ndarray]) -> dict[str, dict[str, float]
 
 def agree(a: dict[str, float], b: dict[str, float]) -> bool:
     """Whether two estimates' difference lies within its 95 % interval (the half-widths added in
-    quadrature: independent blocks of episodes)."""
-    return abs(a["value"] - b["value"]) <= float(np.hypot(a["half_width"], b["half_width"]))
+    quadrature: independent blocks of episodes), give or take :data:`ROUNDING` (a mean of equal
+    values summed in another order can differ in its last digits)."""
+    return abs(a["value"] - b["value"]) <= float(np.hypot(a["half_width"], b["half_width"])) + ROUNDING

@@ -1,8 +1,8 @@
 """The same scripted drivers in the paper's simulator and in ours, scored by one piece of code.
 
 ``box2d-driving original compare`` records ``--episodes`` report episodes per driver in each world
-(the original through ``sdriving_worker.py rollout``, ours through
-:func:`box2d_driving.metrics.rollouts.run_episodes` with the noise-free LiDAR columns added), then
+(the original through ``sdriving_worker.py rollout``, ours through :func:`ours_table`: our
+rollout table with the noise-free LiDAR and the sat-nav readings added), then
 prints :func:`box2d_driving.metrics.world_compare.world_statistics` of both side by side with
 whether each pair agrees within its 95 % interval. The tables are kept (``--out``) so the
 numbers can be read again without rerunning either world.
@@ -26,31 +26,40 @@ from training.original.commands import OriginalError, OriginalRun
 DRIVERS = ("full-throttle", "rule", "random")
 
 
-class _LidarRecorder(RolloutRecorder):
-    """A :class:`RolloutRecorder` that also keeps each row's noise-free LiDAR: rays with a return
-    and the nearest return (m), read from the newest frame of the observation (inverse
-    encoding, so it must be recorded with ``lidar_noise=0``)."""
+class _ObservationRecorder(RolloutRecorder):
+    """A :class:`RolloutRecorder` that also keeps what each row's car observes: its noise-free
+    LiDAR (rays with a return and the nearest return, m; inverse encoding, so it must be recorded
+    with ``lidar_noise=0``) and its sat-nav's heading error (rad) and ``1 / max(distance, 1)``,
+    all read from the newest frame of the observation."""
 
     def __init__(self, env: Any) -> None:
         super().__init__()
         self.env = env
         self.returns: list[int] = []
         self.nearest: list[float] = []
+        self.heading_read: list[float] = []
+        self.goal_read: list[float] = []
         self.observations: dict[str, np.ndarray] = {}
 
     def add(self, episode, infos, rewards=None) -> None:
         super().add(episode, infos, rewards)
         layout = self.env.observation_layout
         for agent in infos:
-            newest = self.observations[agent][layout.lidar][-layout.n_rays:]
+            obs = self.observations[agent]
+            newest = obs[layout.lidar][-layout.n_rays:]
             hits = newest[newest > 0]
             self.returns.append(int(len(hits)))
             self.nearest.append(float(1.0 / hits.max()) if len(hits) else float("inf"))
+            satnav = obs[layout.satnav].reshape(layout.history, -1)[-1]  # light, speed, heading, goal
+            self.heading_read.append(float(satnav[2]))
+            self.goal_read.append(float(satnav[3]))
 
     def table(self) -> dict[str, np.ndarray]:
         out = super().table()
         out["lidar_returns"] = np.asarray(self.returns, dtype=np.int64)
         out["lidar_nearest"] = np.asarray(self.nearest, dtype=float)
+        out["satnav_heading"] = np.asarray(self.heading_read, dtype=float)
+        out["satnav_goal"] = np.asarray(self.goal_read, dtype=float)
         return out
 
 
@@ -61,7 +70,7 @@ def ours_table(driver: str, episodes: int, first_seed: int, overrides: dict[str,
     ``first_seed + k``."""
     env = make("intersection-v0", preset=preset, **{**overrides, "lidar_noise": 0.0})
     policy = make_policy(driver, env, seed=first_seed)
-    recorder = _LidarRecorder(env)
+    recorder = _ObservationRecorder(env)
     for k in range(episodes):
         obs, infos = env.reset(seed=first_seed + k)
         recorder.observations = obs

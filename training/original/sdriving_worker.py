@@ -303,7 +303,7 @@ def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: st
         "episode", "car", "decision", "x", "y", "heading", "speed", "acceleration", "light", "in_junction",
         "lane_offset", "distance_to_goal", "arrived", "collided", "reward", "approach", "rating",
         "stop_line_distance", "pedestrian_distance", "crosswalk_distance", "bit_sent", "collided_with",
-        "collision_partner", "partner_halted", "lidar_returns", "lidar_nearest")}
+        "collision_partner", "partner_halted", "lidar_returns", "lidar_nearest", "satnav_heading", "satnav_goal")}
     car_hits: dict[str, Any] = {}
     original_check = env.vehicle_collision_check
 
@@ -336,6 +336,9 @@ def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: st
             speed = vehicle.speed[:, 0].numpy().astype(float)
             heading = vehicle.orientation[:, 0].numpy().astype(float)
             togo = vehicle.distance_from_destination()[:, 0].numpy().astype(float)
+            # the sat-nav as get_state reads it (an arrived car's destination is moved onto it)
+            heading_read = vehicle.optimal_heading()[:, 0].numpy().astype(float)
+            goal_read = 1.0 / np.maximum(togo, 1.0)
             light = env.world.get_all_traffic_signal().numpy().astype(float)  # what get_state reads
             rays = env.world.get_lidar_data_all_vehicles(run_spec["env_kwargs"]["npoints"]).numpy()  # m, noise-free
             returns = np.isfinite(rays).sum(-1)
@@ -357,7 +360,8 @@ def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: st
                                     ("pedestrian_distance", math.nan), ("crosswalk_distance", math.nan),
                                     ("bit_sent", math.nan), ("collided_with", int(hit_with[i])),
                                     ("collision_partner", -1), ("partner_halted", False),
-                                    ("lidar_returns", int(returns[i])), ("lidar_nearest", float(nearest[i]))):
+                                    ("lidar_returns", int(returns[i])), ("lidar_nearest", float(nearest[i])),
+                                    ("satnav_heading", heading_read[i]), ("satnav_goal", goal_read[i])):
                     columns[name].append(value)
             live &= ~collided
             if not live.any() or decision >= run_spec["env_kwargs"]["horizon"] // run_spec["env_kwargs"]["timesteps"]:
