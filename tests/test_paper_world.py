@@ -306,6 +306,40 @@ def test_the_goal_distance_is_read_in_a_straight_line_to_the_axis_goal_as_the_pa
         assert arrived and inv(obs) == 1.0 and inv(along) == 1.0  # past the goal: 1 either way
 
 
+def test_a_car_sees_its_light_within_30_m_of_its_arms_axis_at_the_junction_as_the_paper_reads_it():
+    """``light_view="axis_point"``: the light is in view while the car's centre is less than 30 m
+    in a straight line from where its arm's axis meets the junction, until it passes that line;
+    a car off the axis sees it later than along the approach to its stop line."""
+    axis, line = _paper(num_cars=4, horizon=25), _paper(num_cars=4, horizon=25, light_view="stop_line")
+    layout = axis.observation_layout
+    later = 0
+    for seed in range(6):
+        seen = {}
+        for name, env in (("axis", axis), ("line", line)):
+            obs, _ = env.reset(seed=seed)
+            half = env.layout.junction_box[2]
+            rows = []
+            while env.agents:
+                for agent in env.agents:
+                    i = int(agent.split("_")[1])
+                    car = env.layout.cars[i]
+                    d = car.lane_axis.direction
+                    pos = env.world.positions[i]
+                    axis_point = -half * d  # the arm's axis at the junction's edge
+                    ahead = float(np.dot(axis_point - pos, d))
+                    reads = float(obs[agent][layout.satnav].reshape(layout.history, -1)[-1, 0])
+                    rows.append((i, env.decision, reads != 0.75, ahead, float(np.linalg.norm(axis_point - pos))))
+                obs, *_ = env.step({a: GO for a in env.agents})
+            seen[name] = rows
+        for i, decision, in_view, ahead, straight in seen["axis"]:
+            assert in_view == (ahead > 0 and straight < 30.0), (seed, i, decision)
+        line_view = {(i, dec): v for i, dec, v, _, _ in seen["line"]}
+        later += sum(line_view.get((i, dec), False) and not v for i, dec, v, _, _ in seen["axis"])
+    assert later > 0  # off the axis, some decisions see the light along the approach but not yet from the axis
+    with pytest.raises(ConfigError, match="light_view"):
+        box2d_driving.make("intersection-spline-v0", light_view="axis_point")
+
+
 @pytest.mark.parametrize("overrides, field", [
     ({"spawn_mode": "everywhere"}, "spawn_mode"), ({"approach_order": "left"}, "approach_order"),
     ({"arm_spawn_range": (0.9, 0.1)}, "arm_spawn_range"), ({"lane_offset_range": (0.3, 0.6)}, "lane_offset_range"),
@@ -313,6 +347,7 @@ def test_the_goal_distance_is_read_in_a_straight_line_to_the_axis_goal_as_the_pa
     ({"lidar_dropout": "some"}, "lidar_dropout"), ({"smoothness": "cubic"}, "smoothness"),
     ({"light_period_step": -0.1}, "light_period_step"), ({"drive_on": "middle"}, "drive_on"),
     ({"arrived_heading_error": "pi"}, "arrived_heading_error"), ({"goal_distance": "sideways"}, "goal_distance"),
+    ({"light_view": "everywhere"}, "light_view"),
 ])
 def test_bad_values_name_their_field(overrides, field):
     with pytest.raises(ConfigError, match=field):

@@ -297,6 +297,33 @@ def test_the_paper_world_grid_is_joined_by_its_noise_1_sweep_at_its_own_budget(t
     assert not re.search(r"^\| 1\.0 \| 3 \|", mine, re.M)
 
 
+def test_the_grid_in_the_preset_as_it_is_now_has_its_own_sections_before_the_mirror_images(tmp_path):
+    """A preset sweep that recorded the paper code's side and readings is shown in the left-hand
+    sections and decides the noise claim there; one of the earlier world stays in its own."""
+    now = {"drive_on": "left", "arrived_heading_error": "minus_heading", "goal_distance": "straight",
+           "light_view": "axis_point"}
+    grid = _preset_lights(tmp_path / "lights-paper-left.json", {"original_epochs": "75", **now}, True,
+                          {"0.25": [0.10, 0.12, 0.11], "0.5": [0.08, 0.09, 0.07], "0.75": [0.06, 0.05, 0.07]})
+    noise1 = _preset_lights(tmp_path / "lights-paper-left-noise1.json",
+                            {"original_epochs": "50", "lidar_noise": "1.0", **now}, False, {"1.0": [0.02, 0.03, 0.01]})
+    before = _preset_lights(tmp_path / "lights-preset.json", {"original_epochs": "75"}, True,
+                            {"0.25": [0.30, 0.32, 0.31], "0.5": [0.28, 0.29, 0.27]})
+    page = tmp_path / "docs" / "results.md"
+    assert main([str(grid), str(noise1), str(before), "--out", str(page)]) == 0
+    text = page.read_text()
+    left = text.split("## Stopping at red lights in the paper's own world, update and network (on the left)\n")[1]
+    left = left.split("\n## ")[0]
+    assert "lights-paper-left.json" in left and "lights-preset.json" not in left
+    rows = [line.split(" | ")[0] for line in left.splitlines() if re.match(r"\| (0\.25|0\.5|0\.75|1\.0) \| 3 \|", line)]
+    assert rows == ["| 0.25", "| 0.5", "| 0.75", "| 1.0"]  # its noise-1.0 sweep joins it
+    assert "due west -pi" in left and "mirror image" not in left.split("**Budget.**")[0]
+    mirror = text.split("## Stopping at red lights in the paper's world, update and network\n")[1].split("\n## ")[0]
+    assert "lights-preset.json" in mirror and "lights-paper-left.json" not in mirror
+    claims = text.split("## Where the page stands on the paper's claims")[1].split("\n## ")[0]
+    row = next(x for x in claims.splitlines() if x.startswith("| With more LiDAR noise"))
+    assert "[Stopping at red lights in the paper's own world, update and network (on the left)]" in row
+
+
 def _drop_fixed(path, key):
     """``path``'s summary without the fixed option ``key`` (a sweep that left it to its preset)."""
     summary = json.loads(path.read_text())

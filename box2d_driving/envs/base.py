@@ -191,6 +191,10 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._seen = np.full(n, NO_LIGHT)
         self._lane_origin, self._lane_right, self._lane_half_width = _lane_axes(self.layout)
         self._stop_point, self._stop_direction, self._light_group = _stop_lines(self.layout, self._light_index)
+        # where a car's light is seen from: its stop line, or (the paper's code) the point on its
+        # arm's axis across from it
+        self._view_point = (_axis_points(self._stop_point, self._stop_direction, self._lane_origin)
+                            if getattr(self.config, "light_view", "stop_line") == "axis_point" else self._stop_point)
         self._approach = [c.approach for c in self.layout.cars]
         cars = np.arange(n)
         self._acting = cars
@@ -314,6 +318,13 @@ def _lane_axes(layout: Layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if car.lane_axis is not None:
             origin[i], right[i], half[i] = car.lane_axis.origin, car.lane_axis.right, car.lane_axis.half_width
     return origin, right, half
+
+
+def _axis_points(stop: np.ndarray, direction: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Each stop point ``(N, 2)`` moved across its approach onto the road axis through
+    ``origin`` along ``direction`` (m): the point where that axis meets the stop line."""
+    along = ((stop - origin) * direction).sum(axis=1, keepdims=True)
+    return origin + along * direction
 
 
 def _stop_lines(layout: Layout, light_index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -25,7 +25,7 @@ from box2d_driving.envs import kernels
 from box2d_driving.envs.reward import TERMS, reward_terms
 from box2d_driving.physics.world import COLLIDED
 from box2d_driving.road.geometry import wrap_angle
-from box2d_driving.road.lights import NO_LIGHT, light_values, visible_lights
+from box2d_driving.road.lights import NO_LIGHT, light_values, visible_from_points, visible_lights
 from box2d_driving.sensors import lidar, readout
 
 # instances of box2d_driving.envs.base.DrivingEnv (not imported: base imports this module)
@@ -226,15 +226,20 @@ def _update_lights_seen(envs: Envs, cars: Sequence[np.ndarray], flat: np.ndarray
     """Each instance's ``_seen`` for its ``cars``: the light each sees (``NO_LIGHT`` for none) at
     positions ``pos`` and headings ``head`` (rows of ``flat``)."""
     cfg = envs[0].config
-    if len(envs) == 1:  # one junction: its own rule, in plain floats (fastest for a handful of cars)
+    from_axis = getattr(cfg, "light_view", "stop_line") == "axis_point"
+    if len(envs) == 1 and not from_axis:  # one junction: its own rule, in plain floats (fastest for a few cars)
         env = envs[0]
         if env.layout.lights is not None:
             env._seen[flat] = env.layout.lights.seen(env.time, env._light_index[flat], pos, head,
                                                      cfg.light_view_distance)
     elif any(env.layout.lights is not None for env in envs):  # the same rule over every instance's cars
-        visible = visible_lights(_cat([env._stop_point for env in envs])[flat],
-                                 _cat([env._stop_direction for env in envs])[flat], pos, head,
-                                 cfg.light_view_distance)
+        stop = _cat([env._stop_point for env in envs])[flat]
+        direction = _cat([env._stop_direction for env in envs])[flat]
+        if from_axis:  # the paper's code: a straight line to its arm's axis at the junction
+            visible = visible_from_points(stop, _cat([env._view_point for env in envs])[flat], direction, pos,
+                                          cfg.light_view_distance)
+        else:
+            visible = visible_lights(stop, direction, pos, head, cfg.light_view_distance)
         seen = np.full(len(flat), NO_LIGHT)
         if visible.any():  # the lights' values only for the cars that see one (few, most decisions)
             lights = [env.layout.lights for env in envs]

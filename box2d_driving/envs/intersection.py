@@ -27,6 +27,7 @@ from box2d_driving.road.lights import sample_lights
 N_APPROACHES = 4
 SPAWN_MODES = ("slots", "arm")
 DRIVE_SIDES = ("right", "left")
+LIGHT_VIEWS = ("stop_line", "axis_point")
 APPROACH_ORDERS = ("fixed", "rotate", "random")
 
 
@@ -63,6 +64,11 @@ class IntersectionConfig(DrivingConfig):
             ``"right"``, or ``"left"`` (the paper's code: the mirror image, which its scripted
             drivers cannot tell apart but a trained policy's LiDAR and heading error can). Lane
             offsets (``lane_offset`` in rollouts) stay positive to the right of travel.
+        light_view: where a car sees its approach's light from: ``"stop_line"``, while its centre
+            is within ``light_view_distance`` before its stop line, measured along the approach,
+            facing the way it drives; or ``"axis_point"`` (the paper's code), while its centre is
+            within that straight-line distance of the point where its arm's axis meets the
+            junction, until it passes that point's line (a car off the axis sees the light later).
     """
 
     horizon: int = 36
@@ -81,6 +87,7 @@ class IntersectionConfig(DrivingConfig):
     goal_radius: Optional[float] = None
     road_end_walls: bool = False
     drive_on: str = "right"
+    light_view: str = "stop_line"
 
     def _validate(self) -> None:
         require(self, 1 <= self.slots_per_approach <= 16, ("slots_per_approach",),
@@ -112,6 +119,7 @@ class IntersectionConfig(DrivingConfig):
         require(self, self.approach_order in APPROACH_ORDERS, ("approach_order",),
                 f"approach_order must be one of {APPROACH_ORDERS}")
         require(self, self.drive_on in DRIVE_SIDES, ("drive_on",), f"drive_on must be one of {DRIVE_SIDES}")
+        require(self, self.light_view in LIGHT_VIEWS, ("light_view",), f"light_view must be one of {LIGHT_VIEWS}")
         a_lo, a_hi = self.arm_spawn_range
         require(self, 0.0 <= a_lo < a_hi <= 1.0 and a_lo * lo_l >= self.car_length / 2,
                 ("arm_spawn_range", "road_length_range", "car_length"),

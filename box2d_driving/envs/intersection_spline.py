@@ -71,6 +71,8 @@ class IntersectionSplineConfig(IntersectionConfig):
         # the routes are planned with offsets to the right of travel and its stop lines there
         require(self, self.drive_on == "right", ("drive_on",), "the spline stage plans routes on the right: drive_on "
                 "must be 'right'")
+        require(self, self.light_view == "stop_line", ("light_view",), "the spline stage's routes leave the road "
+                "axis its light_view='axis_point' measures from: light_view must be 'stop_line'")
 
     @property
     def choices_per_waypoint(self) -> int:

@@ -136,6 +136,26 @@ def _visible(stop_points, directions, positions, cos_h, sin_h, view_distance):
     return out
 
 
+def visible_from_points(stop_points: np.ndarray, view_points: np.ndarray, directions: np.ndarray,
+                        positions: np.ndarray, view_distance: float) -> np.ndarray:
+    """Which cars see their light by the paper's code's rule (``light_view="axis_point"``): its
+    centre within ``view_distance`` (m, straight line, strictly) of its light's ``view_points``
+    (where its arm's axis meets the junction) and not yet past the line through ``stop_points``
+    across ``directions``. NaN rows (no light) see none."""
+    return _visible_from_points(stop_points, view_points, directions, positions, float(view_distance))
+
+
+@njit(cache=True)
+def _visible_from_points(stop_points, view_points, directions, positions, view_distance):
+    out = np.zeros(positions.shape[0], dtype=np.bool_)
+    for i in range(positions.shape[0]):
+        ahead = ((stop_points[i, 0] - positions[i, 0]) * directions[i, 0]
+                 + (stop_points[i, 1] - positions[i, 1]) * directions[i, 1])
+        dx, dy = view_points[i, 0] - positions[i, 0], view_points[i, 1] - positions[i, 1]
+        out[i] = 0.0 < ahead and math.sqrt(dx * dx + dy * dy) < view_distance
+    return out
+
+
 def light_values(time: np.ndarray, groups: np.ndarray, half_period: np.ndarray, yellow: np.ndarray,
                  offset: np.ndarray) -> np.ndarray:
     """The value of each car's light (per car, as :func:`seen_by_cars` takes them), as

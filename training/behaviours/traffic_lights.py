@@ -32,6 +32,9 @@ class Args(ScriptArgs):
         default: the scenario's, or the preset's
     goal_distance: the sat-nav's distance to the goal: path (along the track), or straight (to the
         goal point, the paper's code); default: the scenario's, or the preset's
+    light_view: where a car sees its light from: stop_line (within the view distance before its
+        stop line), or axis_point (the paper's code: within that straight-line distance of its
+        arm's axis at the junction); default: the scenario's, or the preset's
     """
 
     num_cars: int = IntersectionConfig.num_cars  # the scenario's, declared once in its config
@@ -40,10 +43,12 @@ class Args(ScriptArgs):
     drive_on: Optional[str] = None
     arrived_heading_error: Optional[str] = None
     goal_distance: Optional[str] = None
+    light_view: Optional[str] = None
 
     def env_overrides(self) -> dict:
         given = {"approach_order": self.approach_order, "drive_on": self.drive_on,
-                 "arrived_heading_error": self.arrived_heading_error, "goal_distance": self.goal_distance}
+                 "arrived_heading_error": self.arrived_heading_error, "goal_distance": self.goal_distance,
+                 "light_view": self.light_view}
         return {k: v for k, v in given.items() if v is not None}
 
 

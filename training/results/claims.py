@@ -103,7 +103,8 @@ LANES_READINGS = (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep t
                   Reading(r"- one-sided offset against scripted drivers ", "learnt", decides=False))
 
 CLAIMS: tuple[Claim, ...] = (
-    Claim("With more LiDAR noise, fewer cars enter on red", ("traffic-lights-preset", "traffic-lights-paper"),
+    Claim("With more LiDAR noise, fewer cars enter on red",
+          ("traffic-lights-paper-left", "traffic-lights-preset", "traffic-lights-paper"),
           (Reading(r"- 4 cars, red-light violations: "),
            Reading(r"- red-light violations against scripted drivers ", decides=False)),
           "red_light_violation_rate", "red-light violations", arbiter=True),

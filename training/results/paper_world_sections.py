@@ -1,6 +1,8 @@
 """The results page's sections in the paper's own world and update (``--preset paper``): the
-4-car noise grid, its noise-1.0 sweep, a lone car and 8 cars with the paper code's LiDAR encoder,
-then the preset's first runs with ours (kept apart: most of their actors were blind). Part of
+4-car noise grid and its noise-1.0 sweep in the preset as it is now (on the left, reading the
+sat-nav as the paper's code does); then the runs made in its earlier mirror image: the same grid,
+a lone car and 8 cars with the paper code's LiDAR encoder, and the preset's first runs with ours
+(kept apart: most of their actors were blind). Part of
 :data:`training.results.sections.SECTIONS`, in page order."""
 
 from __future__ import annotations
@@ -33,17 +35,44 @@ LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of 
                     "planned before any was run.")
 LONE_CAR_BUDGET = ("1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, horizon "
                    "20 decisions, entropy 1e-3, LiDAR noise 0")
+# the 4-car noise grid and its noise-1.0 sweep, in whichever world they ran
+GRID_SETTING = ("Each trial trains 4 cars from scratch with our trainer in the paper's own world, update and network "
+                "(`--preset paper`: an arrived car stays until the horizon of 25 decisions, every car decides at "
+                "every step, one pass over each epoch in 20 minibatches, entropy 1e-4, the paper's KL rule, and "
+                "the LiDAR encoder of the paper's code, two linear strided convolutions; what each setting is: "
+                "[paper_world.md](paper_world.md)) for the paper's own budget: 75 epochs of 32,000 joint steps at "
+                "noise 0.25, 0.5 and 0.75, and, from the sweep joined below it, 50 epochs at noise 1.0, as the "
+                "original commands list them. The same training seeds run at every noise level, so the noise "
+                "trend is tested paired by seed. Six seeds at every level were planned before any was run.")
+NOISE1_SETTING = ("The section above at LiDAR noise 1.0 (every ray dropped: the cars see no other car), for the "
+                  "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
+                  "noise-1.0 row, paired by seed with the other levels.")
+# the preset since 2026-12-06: the paper's code's side of the road and its sat-nav readings
+PAPER_CODE_WORLD = (("drive_on", "left"), ("arrived_heading_error", "minus_heading"), ("goal_distance", "straight"),
+                    ("light_view", "axis_point"))
+PAPER_NOW = ("preset=paper drive_on=left arrived_heading_error=minus_heading goal_distance=straight "
+             "light_view=axis_point")
+PAPER_CODE_NOTE = ("In the paper's world as its code has it (the preset since 2026-12-06): every car left of its "
+                   "road's axis, its light seen within 30 m in a straight line of its arm's axis at the junction, "
+                   "its goal distance read in a straight line to the goal on the road axis, and once arrived, for "
+                   "good, minus its heading as its heading error (due west -pi) and 1 as its goal "
+                   "distance. The paper's own trainer's policies drive this world as they drive theirs, and "
+                   "policies of ours drive the paper's world as they drive this one "
+                   "([paper_world.md](paper_world.md#policies-in-both-worlds)).")
 # the world every section here ran in: the preset as it stood before 2026-12-06, on the right,
 # reading an arrived car's heading error as 0 and the goal distance along the track
 # (training/sweeps/spec.py, PINNED_WORLD)
-MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"))
+MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"),
+                ("light_view", "stop_line"))
 # the same, in a sweep command
-PAPER_BEFORE = "preset=paper drive_on=right arrived_heading_error=zero goal_distance=path"
+PAPER_BEFORE = "preset=paper drive_on=right arrived_heading_error=zero goal_distance=path light_view=stop_line"
 MIRROR_NOTE = ("Run before the preset drove on the left as the paper's code does (`drive_on=right`, pinned in the "
                "command): the mirror image of the paper's world, which no scripted driver's statistics tell apart, "
                "and with an arrived car's heading error 0 where the paper's code reads minus its heading "
                "(`arrived_heading_error=zero`), and the distance to the goal read along the track where the "
-               "paper's code reads it in a straight line to the goal on the road axis (`goal_distance=path`). "
+               "paper's code reads it in a straight line to the goal on the road axis (`goal_distance=path`), "
+               "and a car seeing its light within 30 m before its stop line along the approach where the "
+               "paper's code measures a straight line to its arm's axis at the junction (`light_view=stop_line`). "
                "These policies drive the paper's own world differently: their red entries there follow those "
                "on the left of ours, seed by seed, and they crash more after arriving (the paper's own "
                "policies drive both worlds alike: [paper_world.md](paper_world.md#policies-in-both-worlds)).")
@@ -56,6 +85,35 @@ RELU_NOTE = ("Run before the preset had the paper code's LiDAR encoder, with our
              "LiDAR noise.")
 
 
+# the noise grid in the preset as it is now (its sections first on the page)
+_PAPER_CODE_LIGHTS: tuple[Section, ...] = (
+    Section("traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network "
+            "(on the left)", "lights",
+            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *PAPER_CODE_WORLD,
+             ("lidar_encoder", "original")),
+            LIGHTS_METRICS,
+            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
+            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_NOW} "
+            "lidar_encoder=original original_epochs=75 --out runs/sweep-lights-paper-left",
+            setting=f"{GRID_SETTING} {PAPER_CODE_NOTE}",
+            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
+            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
+            joins=("traffic-lights-paper-left-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
+    Section("traffic-lights-paper-left-noise1", "Stopping at red lights in the paper's own world, update and "
+            "network (on the left), LiDAR noise 1.0", "lights",
+            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *PAPER_CODE_WORLD,
+             ("lidar_noise", "1.0"), ("lidar_encoder", "original")),
+            LIGHTS_METRICS,
+            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
+            "epochs).",
+            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_NOW} lidar_encoder=original "
+            "original_epochs=50 --out runs/sweep-lights-paper-left-noise1",
+            setting=f"{NOISE1_SETTING} {PAPER_CODE_NOTE}",
+            baseline=lights_baselines,
+            statements=(LIGHTS_BASELINE_STATEMENT,),
+            paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
+)
+
 # the paper-world lights sections, in page order: the paper code's encoder first, then the preset's first runs
 _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
     Section("traffic-lights-preset", "Stopping at red lights in the paper's world, update and network", "lights",
@@ -65,15 +123,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
             f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_BEFORE} "
             "lidar_encoder=original original_epochs=75 --out runs/sweep-lights-paper-net",
-            setting="Each trial trains 4 cars from scratch with our trainer in the paper's own world, update and "
-                    "network (`--preset paper`: an arrived car stays until the horizon of 25 decisions, every car "
-                    "decides at every step, one pass over each epoch in 20 minibatches, entropy 1e-4, the paper's "
-                    "KL rule, and the LiDAR encoder of the paper's code, two linear strided convolutions; what "
-                    "each setting is: [paper_world.md](paper_world.md)) for the paper's own budget: 75 epochs of "
-                    "32,000 joint steps at noise 0.25, 0.5 and 0.75, and, from the sweep joined below it, 50 "
-                    "epochs at noise 1.0, as the original commands list them. The same training seeds run at "
-                    "every noise level, so the noise trend is tested paired by seed. Six seeds at every level "
-                    "were planned before any was run.",
+            setting=GRID_SETTING,
             figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
             paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
             joins=("traffic-lights-preset-noise1", "lidar_noise"), joins_differ=("original_epochs",),
@@ -91,9 +141,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             "epochs).",
             f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_BEFORE} lidar_encoder=original "
             "original_epochs=50 --out runs/sweep-lights-paper-net-noise1",
-            setting="The section above at LiDAR noise 1.0 (every ray dropped: the cars see no other car), for the "
-                    "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
-                    "noise-1.0 row, paired by seed with the other levels.",
+            setting=NOISE1_SETTING,
             baseline=lights_baselines,
             statements=(LIGHTS_BASELINE_STATEMENT,),
             paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
@@ -170,6 +218,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             compare_with=("traffic-lights-preset-relu", (("lidar_noise", "0.25"),)),
             paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
 )
-# every one of them ran in the preset's earlier world, which each setting says
-PAPER_WORLD_LIGHTS: tuple[Section, ...] = tuple(dataclasses.replace(s, setting=f"{s.setting} {MIRROR_NOTE}")
-                                                for s in _PAPER_WORLD_LIGHTS)
+# the grid in the preset as it is now, then every section run in its earlier world, which each setting says
+PAPER_WORLD_LIGHTS: tuple[Section, ...] = (*_PAPER_CODE_LIGHTS,
+                                           *(dataclasses.replace(s, setting=f"{s.setting} {MIRROR_NOTE}")
+                                             for s in _PAPER_WORLD_LIGHTS))
