@@ -16,7 +16,7 @@ import pytest
 import torch
 
 from box2d_driving.metrics.rollouts import COLUMNS, OPTIONAL_COLUMNS, load_table
-from box2d_driving.metrics.world_compare import STATISTICS, agree, world_statistics
+from box2d_driving.metrics.world_compare import SATNAV_STATISTICS, STATISTICS, agree, world_statistics
 from training.original import cli
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
 from training.original.compare import comparison_rows, format_rows, ours_table
@@ -228,7 +228,8 @@ def test_satnav_statistics_on_a_hand_built_table():
         (1, 0, 1, False, 0.75, True, False, 8.0, -30.0),
     ]
     t = _table(rows)
-    assert not any("reading" in name for name in world_statistics(t))  # no sat-nav columns: left out
+    assert set(SATNAV_STATISTICS) <= set(STATISTICS)
+    assert not set(SATNAV_STATISTICS) & set(world_statistics(t))  # no sat-nav columns: left out
     t["heading"] = np.array([np.pi, np.pi, -np.pi + 1e-7, np.pi / 2, np.pi / 2, 0.0, 0.0])
     t["satnav_heading"] = np.array([-0.1, -0.2, -np.pi, 0.3, -np.pi / 2, 0.0, 0.0])
     t["satnav_goal"] = np.array([0.01, 0.02, 1.0, 0.03, 1.0, 0.04, 1.0])

@@ -109,6 +109,13 @@ class DrivingEnv(ParallelEnv, EzPickle):
         """Light slots in :meth:`state` (none here; a scenario with lights sets the count)."""
         return 0
 
+    @property
+    def sees_light_from_axis(self) -> bool:
+        """Whether a car sees its light from a straight line to the point on its arm's axis at the
+        junction (the paper's code; ``light_view="axis_point"``, an intersection option) rather
+        than along its approach to the stop line."""
+        return getattr(self.config, "light_view", "stop_line") == "axis_point"
+
     # -- spaces -------------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Box:
         return self._obs_space
@@ -194,7 +201,7 @@ class DrivingEnv(ParallelEnv, EzPickle):
         # where a car's light is seen from: its stop line, or (the paper's code) the point on its
         # arm's axis across from it
         self._view_point = (_axis_points(self._stop_point, self._stop_direction, self._lane_origin)
-                            if getattr(self.config, "light_view", "stop_line") == "axis_point" else self._stop_point)
+                            if self.sees_light_from_axis else self._stop_point)
         self._approach = [c.approach for c in self.layout.cars]
         cars = np.arange(n)
         self._acting = cars

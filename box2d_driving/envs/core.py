@@ -185,9 +185,11 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     # differently)
     heading_error = wrap_angle(np.arctan2(to_goal[1], to_goal[0]) - head)
     past = remaining <= 0
+    paper_readings = cfg.goal_distance == "straight" or cfg.arrived_heading_error == "minus_heading"
     # the paper's code moves an arrived car's goal onto it for good: its readings stay an arrived
-    # car's even after it backs out past its goal (ours read the track again)
-    arrived = past | _cat([w.has_arrived for w in worlds])[flat]
+    # car's even after it backs out past its goal (ours read the track again); only those
+    # readings need it, so other worlds skip the gather
+    arrived = past | _cat([w.has_arrived for w in worlds])[flat] if paper_readings else past
     if cfg.goal_distance == "straight":  # the paper's code: to the goal point, 1 once arrived
         satnav[:, 3] = np.where(arrived, 1.0, 1.0 / np.maximum(np.hypot(to_goal[0], to_goal[1]), 1.0))
     # past its goal: 0, or the paper's code's reading with the goal moved onto the car
@@ -226,7 +228,7 @@ def _update_lights_seen(envs: Envs, cars: Sequence[np.ndarray], flat: np.ndarray
     """Each instance's ``_seen`` for its ``cars``: the light each sees (``NO_LIGHT`` for none) at
     positions ``pos`` and headings ``head`` (rows of ``flat``)."""
     cfg = envs[0].config
-    from_axis = getattr(cfg, "light_view", "stop_line") == "axis_point"
+    from_axis = envs[0].sees_light_from_axis
     if len(envs) == 1 and not from_axis:  # one junction: its own rule, in plain floats (fastest for a few cars)
         env = envs[0]
         if env.layout.lights is not None:

@@ -172,9 +172,12 @@ STATISTICS: dict[str, Callable[[dict[str, np.ndarray]], Units]] = {
 }
 LIDAR_COLUMNS = ("lidar_returns", "lidar_nearest")
 SATNAV_COLUMNS = ("satnav_heading", "satnav_goal")
+# the statistics read from the sat-nav columns, which an older recording may lack
+SATNAV_STATISTICS = ("heading_reading", "goal_reading",
+                     *(f"arrived_heading_reading_{name}" for name in DIRECTIONS))
 # the columns each statistic needs beyond those every rollout table has
 _NEEDS = {**{name: (name,) for name in LIDAR_COLUMNS},
-          **{name: SATNAV_COLUMNS for name in STATISTICS if "reading" in name}}
+          **{name: SATNAV_COLUMNS for name in SATNAV_STATISTICS}}
 
 
 def world_statistics(table: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:

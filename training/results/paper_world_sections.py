@@ -85,66 +85,51 @@ RELU_NOTE = ("Run before the preset had the paper code's LiDAR encoder, with our
              "LiDAR noise.")
 
 
+def _noise_grid(key: str, title: str, title_noise1: str, world: tuple[tuple[str, str], ...], world_command: str,
+                encoder: str, out: str, setting: str, setting_noise1: str,
+                headlines: tuple[Headline, ...] = ()) -> tuple[Section, Section]:
+    """The 4-car noise grid (LiDAR noise 0.25, 0.5, 0.75; 75 epochs) in the paper's update with the
+    LiDAR ``encoder`` (``lidar_encoder``), in ``world`` (its options; ``world_command`` the same
+    in a sweep command), and its noise-1.0 sweep (50 epochs, the original command's), which joins
+    the grid's table as its noise-1.0 row; sweep folders ``runs/OUT`` and ``runs/OUT-noise1``."""
+    fixed = (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *world)
+    grid = Section(
+        key, title, "lights", (*fixed, ("lidar_encoder", encoder)), LIGHTS_METRICS,
+        "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
+        f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {world_command} "
+        f"lidar_encoder={encoder} original_epochs=75 --out runs/{out}",
+        setting=setting, figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
+        paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
+        joins=(f"{key}-noise1", "lidar_noise"), joins_differ=("original_epochs",), headlines=headlines)
+    noise1 = Section(
+        f"{key}-noise1", title_noise1, "lights", (*fixed, ("lidar_noise", "1.0"), ("lidar_encoder", encoder)),
+        LIGHTS_METRICS,
+        "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 epochs).",
+        f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {world_command} lidar_encoder={encoder} "
+        f"original_epochs=50 --out runs/{out}-noise1",
+        setting=setting_noise1, baseline=lights_baselines, statements=(LIGHTS_BASELINE_STATEMENT,),
+        paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4)
+    return grid, noise1
+
+
 # the noise grid in the preset as it is now (its sections first on the page)
-_PAPER_CODE_LIGHTS: tuple[Section, ...] = (
-    Section("traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network "
-            "(on the left)", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *PAPER_CODE_WORLD,
-             ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_NOW} "
-            "lidar_encoder=original original_epochs=75 --out runs/sweep-lights-paper-left",
-            setting=f"{GRID_SETTING} {PAPER_CODE_NOTE}",
-            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
-            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            joins=("traffic-lights-paper-left-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
-    Section("traffic-lights-paper-left-noise1", "Stopping at red lights in the paper's own world, update and "
-            "network (on the left), LiDAR noise 1.0", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *PAPER_CODE_WORLD,
-             ("lidar_noise", "1.0"), ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
-            "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_NOW} lidar_encoder=original "
-            "original_epochs=50 --out runs/sweep-lights-paper-left-noise1",
-            setting=f"{NOISE1_SETTING} {PAPER_CODE_NOTE}",
-            baseline=lights_baselines,
-            statements=(LIGHTS_BASELINE_STATEMENT,),
-            paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
-)
+_PAPER_CODE_LIGHTS = _noise_grid(
+    "traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network (on the left)",
+    "Stopping at red lights in the paper's own world, update and network (on the left), LiDAR noise 1.0",
+    PAPER_CODE_WORLD, PAPER_NOW, "original", "sweep-lights-paper-left",
+    f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}")
 
 # the paper-world lights sections, in page order: the paper code's encoder first, then the preset's first runs
 _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
-    Section("traffic-lights-preset", "Stopping at red lights in the paper's world, update and network", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD,
-             ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_BEFORE} "
-            "lidar_encoder=original original_epochs=75 --out runs/sweep-lights-paper-net",
-            setting=GRID_SETTING,
-            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
-            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            joins=("traffic-lights-preset-noise1", "lidar_noise"), joins_differ=("original_epochs",),
-            headlines=(Headline("stop at red lights, the paper's world, update, network and budget",
-                                "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
-                                "32,000 joint steps (9.6 M decisions, the paper's own run)",
-                                (("lidar_noise", "0.5"),),
-                                ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
-    Section("traffic-lights-preset-noise1", "Stopping at red lights in the paper's world, update and network, "
-            "LiDAR noise 1.0", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_noise", "1.0"),
-             ("lidar_encoder", "original")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
-            "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_BEFORE} lidar_encoder=original "
-            "original_epochs=50 --out runs/sweep-lights-paper-net-noise1",
-            setting=NOISE1_SETTING,
-            baseline=lights_baselines,
-            statements=(LIGHTS_BASELINE_STATEMENT,),
-            paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
+    *_noise_grid(
+        "traffic-lights-preset", "Stopping at red lights in the paper's world, update and network",
+        "Stopping at red lights in the paper's world, update and network, LiDAR noise 1.0",
+        MIRROR_WORLD, PAPER_BEFORE, "original", "sweep-lights-paper-net", GRID_SETTING, NOISE1_SETTING,
+        headlines=(Headline("stop at red lights, the paper's world, update, network and budget",
+                            "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
+                            "32,000 joint steps (9.6 M decisions, the paper's own run)",
+                            (("lidar_noise", "0.5"),),
+                            ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
     Section("traffic-lights-preset-1car", "A lone car in the paper's world, update and network", "lights",
             (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_WORLD,
              ("lidar_encoder", "original")),
@@ -177,35 +162,16 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             compare_with=("traffic-lights-preset", (("lidar_noise", "0.5"),)),
             paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8),
     # the preset's first runs, before it had the paper code's LiDAR encoder: ours, often dead
-    Section("traffic-lights-preset-relu", "Stopping at red lights in the paper's world and update, our LiDAR "
-            "encoder", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_encoder", "relu")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car runs at noise 0.25 to 1.0).",
-            f"{SWEEP} lights --grid lidar_noise=0.25,0.5,0.75 --seeds 6 --set num_cars=4 {PAPER_BEFORE} "
-            "lidar_encoder=relu original_epochs=75 --out runs/sweep-lights-preset",
-            setting=f"{RELU_NOTE} Otherwise the section \"Stopping at red lights in the paper's world, update and "
-                    "network\": 4 cars from scratch, `--preset paper`, 75 epochs of 32,000 joint steps at noise "
-                    "0.25, 0.5 and 0.75 and, joined below it, 50 at noise 1.0, the same training seeds at every "
-                    "level. Six seeds at every level were planned; the grid was stopped at 10 of 18 when the "
-                    "dead encoders were found.",
-            figure=LIGHTS_NOISE_FIGURE, baseline=lights_baselines, statements=LIGHTS_NOISE_STATEMENTS,
-            paper_budget=LIGHTS_NOISE_BUDGET, paper_joint_steps=LIGHTS_NOISE_JOINT_STEPS, cars=4,
-            joins=("traffic-lights-preset-relu-noise1", "lidar_noise"), joins_differ=("original_epochs",)),
-    Section("traffic-lights-preset-relu-noise1", "Stopping at red lights in the paper's world and update, LiDAR "
-            "noise 1.0, our LiDAR encoder", "lights",
-            (("init_from", "false"), ("num_cars", "4"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_noise", "1.0"),
-             ("lidar_encoder", "relu")),
-            LIGHTS_METRICS,
-            "With more LiDAR noise, fewer cars enter on red (the paper's 4-car run at noise 1.0 trained 50 "
-            "epochs).",
-            f"{SWEEP} lights --seeds 6 --set num_cars=4 lidar_noise=1.0 {PAPER_BEFORE} lidar_encoder=relu "
-            "original_epochs=50 --out runs/sweep-lights-preset-noise1",
-            setting="The section above at LiDAR noise 1.0 for 50 epochs, with our LiDAR encoder; at noise 1.0 "
-                    "every ray is dropped, so no encoder can see another car.",
-            baseline=lights_baselines,
-            statements=(LIGHTS_BASELINE_STATEMENT,),
-            paper_budget=NOISE1_BUDGET, paper_joint_steps=50 * TrainerSettings.steps_per_epoch, cars=4),
+    *_noise_grid(
+        "traffic-lights-preset-relu", "Stopping at red lights in the paper's world and update, our LiDAR encoder",
+        "Stopping at red lights in the paper's world and update, LiDAR noise 1.0, our LiDAR encoder",
+        MIRROR_WORLD, PAPER_BEFORE, "relu", "sweep-lights-preset",
+        f"{RELU_NOTE} Otherwise the section \"Stopping at red lights in the paper's world, update and network\": "
+        "4 cars from scratch, `--preset paper`, 75 epochs of 32,000 joint steps at noise 0.25, 0.5 and 0.75 and, "
+        "joined below it, 50 at noise 1.0, the same training seeds at every level. Six seeds at every level were "
+        "planned; the grid was stopped at 10 of 18 when the dead encoders were found.",
+        "The section above at LiDAR noise 1.0 for 50 epochs, with our LiDAR encoder; at noise 1.0 every ray is "
+        "dropped, so no encoder can see another car."),
     Section("traffic-lights-preset-relu-1car", "A lone car in the paper's world and update, our LiDAR encoder",
             "lights",
             (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_encoder", "relu")),
