@@ -34,6 +34,7 @@ LIDAR_DROPOUTS = ("exact", "independent")
 SMOOTHNESS = ("linear", "squared")
 ARRIVED_HEADING_ERRORS = ("zero", "minus_heading")
 GOAL_DISTANCES = ("path", "straight")
+INTEGRATIONS = ("exact", "euler")
 
 
 @dataclass(frozen=True)
@@ -112,6 +113,11 @@ class DrivingConfig:
             (with a ``goal_radius`` that point is on the road axis and a car arrives ``r * W``
             short of it); once a car is past its goal, either reads 1 (``"straight"`` from its
             arrival on, as the paper's code, even if it backs out past its goal again).
+        integration: how a car's speed and arc length advance over a physics step of ``dt``:
+            ``"exact"`` (the acceleration held over the step, the speed clipped where it reaches
+            a limit inside it) or ``"euler"`` (the paper's code: the car moves ``v * dt`` at the
+            speed ``v`` of the step's start, then ``v`` becomes ``clip(v + a * dt)``; an
+            accelerating car covers ``a * dt^2 / 2`` less per step, a braking one as much more).
     """
 
     num_cars: int = 4
@@ -154,6 +160,7 @@ class DrivingConfig:
     smoothness: str = "linear"
     arrived_heading_error: str = "zero"
     goal_distance: str = "path"
+    integration: str = "exact"
 
     # Box2D moves a body at most this far in one step (b2_maxTranslation).
     _BOX2D_MAX_TRANSLATION = 2.0
@@ -194,6 +201,7 @@ class DrivingConfig:
         _choice(self, "smoothness", SMOOTHNESS)
         _choice(self, "arrived_heading_error", ARRIVED_HEADING_ERRORS)
         _choice(self, "goal_distance", GOAL_DISTANCES)
+        _choice(self, "integration", INTEGRATIONS)
         for name in ("light_period_step", "lidar_min_range"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < math.inf:

@@ -53,6 +53,7 @@ PAPER = Preset(
             "arrived_heading_error": "minus_heading",  # destination := position, atan2(0, 0) - heading
             "goal_distance": "straight",  # 1 / clamp(distance_from_destination(), min=1)
             "light_view": "axis_point",  # get_traffic_signal: |road end on the axis - centre| < vision_range
+            "integration": "euler",  # _BicycleKinematicsModel: x += v * dt * cos(theta), then v += a * dt
         },
     },
 )

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from box2d_driving.metrics.intervals import RATES, Z95, clustered_share, rate_intervals
+from box2d_driving.metrics.intervals import RATES, Z95, clustered_share, pooled_rate_intervals, rate_intervals
 
 
 def test_clustered_share_matches_a_hand_computation():
@@ -52,6 +52,34 @@ def test_rate_intervals_give_the_reports_rates():
         assert got[name]["value"] == pytest.approx(want[name]) and got[name]["half_width"] > 0
     with pytest.raises(ValueError, match="no clustered interval"):
         rate_intervals(table, ("fifo_share",))
+
+
+def _outcomes(episodes, arrived):
+    """A rollout table of one decision per car: the cars of ``episodes[k]`` arrive as ``arrived[k]``."""
+    episode = np.repeat(episodes, [len(a) for a in arrived])
+    car = np.concatenate([np.arange(len(a)) for a in arrived])
+    hit = np.concatenate([np.asarray(a, dtype=bool) for a in arrived])
+    return {"episode": episode, "car": car, "decision": np.zeros(len(car), dtype=np.int64), "arrived": hit,
+            "collided": ~hit}
+
+
+def test_policies_on_the_same_episodes_pool_with_each_episode_one_cluster():
+    # two policies on episodes 0-2 of two cars: A arrives 2, 0, 1 times, B 2, 1, 1; pooled per
+    # episode 4, 1, 2 of 4 -> share 7/12, residuals 4-7/3, 1-7/3, 2-7/3 = 5/3, -4/3, -1/3
+    a = _outcomes([0, 1, 2], [[1, 1], [0, 0], [1, 0]])
+    b = _outcomes([0, 1, 2], [[1, 1], [1, 0], [0, 1]])
+    pooled = pooled_rate_intervals([a, b], ("success_rate", "collision_rate"))
+    se = math.sqrt(3 / 2 * ((5 / 3) ** 2 + (4 / 3) ** 2 + (1 / 3) ** 2)) / 12
+    assert pooled["success_rate"]["value"] == pytest.approx(7 / 12)
+    assert pooled["success_rate"]["se"] == pytest.approx(se)
+    assert pooled["collision_rate"]["value"] == pytest.approx(5 / 12)
+    assert pooled_rate_intervals([a], ("success_rate",)) == rate_intervals(a, ("success_rate",))
+    # the same outcomes on six different episodes: the shared luck is gone, and so is its width
+    apart = pooled_rate_intervals([a, _outcomes([3, 4, 5], [[1, 1], [1, 0], [0, 1]])], ("success_rate",))
+    assert apart["success_rate"]["value"] == pytest.approx(7 / 12)
+    assert apart["success_rate"]["se"] != pytest.approx(se)
+    with pytest.raises(ValueError, match="no clustered interval"):
+        pooled_rate_intervals([a], ("fifo_share",))
 
 
 def test_check_shipped_sets_a_fresh_block_against_the_report(tmp_path, capsys):

@@ -312,7 +312,7 @@ def test_the_page_section_is_replaced_whole_and_only_it(tmp_path):
 
 
 def test_a_finished_run_carried_without_its_full_weights_is_scored_from_its_last_actor(tmp_path):
-    from training.original.cli import latest_weights
+    from training.original.tables import latest_weights
 
     run = tmp_path / "run"
     (run / "actors").mkdir(parents=True)
@@ -362,22 +362,29 @@ def test_a_curve_scores_every_kept_actor_once_on_one_set_of_selection_episodes(t
     assert (run / "curve.csv").read_text() == before
 
 
-def test_a_report_names_its_weights_within_the_run_so_it_travels_with_it(tmp_path, monkeypatch):
+def _recorded_worker(monkeypatch) -> list:
+    """The sdriving worker's rollouts stood in for by the recorded table (no sdriving needed);
+    returns the list its commands are appended to."""
     import shutil
 
+    calls: list = []
+
+    def fake_worker(cmd, **kwargs):
+        calls.append(cmd)
+        shutil.copy(FIXTURE, cmd[cmd.index("--out") + 1])
+    monkeypatch.setattr(cli, "require_venv", lambda: None)
+    monkeypatch.setattr(cli.subprocess, "run", fake_worker)
+    return calls
+
+
+def test_a_report_names_its_weights_within_the_run_so_it_travels_with_it(tmp_path, monkeypatch):
     run = tmp_path / "scratch" / "noise1.0_seed1"
     (run / "actors").mkdir(parents=True)
     (run / "run.json").write_text("{}")
     (run / "state.json").write_text(json.dumps({"epochs_done": 50, "joint_steps": 1_600_000,
                                                 "car_decisions": 5_900_000}))
     (run / "actors" / "epoch_0050.safetensors").write_bytes(b"x")
-    calls = []
-
-    def fake_worker(cmd, **kwargs):  # the sdriving worker's rollout, stood in for by a recorded table
-        calls.append(cmd)
-        shutil.copy(FIXTURE, cmd[cmd.index("--out") + 1])
-    monkeypatch.setattr(cli, "require_venv", lambda: None)
-    monkeypatch.setattr(cli.subprocess, "run", fake_worker)
+    calls = _recorded_worker(monkeypatch)
     out = run / "report.json"
     assert cli.main(["evaluate", "--run", str(run), "--episodes", "3", "--out", str(out)]) == 0
     report = json.loads(out.read_text())
@@ -386,3 +393,40 @@ def test_a_report_names_its_weights_within_the_run_so_it_travels_with_it(tmp_pat
     assert (report["epochs"], report["joint_steps"], report["episodes"]) == (50, 1_600_000, 3)
     assert report["collision_rate"] == pytest.approx(0.5)  # scored from the table the worker wrote
     assert calls and str(run / "actors" / "epoch_0050.safetensors") in calls[0]
+
+
+def test_both_worlds_pools_policies_on_their_shared_episodes_and_continues_a_stopped_folder(tmp_path, monkeypatch,
+                                                                                           capsys):
+    from box2d_driving.metrics.intervals import pooled_rate_intervals
+    from box2d_driving.metrics.rollouts import load_table
+
+    kept = Path(__file__).parents[1] / "assets" / "sweeps" / "weights" / "lights-paper-left-noise1"
+    policies = [str(kept / "lights_seed=0"), str(kept / "lights_seed=1")]
+    calls = _recorded_worker(monkeypatch)
+    out = tmp_path / "both"
+    argv = ["both-worlds", "--policy", *policies, "--episodes", "3", "--set", "integration=exact", "--out", str(out)]
+    assert cli.main(argv) == 0
+    assert len(calls) == 2 and "--out" in calls[0]  # one original-world table per policy
+    report = json.loads((out / "report.json").read_text())
+    for world in ("original", "ours"):
+        tables = [load_table(out / f"lights_seed={s}_{world}.npz") for s in (0, 1)]
+        want = pooled_rate_intervals(tables, ("red_light_violation_rate", "success_rate", "collision_rate"))
+        for name, entry in want.items():
+            assert report["pooled"][world][name] == pytest.approx(entry)
+    ours = [load_table(out / f"lights_seed={s}_ours.npz") for s in (0, 1)]
+    assert sorted(set(ours[0]["episode"].tolist())) == [0, 1, 2]
+    assert not np.array_equal(ours[0]["acceleration"], ours[1]["acceleration"])  # two policies drove
+    diff = report["original_minus_ours"]["collision_rate"]
+    assert diff["value"] == pytest.approx(report["pooled"]["original"]["collision_rate"]["value"]
+                                          - report["pooled"]["ours"]["collision_rate"]["value"])
+    assert "| all | original minus ours |" in capsys.readouterr().out
+    assert not list(out.glob("*.partial*"))
+    # a second call reads the tables there instead of driving again; other episodes are refused
+    assert cli.main(argv) == 0 and len(calls) == 2
+    capsys.readouterr()
+    assert cli.main([*argv[:-4], "--episodes", "4", "--out", str(out)]) == 2
+    assert cli.main(["both-worlds", "--policy", policies[0], policies[0], "--out", str(tmp_path / "x")]) == 2
+    assert cli.main(["both-worlds", "--out", str(tmp_path / "y")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(err) == 3 and "drawn with" in err[0] and "two drivers named" in err[1] and "--policy" in err[2]
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()

@@ -54,6 +54,47 @@ def test_exact_substep_integration_with_clipping():
     assert v == 0.0 and ds == pytest.approx(0.1 * 0.1 / 1.5 / 2)
 
 
+@pytest.mark.parametrize("reverse", [False, True])
+def test_euler_integration_moves_at_each_steps_starting_speed(reverse):
+    """The paper's code's step (x += v dt, then v += a dt): after n steps of 0.1 s from rest at
+    a = 1.5 the car has covered a dt^2 n (n - 1) / 2, short of the exact a (n dt)^2 / 2 by
+    a dt^2 n / 2; braking from v_lim it covers as much more; clipped at v_lim and at 0 (or at
+    -v_lim where the car may reverse) after the step that crosses it. Positions are Box2D's
+    float32 (about 4e-6 m off at 26 m); the two integrations differ by 0.075 m per second."""
+    env = hand_env([straight_car((0, 0), (300, 0))], horizon=30, integration="euler", reverse=reverse)
+    env.reset(seed=0)
+    a, dt, k = 1.5, env.config.dt, env.config.substeps
+    for t in range(1, 4):
+        _, _, _, _, info = env.step({"car_0": level_index(env, a)})
+        n = t * k
+        assert info["car_0"]["speed"] == pytest.approx(a * n * dt, abs=1e-9)
+        assert info["car_0"]["position"][0] == pytest.approx(a * dt * dt * n * (n - 1) / 2, abs=1e-4)
+        assert info["car_0"]["position"][0] == pytest.approx(0.5 * a * (n * dt) ** 2 - a * dt * dt * n / 2, abs=1e-4)
+    for _ in range(3):  # 6 s at 1.5 m/s^2 from 4.5 m/s: the speed reaches 8 m/s and stays there
+        _, _, _, _, info = env.step({"car_0": level_index(env, a)})
+    speeds, x = [4.5], 0.0
+    for _ in range(3 * k):
+        x += speeds[-1] * dt
+        speeds.append(min(speeds[-1] + a * dt, env.config.v_lim))
+    assert info["car_0"]["speed"] == pytest.approx(env.config.v_lim)
+    x_before = info["car_0"]["position"][0]
+    assert x_before == pytest.approx(a * dt * dt * 30 * 29 / 2 + x, abs=1e-4)
+    for _ in range(8):  # 8 s of braking from 8 m/s: a halt after 5.33 s, or backing to -v_lim
+        _, _, _, _, info = env.step({"car_0": level_index(env, -a)})
+    v, x = env.config.v_lim, x_before
+    for _ in range(8 * k):
+        x += v * dt
+        v = min(max(v - a * dt, -env.config.v_lim if reverse else 0.0), env.config.v_lim)
+    assert info["car_0"]["speed"] == pytest.approx(v, abs=1e-9)
+    assert info["car_0"]["position"][0] == pytest.approx(x, abs=1e-4)
+    assert (v < 0) == reverse
+
+
+def test_integration_is_a_checked_choice():
+    with pytest.raises(box2d_driving.ConfigError, match="integration"):
+        box2d_driving.make("intersection-v0", integration="rk4")
+
+
 def _lidar_distances(env, car=0):
     return env._lidar_distances(np.array([car]))[0]
 

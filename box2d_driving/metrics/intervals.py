@@ -11,12 +11,14 @@ differ from what the overall rate predicts for its number of units, with the sma
 
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
 
 from box2d_driving.metrics.lights import junction_entries, violation_rate
 from box2d_driving.metrics.rollouts import COLLIDED_WITH, last_rows
 
-__all__ = ["RATES", "Z95", "clustered_share", "rate_intervals"]
+__all__ = ["RATES", "Z95", "clustered_share", "pooled_rate_intervals", "rate_intervals"]
 
 Z95 = 1.959964  # two-sided 95 % normal quantile (hundreds of episodes: t and z agree)
 
@@ -52,22 +54,40 @@ def rate_intervals(table: dict[str, np.ndarray], names: tuple[str, ...] = RATES[
     success and collisions over cars, red-light violations over junction entries (the report's
     stop value), pedestrian collisions over cars. A rate the table cannot give (no junction
     entries) is left out."""
+    return pooled_rate_intervals([table], names)
+
+
+def pooled_rate_intervals(tables: list[dict[str, np.ndarray]],
+                          names: tuple[str, ...] = RATES[:2]) -> dict[str, dict[str, float]]:
+    """:func:`rate_intervals` of several policies' rollout tables on the **same** episodes (the
+    same ``episode`` numbers, e.g. the trials of a sweep on one block of report episodes), taken
+    together: the units of every table pooled, each episode one cluster across the tables. The
+    policies share their episodes' luck (an episode that is hard for one is hard for all), so an
+    interval over policies alone would miss that; this one counts it. Red-light violations are
+    each table's own entries on its own adopted stop value. A rate no table can give is left out."""
     unknown = [n for n in names if n not in RATES]
     if unknown:
         raise ValueError(f"no clustered interval for {', '.join(unknown)}; rates: {', '.join(RATES)}")
-    idx = last_rows(table)
-    episode = table["episode"][idx]
-    hits = {"success_rate": lambda: (table["arrived"][idx], episode),
-            "collision_rate": lambda: (table["collided"][idx], episode),
-            "pedestrian_collision_rate": lambda: (table["collided_with"][idx] == COLLIDED_WITH.index("pedestrian"),
-                                                  episode),
-            "red_light_violation_rate": lambda: _violations(table)}
     out = {}
     for name in names:
-        found = hits[name]()
-        if found is not None:
-            out[name] = _entry(clustered_share(*found))
+        found = [hits for hits in (_rate_hits(table, name) for table in tables) if hits is not None]
+        if found:
+            out[name] = _entry(clustered_share(np.concatenate([h for h, _ in found]),
+                                               np.concatenate([e for _, e in found])))
     return out
+
+
+def _rate_hits(table: dict[str, np.ndarray], name: str) -> Optional[tuple[np.ndarray, np.ndarray]]:
+    """The units of rate ``name`` in ``table``: (hit per unit, its episode); None if it has none."""
+    if name == "red_light_violation_rate":
+        return _violations(table)
+    idx = last_rows(table)
+    episode = table["episode"][idx]
+    if name == "success_rate":
+        return table["arrived"][idx], episode
+    if name == "collision_rate":
+        return table["collided"][idx], episode
+    return table["collided_with"][idx] == COLLIDED_WITH.index("pedestrian"), episode
 
 
 def _violations(table: dict[str, np.ndarray]):

@@ -2,8 +2,9 @@
 
 A car's acceleration is held for a whole decision; speed is clipped to ``[0, v_lim]``. Within each
 physics step the motion is integrated exactly (piecewise constant acceleration, clipping included),
-so a car's arc length at the end of every step matches the analytic answer. Box2D is then given
-the chord velocity that carries the body from one step's pose to the next.
+so a car's arc length at the end of every step matches the analytic answer; or, with ``euler``, as
+the paper's code does: the car moves at its speed of the step's start, then its speed changes.
+Box2D is then given the chord velocity that carries the body from one step's pose to the next.
 """
 
 from __future__ import annotations
@@ -27,10 +28,18 @@ def advance_speed(v: float, a: float, v_lim: float, dt: float) -> tuple[float, f
 
 
 @njit(cache=True)
-def longitudinal_profile(s0, v0, accel, v_lim, s_end, moving, dt, substeps, s_out, v_out, arrive):
+def euler_speed(v: float, a: float, v_min: float, v_max: float, dt: float) -> tuple[float, float]:
+    """The paper's code's step: distance ``v * dt`` at the step's starting speed, then the speed
+    ``v + a * dt`` clipped to ``[v_min, v_max]``."""
+    return v * dt, min(max(v + a * dt, v_min), v_max)
+
+
+@njit(cache=True)
+def longitudinal_profile(s0, v0, accel, v_lim, s_end, moving, dt, substeps, s_out, v_out, arrive, euler=False):
     """Arc length ``s_out[i, k]`` and speed ``v_out[i, k]`` at the end of each physics step
     ``k = 0..substeps`` (column 0 is the start) for every moving car; ``arrive[i]`` is the first
-    step index (1-based) at which the car reaches ``s_end[i]``, or 0."""
+    step index (1-based) at which the car reaches ``s_end[i]``, or 0. ``euler``: each step by
+    :func:`euler_speed` instead of exactly."""
     n = s0.shape[0]
     for i in range(n):
         s = s0[i]
@@ -40,7 +49,10 @@ def longitudinal_profile(s0, v0, accel, v_lim, s_end, moving, dt, substeps, s_ou
         arrive[i] = 0
         for k in range(substeps):
             if moving[i] and arrive[i] == 0:
-                ds, v = advance_speed(v, accel[i], v_lim[i], dt)
+                if euler:
+                    ds, v = euler_speed(v, accel[i], 0.0, v_lim[i], dt)
+                else:
+                    ds, v = advance_speed(v, accel[i], v_lim[i], dt)
                 s = s + ds
                 if s >= s_end[i]:
                     s = s_end[i]
@@ -115,11 +127,13 @@ def advance_speed_between(v: float, a: float, v_min: float, v_max: float, dt: fl
 
 
 @njit(cache=True)
-def free_profile(s0, v0, accel, v_min, v_max, s_goal, s_end, arrived, moving, dt, substeps, s_out, v_out, arrive):
+def free_profile(s0, v0, accel, v_min, v_max, s_goal, s_end, arrived, moving, dt, substeps, s_out, v_out, arrive,
+                 euler=False):
     """:func:`longitudinal_profile` for cars that may reverse and that drive on past their goal:
     speed in ``[v_min[i], v_max[i]]``, arc length kept in ``[0, s_end[i]]`` (the path's ends; the
     speed is 0 while pressed against one), ``arrive[i]`` the first step (1-based) at which a car
-    not ``arrived`` before reaches ``s_goal[i]``, or 0. Motion goes on after arrival."""
+    not ``arrived`` before reaches ``s_goal[i]``, or 0. Motion goes on after arrival. ``euler``:
+    each step by :func:`euler_speed` instead of exactly."""
     n = s0.shape[0]
     for i in range(n):
         s = s0[i]
@@ -129,7 +143,10 @@ def free_profile(s0, v0, accel, v_min, v_max, s_goal, s_end, arrived, moving, dt
         arrive[i] = 0
         for k in range(substeps):
             if moving[i]:
-                ds, v = advance_speed_between(v, accel[i], v_min[i], v_max[i], dt)
+                if euler:
+                    ds, v = euler_speed(v, accel[i], v_min[i], v_max[i], dt)
+                else:
+                    ds, v = advance_speed_between(v, accel[i], v_min[i], v_max[i], dt)
                 s = s + ds
                 if s > s_end[i]:
                     s = s_end[i]

@@ -284,12 +284,13 @@ class DrivingWorld:
         s_out = np.empty((n, k_steps + 1))
         v_out = np.empty((n, k_steps + 1))
         arrive = np.zeros(n, dtype=np.int64)
+        euler = cfg.integration == "euler"
         if self._free:
             free_profile(self.s, self.speed, self.accel, self.v_min, self.v_lim, self.s_goal, self.s_end,
-                         self.has_arrived, moving, dt, k_steps, s_out, v_out, arrive)
+                         self.has_arrived, moving, dt, k_steps, s_out, v_out, arrive, euler)
         else:
             longitudinal_profile(self.s, self.speed, self.accel, self.v_lim, self.s_end, moving,
-                                 dt, k_steps, s_out, v_out, arrive)
+                                 dt, k_steps, s_out, v_out, arrive, euler)
         xy = np.empty((n, k_steps + 1, 2))
         heading = np.empty((n, k_steps + 1))
         path_poses(self.path_points, self.path_cumlen, self.path_counts, s_out, xy, heading)

@@ -35,6 +35,8 @@ class Args(ScriptArgs):
     light_view: where a car sees its light from: stop_line (within the view distance before its
         stop line), or axis_point (the paper's code: within that straight-line distance of its
         arm's axis at the junction); default: the scenario's, or the preset's
+    integration: how a car's motion advances over a physics step: exact, or euler (the paper's
+        code: at the step's starting speed); default: the scenario's, or the preset's
     """
 
     num_cars: int = IntersectionConfig.num_cars  # the scenario's, declared once in its config
@@ -44,11 +46,12 @@ class Args(ScriptArgs):
     arrived_heading_error: Optional[str] = None
     goal_distance: Optional[str] = None
     light_view: Optional[str] = None
+    integration: Optional[str] = None
 
     def env_overrides(self) -> dict:
         given = {"approach_order": self.approach_order, "drive_on": self.drive_on,
                  "arrived_heading_error": self.arrived_heading_error, "goal_distance": self.goal_distance,
-                 "light_view": self.light_view}
+                 "light_view": self.light_view, "integration": self.integration}
         return {k: v for k, v in given.items() if v is not None}
 
 

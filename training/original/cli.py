@@ -8,6 +8,8 @@
   ``--resume`` continues a folder from its last epoch;
 * ``original evaluate --run DIR`` (or ``--policy P``, one of ours): a policy on report episodes of
   either world (``--world original | ours``), scored by our metric code;
+* ``original both-worlds --policy P ... | --run DIR ...``: several policies in both worlds on the
+  same report episodes, and all of them together (``both_worlds.py``);
 * ``original export --run DIR --out P``: a run's actor as a policy of ours (``export.py``);
 * ``original curve --run DIR``: every actor the run kept, on the same selection episodes, one CSV
   row per epoch (a learning curve; selection seeds, since reading a curve is choosing).
@@ -32,8 +34,9 @@ from training.common.cli_args import OneLineParser, error, prog_name
 from training.common.seeds import REPORT, SELECTION, SeedError
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
 from training.original.compare import DRIVERS
+from training.original.tables import (WORKER, policy_source, require_venv, run_weights, score_table,
+                                      trained_original_table, venv_dir, venv_python, write_table)
 
-WORKER = Path(__file__).with_name("sdriving_worker.py")
 # what the worker's environment installs: sdriving without its training-only dependencies, and
 # what its trainer and our worker import
 PACKAGES = ("torch==2.13.0", "numpy", "scipy", "gym", "matplotlib", "celluloid", "joblib", "pandas",
@@ -44,31 +47,11 @@ DESCRIPTION = ("The paper's own simulator and trainer (sdriving 0.1.0) beside ou
                "environment, `train` runs an original command (resumable).")
 
 
-def venv_dir() -> Path:
-    """Where ``original setup`` puts the sdriving environment (``BOX2D_DRIVING_SDRIVING_VENV``
-    overrides)."""
-    env = os.environ.get("BOX2D_DRIVING_SDRIVING_VENV")
-    if env:
-        return Path(env)
-    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-    return cache / "box2d-driving" / "sdriving-venv"
-
-
-def require_venv() -> None:
-    """:class:`OriginalError` unless ``original setup`` has built the sdriving environment."""
-    if not venv_python().exists():
-        raise OriginalError(f"no sdriving environment at {venv_dir()}: run `box2d-driving original setup` first")
-
-
 def check_report_episodes(episodes: int, first_seed: int) -> None:
     """``--episodes`` report episodes from ``--first-seed``, all in the report range."""
     if episodes < 1:
         raise OriginalError(f"--episodes must be >= 1, got {episodes}")
     REPORT.episodes(episodes, first_seed)
-
-
-def venv_python() -> Path:
-    return venv_dir() / "bin" / "python"
 
 
 def setup() -> int:
@@ -128,33 +111,6 @@ def _compare(args) -> int:
     except (OriginalError, SeedError, ValueError, OSError) as exc:  # ConfigError is a ValueError
         return error(str(exc))
     return 0
-
-
-def score_table(table: dict) -> dict:
-    """Our traffic-light report of a rollout table of the original world: the lights summary
-    (violations with their adopted stop value, success, collisions, time to goal) and the rates'
-    95 % intervals with episodes as clusters."""
-    from box2d_driving.metrics.intervals import rate_intervals
-    from box2d_driving.metrics.lights import traffic_light_metrics
-
-    # the original's hardest braking, -1.5 m/s^2 (fixed_track.py, configure_action_space)
-    metrics = traffic_light_metrics(table, max_brake=1.5)
-    metrics["intervals"] = rate_intervals(table, ("success_rate", "collision_rate", "red_light_violation_rate"))
-    return metrics
-
-
-def latest_weights(run: Path) -> Path:
-    """The weights of a run's last epoch: ``weights.safetensors`` (actor, critic and optimiser
-    state, kept while the run can be resumed), else, for a finished run carried without it, the
-    actor kept after its last epoch (``actors/epoch_NNNN.safetensors``, NNNN from ``state.json``)."""
-    full = run / "weights.safetensors"
-    if full.is_file() or not (run / "state.json").is_file():
-        return full
-    try:
-        done = int(json.loads((run / "state.json").read_text())["epochs_done"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return full
-    return run / "actors" / f"epoch_{done:04d}.safetensors"
 
 
 CURVE_COLUMNS = ("epoch", "joint_steps", "episodes", "first_seed", "red_light_violation_rate", "success_rate",
@@ -219,55 +175,9 @@ def _write_curve(path: Path, rows: list[dict]) -> None:
     os.replace(tmp, path)
 
 
-def _run_weights(run: Path, epoch: Optional[int]) -> Path:
-    """The actor file of run folder ``run`` after ``epoch`` (None: its last), checked to exist
-    with the run's ``run.json``: :class:`OriginalError` naming what is missing."""
-    weights = latest_weights(run) if epoch is None else run / "actors" / f"epoch_{epoch:04d}.safetensors"
-    for path in (run / "run.json", weights):
-        if not path.is_file():
-            raise OriginalError(f"--run {run}: {path.relative_to(run)} is missing")
-    return weights
-
-
-def trained_our_table(policy_path: Path, episodes: int, first_seed: int, overrides: Optional[dict] = None) -> dict:
-    """The rollout table of a policy of ours (a folder ``load_trained`` reads) driving its own
-    world (the ``paper`` preset's, for an exported original actor), with ``overrides`` of that
-    world's config."""
-    from box2d_driving.metrics.rollouts import run_episodes
-    from box2d_driving.policies import load_trained
-
-    policy = load_trained(policy_path)
-    env = policy.make_env(**(overrides or {}))
-    try:
-        return run_episodes(env, policy, episodes, seed=first_seed)
-    finally:
-        env.close()
-
-
-def trained_original_table(spec_path: Path, weights: Path, episodes: int, first_seed: int, table_path: Path) -> None:
-    """Write the rollout table of an actor in sdriving's names (``weights``) driving the original
-    world of ``spec_path`` (a ``run.json``), through the worker."""
-    subprocess.run([str(venv_python()), str(WORKER), "rollout", str(spec_path), "--driver", "trained",
-                    "--weights", str(weights), "--episodes", str(episodes), "--first-seed", str(first_seed),
-                    "--out", str(table_path)], check=True, stderr=subprocess.DEVNULL)
-
-
-def _policy_source(policy: Path) -> tuple[dict, dict]:
-    """A policy of ours as the original's actor: (run.json for the worker, sdriving tensors)."""
-    from box2d_driving.policies.checkpoint_file import find_config, read_arrays, read_json
-    from box2d_driving.policies.shipped import resolve_policy_path
-    from training.original.export import original_spec, to_original
-
-    path, arrays, _ = read_arrays(resolve_policy_path(policy))  # policy arrays by state_dict name
-    return original_spec(read_json(find_config(path))), to_original({f"policy/{k}": v for k, v in arrays.items()})
-
-
 def _evaluate(args) -> int:
-    from safetensors.numpy import save_file
-
     from box2d_driving.cli import _parse_overrides
-    from box2d_driving.metrics.rollouts import load_table, save_table
-    from training.original.export import export_policy
+    from box2d_driving.metrics.rollouts import load_table
 
     table_path = args.out.with_suffix(".npz")
     try:
@@ -275,36 +185,26 @@ def _evaluate(args) -> int:
         overrides = _parse_overrides(args.set)
         if overrides and args.world != "ours":
             raise OriginalError("--set changes our world's settings: it needs --world ours")
+        weights, original = None, None
         if args.run is not None:
-            weights = _run_weights(args.run, args.epoch)
+            weights = run_weights(args.run, args.epoch)
         elif args.epoch is not None:
             raise OriginalError("--epoch picks an actor of an original run (--run), not of --policy")
-        else:  # a policy of ours: refused here, before anything is written, if the original cannot run it
-            spec, actor = _policy_source(args.policy) if args.world == "original" else ({}, {})
+        elif args.world == "original":  # a policy of ours: refused here, before anything is written, if the
+            original = policy_source(args.policy)  # original cannot run it
         for path in (args.out, table_path):
             if path.exists():
                 raise OriginalError(f"--out: {path} exists (choose another name)")
         if args.world == "original":
             require_venv()
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory() as tmp:
-            if args.run is not None and args.world == "original":
-                trained_original_table(args.run / "run.json", weights, args.episodes, args.first_seed, table_path)
-            elif args.run is not None:
-                policy = export_policy(args.run, weights, Path(tmp) / "policy", args.epoch)
-                save_table(trained_our_table(policy, args.episodes, args.first_seed, overrides), table_path)
-            elif args.world == "original":
-                (Path(tmp) / "run.json").write_text(json.dumps(spec))
-                save_file(actor, str(Path(tmp) / "actor.safetensors"))
-                trained_original_table(Path(tmp) / "run.json", Path(tmp) / "actor.safetensors", args.episodes,
-                               args.first_seed, table_path)
-            else:
-                save_table(trained_our_table(args.policy, args.episodes, args.first_seed, overrides), table_path)
+        write_table(table_path, args.world, args.episodes, args.first_seed, run=args.run, weights=weights,
+                    epoch=args.epoch, policy=args.policy, original=original, overrides=overrides)
     except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
         return error(str(exc))
     metrics = score_table(load_table(table_path))
     metrics.update(episodes=args.episodes, first_seed=args.first_seed, world=args.world, overrides=overrides)
-    if args.run is not None:
+    if args.run is not None and weights is not None:
         state = json.loads((args.run / "state.json").read_text()) if (args.run / "state.json").exists() else {}
         latest = args.epoch is None
         # the weights named within the run folder: a report travels with its run (carried, copied)
@@ -321,11 +221,32 @@ def _evaluate(args) -> int:
     return 0
 
 
+def _both_worlds(args) -> int:
+    from box2d_driving.cli import _parse_overrides
+    from training.original import both_worlds as bw
+
+    try:
+        check_report_episodes(args.episodes, args.first_seed)
+        overrides = _parse_overrides(args.set)
+        found = bw.drivers(args.run, args.policy)
+        require_venv()
+        bw.check_settings(args.out, {"episodes": args.episodes, "first_seed": args.first_seed,
+                                     "overrides": overrides})
+        bw.drive(args.out, found, args.episodes, args.first_seed, overrides)
+    except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
+        return error(str(exc))
+    result = bw.report(args.out, found)
+    path = bw.write_report(args.out, result)
+    print(bw.markdown(result))
+    print(f"{path}: each policy and all together")
+    return 0
+
+
 def _export(args) -> int:
     from training.original.export import export_policy
 
     try:
-        out = export_policy(args.run, _run_weights(args.run, args.epoch), args.out, args.epoch)
+        out = export_policy(args.run, run_weights(args.run, args.epoch), args.out, args.epoch)
     except (OriginalError, ValueError, OSError) as exc:
         return error(str(exc))
     print(f"{out}: the actor as our policy (box2d-driving evaluate --checkpoint {out})")
@@ -381,6 +302,18 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                         "renamed for the other's network where needed (default: original)")
     e.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="with --world ours: an override of our world's config, e.g. --set drive_on=right")
+    b = sub.add_parser("both-worlds", help="trained policies in both worlds on the same report episodes, each "
+                                           "and all together (original minus ours, with 95 %% intervals)")
+    b.add_argument("--run", type=Path, nargs="+", default=[], help="original train run folders (each its last actor)")
+    b.add_argument("--policy", type=Path, nargs="+", default=[],
+                   help="policies of ours trained with the paper preset and the paper code's LiDAR encoder")
+    b.add_argument("--episodes", type=int, default=200, help="report episodes per policy and world (default: 200)")
+    b.add_argument("--first-seed", type=int, default=REPORT.start,
+                   help=f"first report seed (default: {REPORT.start})")
+    b.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="an override of our world's config, e.g. --set integration=exact")
+    b.add_argument("--out", type=Path, required=True,
+                   help="folder for the tables and report.json (tables already there are read, not rerun)")
     x = sub.add_parser("export", help="an original-code run's actor as our policy (the paper preset's world)")
     x.add_argument("--run", type=Path, required=True, help="an original train run folder")
     x.add_argument("--epoch", type=int, default=None,
@@ -400,6 +333,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return _evaluate(args)
     if args.command == "export":
         return _export(args)
+    if args.command == "both-worlds":
+        return _both_worlds(args)
     if args.command == "curve":
         return _curve(args)
     if args.command == "compare":

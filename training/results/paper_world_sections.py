@@ -47,25 +47,30 @@ GRID_SETTING = ("Each trial trains 4 cars from scratch with our trainer in the p
 NOISE1_SETTING = ("The section above at LiDAR noise 1.0 (every ray dropped: the cars see no other car), for the "
                   "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
                   "noise-1.0 row, paired by seed with the other levels.")
-# the preset since 2026-12-06: the paper's code's side of the road and its sat-nav readings
+# the preset since 2026-12-06: the paper's code's side of the road and its sat-nav readings, with
+# our exact motion (pinned: the preset now steps as the paper's code does, integration=euler)
 PAPER_CODE_WORLD = (("drive_on", "left"), ("arrived_heading_error", "minus_heading"), ("goal_distance", "straight"),
-                    ("light_view", "axis_point"))
+                    ("light_view", "axis_point"), ("integration", "exact"))
 PAPER_NOW = ("preset=paper drive_on=left arrived_heading_error=minus_heading goal_distance=straight "
-             "light_view=axis_point")
+             "light_view=axis_point integration=exact")
 PAPER_CODE_NOTE = ("In the paper's world as its code has it (the preset since 2026-12-06): every car left of its "
                    "road's axis, its light seen within 30 m in a straight line of its arm's axis at the junction, "
                    "its goal distance read in a straight line to the goal on the road axis, and once arrived, for "
                    "good, minus its heading as its heading error (due west -pi) and 1 as its goal "
-                   "distance. The paper's own trainer's policies drive this world as they drive theirs, and "
+                   "distance; cars moved by our exact integration (`integration=exact`, pinned in the command), "
+                   "where the preset now steps as the paper's code does, at each 0.1 s step's starting speed "
+                   "(`integration=euler`; [paper_world.md](paper_world.md#motion-integration)). The paper's own "
+                   "trainer's policies drive this world as they drive theirs, and "
                    "policies of ours drive the paper's world as they drive this one "
                    "([paper_world.md](paper_world.md#policies-in-both-worlds)).")
 # the world every section here ran in: the preset as it stood before 2026-12-06, on the right,
 # reading an arrived car's heading error as 0 and the goal distance along the track
 # (training/sweeps/spec.py, PINNED_WORLD)
 MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"),
-                ("light_view", "stop_line"))
+                ("light_view", "stop_line"), ("integration", "exact"))
 # the same, in a sweep command
-PAPER_BEFORE = "preset=paper drive_on=right arrived_heading_error=zero goal_distance=path light_view=stop_line"
+PAPER_BEFORE = ("preset=paper drive_on=right arrived_heading_error=zero goal_distance=path light_view=stop_line "
+                "integration=exact")
 MIRROR_NOTE = ("Run before the preset drove on the left as the paper's code does (`drive_on=right`, pinned in the "
                "command): the mirror image of the paper's world, which no scripted driver's statistics tell apart, "
                "and with an arrived car's heading error 0 where the paper's code reads minus its heading "

@@ -203,7 +203,7 @@ def check_spec(spec: SweepSpec) -> None:
 # values before: a sweep records what its trials build (check_spec), and one from before is read
 # with these (saved_fixed), so its trials are never taken for runs of the preset's world now
 PINNED_WORLD = {"drive_on": "right", "arrived_heading_error": "zero", "goal_distance": "path",
-                "light_view": "stop_line"}
+                "light_view": "stop_line", "integration": "exact"}
 
 
 def saved_fixed(saved: dict) -> dict[str, str]:
