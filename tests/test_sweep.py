@@ -437,3 +437,25 @@ def test_a_paper_preset_sweep_records_the_world_its_trials_build_and_reads_older
                                         "light_view": "stop_line", "integration": "exact"})
     check_spec(pinned)
     assert spec_differences(old, pinned) == [] and saved_fixed(old)["drive_on"] == "right"
+
+
+def test_the_scripted_drivers_beside_a_preset_section_drive_its_trials_world(monkeypatch):
+    """The page's scripted baselines run in the world a sweep's trials ran in: every setting the
+    preset changed after sweeps had run with it, read from an old sweep as it stood then."""
+    from training.results import baselines
+    from training.sweeps.spec import PINNED_WORLD
+
+    asked = []
+    monkeypatch.setattr(baselines, "scripted_violation_rate", lambda *args: asked.append(args) or 0.5)
+    trial = {"status": "done", "report_first_seed": 1_500_000_000, "report_episodes": 200, "env_config.num_cars": 4}
+    old = {"sweep": {"behaviour": "lights", "grid": {}, "fixed": {"preset": "paper", "num_cars": "4"}},
+           "trials": [trial]}
+    got = baselines.lights_baselines(old, [])
+    assert set(got) == {f"{d}/red_light_violation_rate" for d in baselines.SCRIPTED_BASELINES}
+    assert all(args[4] == "paper" and dict(args[5]) == PINNED_WORLD for args in asked)
+    asked.clear()
+    now = {**old, "sweep": {**old["sweep"], "fixed": {"preset": "paper", "num_cars": "4", "drive_on": "left",
+                                                      "light_view": "axis_point", "integration": "euler"}}}
+    baselines.lights_baselines(now, [])
+    world = dict(asked[0][5])
+    assert (world["drive_on"], world["light_view"], world["integration"]) == ("left", "axis_point", "euler")

@@ -16,6 +16,7 @@ from typing import Any, Callable, Optional
 import numpy as np
 
 from training.common.seeds import REPORT
+from training.sweeps.spec import PINNED_WORLD
 from training.results.data import (Baseline, Group, Metric, ResultsError, as_number, metric_value,
                                    report_episodes)
 
@@ -199,8 +200,10 @@ def right_of_way_baselines(summary: dict[str, Any], groups: list[Group]) -> Base
 
 
 # the world settings a lights sweep may fix, as text, that the scripted drivers' world must share
-# with its trials (where the cars start, which side they keep to, what an arrived car reads)
-WORLD_KEYS = ("approach_order", "drive_on", "arrived_heading_error", "goal_distance")
+# with its trials: where the cars start, and every setting the paper preset changed after sweeps
+# had run with it (training/sweeps/spec.py, PINNED_WORLD: which side they keep to, what an arrived
+# car reads, where a car sees its light, how it moves)
+WORLD_KEYS = ("approach_order", *PINNED_WORLD)
 
 
 @functools.lru_cache(maxsize=None)
