@@ -218,7 +218,7 @@ def test_the_table_says_which_rows_come_from_the_papers_own_world():
 
     noise, lone = CLAIMS[0], CLAIMS[1]
     assert noise.sections[:2] == ("traffic-lights-paper-left", "traffic-lights-preset")
-    assert lone.sections[0] == "traffic-lights-preset-1car"
+    assert lone.sections[:2] == ("traffic-lights-paper-left-1car", "traffic-lights-preset-1car")
     says = "- red-light violations: noise 1.0 against 0.25: fewer with noise, as in the paper."
     default_only = {noise.sections[-1]: _result([says])}  # the noise claim read from our default world
     assert worlds_sentence({}).startswith("None of these runs is yet in the paper's own world")

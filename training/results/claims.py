@@ -110,12 +110,13 @@ CLAIMS: tuple[Claim, ...] = (
           "red_light_violation_rate", "red-light violations", arbiter=True),
     # a lone car has no car to see: the runs with our (often dead) LiDAR encoder still speak to it
     Claim("A lone car has no need to follow the light",
-          ("traffic-lights-preset-1car", "traffic-lights-preset-relu-1car"),
+          ("traffic-lights-paper-left-1car", "traffic-lights-preset-1car", "traffic-lights-preset-relu-1car"),
           (Reading(r"- 1 car, red-light violations against rule-free scripted drivers "),
            # beside it: the lone car against the 4-car row of the same world, budget and noise
            Reading(r"- red-light violations: these trials", decides=False)),
           "red_light_violation_rate", "red-light violations"),
-    Claim("With more cars, fewer cars enter on red", ("traffic-lights-preset-8cars", "denser-traffic-paper"),
+    Claim("With more cars, fewer cars enter on red",
+          ("traffic-lights-paper-left-8cars", "traffic-lights-preset-8cars", "denser-traffic-paper"),
           (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
     Claim("Lanes with 8 cars, none with 4", ("lanes-paper-16M", "lanes-noise", "lanes-paper"),
           LANES_READINGS,

@@ -18,10 +18,12 @@ from training.results.rule_parts import (DENSER_BUDGET, DENSER_JOINT_STEPS, LIGH
                                          LIGHTS_NOISE_STATEMENTS, SWEEP)
 from training.results.statements import lone_car_statement
 
-__all__ = ["PAPER_WORLD_LIGHTS", "PRESET_8CARS_FROM"]
+__all__ = ["LEFT_8CARS_FROM", "PAPER_WORLD_LIGHTS", "PRESET_8CARS_FROM"]
 
-# the 8-car preset rule's starting policy: a kept trial of the 4-car preset grid (its actor alone)
+# the 8-car preset rules' starting policies: a kept trial of the 4-car grid in the same world (its
+# actor alone)
 PRESET_8CARS_FROM = "assets/sweeps/weights/lights-paper-net/lights_lidar_noise=0.5_seed=0"
+LEFT_8CARS_FROM = "assets/sweeps/weights/lights-paper-left/lights_lidar_noise=0.5_seed=0"
 NOISE1_BUDGET = "4 cars at LiDAR noise 1.0 for 50 epochs of 32,000 joint steps (1.6 M joint steps), entropy 1e-4"
 LONE_CAR_CLAIM = ("In a single agent environment there is no need to follow the signals (the paper's figure "
                   "caption); its experiment list says of its 1-car run that the actions are not correlated with "
@@ -35,6 +37,14 @@ LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of 
                     "planned before any was run.")
 LONE_CAR_BUDGET = ("1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, horizon "
                    "20 decisions, entropy 1e-3, LiDAR noise 0")
+DENSER_SETTING = ("Each trial fine-tunes, with 8 cars, one 4-car policy of the grid above (its noise-0.5 trial of "
+                  "seed 0) in the paper's world, update and network at LiDAR noise 0.5, each car's arm drawn at "
+                  "random (the original's `balance_cars: false` for its 8-car run), for 75 epochs of 32,000 joint "
+                  "steps: 2.4 M joint steps, 19.2 M car-decisions, 15 % of the original's 500 epochs. Deviations "
+                  "from the original command: it fine-tuned actor and critic of its 4-car noise-0 model; the grid "
+                  "keeps actors alone, so our critic starts fresh, and the grid has no noise-0 row, so the "
+                  "starting policy and the comparison row are both the grid's noise 0.5. Four seeds were planned "
+                  "before any was run.")
 # the 4-car noise grid and its noise-1.0 sweep, in whichever world they ran
 GRID_SETTING = ("Each trial trains 4 cars from scratch with our trainer in the paper's own world, update and network "
                 "(`--preset paper`: an arrived car stays until the horizon of 25 decisions, every car decides at "
@@ -117,12 +127,40 @@ def _noise_grid(key: str, title: str, title_noise1: str, world: tuple[tuple[str,
     return grid, noise1
 
 
-# the noise grid in the preset as it is now (its sections first on the page)
-_PAPER_CODE_LIGHTS = _noise_grid(
-    "traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network (on the left)",
-    "Stopping at red lights in the paper's own world, update and network (on the left), LiDAR noise 1.0",
-    PAPER_CODE_WORLD, PAPER_NOW, "original", "sweep-lights-paper-left",
-    f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}")
+# the noise grid in the preset on the left (its sections first on the page), a lone car and 8 cars
+# in the same world
+_PAPER_CODE_LIGHTS: tuple[Section, ...] = (
+    *_noise_grid(
+        "traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network (on the "
+        "left)", "Stopping at red lights in the paper's own world, update and network (on the left), LiDAR noise 1.0",
+        PAPER_CODE_WORLD, PAPER_NOW, "original", "sweep-lights-paper-left",
+        f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}"),
+    Section("traffic-lights-paper-left-1car", "A lone car in the paper's own world, update and network (on the left)",
+            "lights",
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *PAPER_CODE_WORLD,
+             ("lidar_encoder", "original")),
+            LIGHTS_METRICS, LONE_CAR_CLAIM,
+            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 {PAPER_NOW} lidar_encoder=original "
+            "original_epochs=75 --out runs/sweep-lights-paper-left-1car",
+            setting=f"{LONE_CAR_SETTING} {PAPER_CODE_NOTE}",
+            baseline=lights_baselines, statements=(lone_car_statement,),
+            compare_with=("traffic-lights-paper-left", (("lidar_noise", "0.25"),)),
+            paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
+    Section("traffic-lights-paper-left-8cars", "Denser traffic in the paper's own world, update and network (on the "
+            "left, 8 cars)", "lights",
+            (("num_cars", "8"), ("preset", "paper"), *PAPER_CODE_WORLD, ("approach_order", "random"),
+             ("lidar_encoder", "original")),
+            LIGHTS_METRICS,
+            "With more cars, fewer cars enter on red (the paper's 8-car run, fine-tuned from its 4-car policy).",
+            f"{SWEEP} lights --seeds 4 --set num_cars=8 lidar_noise=0.5 {PAPER_NOW} lidar_encoder=original "
+            f"approach_order=random original_epochs=75 init_from={LEFT_8CARS_FROM} "
+            "--out runs/sweep-lights-paper-left-8cars",
+            setting=f"{DENSER_SETTING} {PAPER_CODE_NOTE}",
+            figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
+            baseline=lights_baselines, statements=(LIGHTS_BASELINE_STATEMENT,),
+            compare_with=("traffic-lights-paper-left", (("lidar_noise", "0.5"),)),
+            paper_budget=DENSER_BUDGET, paper_joint_steps=DENSER_JOINT_STEPS, cars=8),
+)
 
 # the paper-world lights sections, in page order: the paper code's encoder first, then the preset's first runs
 _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
@@ -154,14 +192,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             f"{SWEEP} lights --seeds 4 --set num_cars=8 lidar_noise=0.5 {PAPER_BEFORE} lidar_encoder=original "
             f"approach_order=random original_epochs=75 init_from={PRESET_8CARS_FROM} "
             "--out runs/sweep-lights-paper-net-8cars",
-            setting="Each trial fine-tunes, with 8 cars, one 4-car policy of the grid above (its noise-0.5 "
-                    "trial of seed 0) in the paper's world, update and network at LiDAR noise 0.5, each car's "
-                    "arm drawn at random (the original's `balance_cars: false` for its 8-car run), for 75 epochs "
-                    "of 32,000 joint steps: 2.4 M joint steps, 19.2 M car-decisions, 15 % of the original's 500 "
-                    "epochs. Deviations from the original command: it fine-tuned actor and critic of its 4-car "
-                    "noise-0 model; the grid keeps actors alone, so our critic starts fresh, and the grid has no "
-                    "noise-0 row, so the starting policy and the comparison row are both the grid's noise 0.5. "
-                    "Four seeds were planned before any was run.",
+            setting=DENSER_SETTING,
             figure=bars_figure("red_light_violation_rate", "red-light violation rate"),
             baseline=lights_baselines, statements=(LIGHTS_BASELINE_STATEMENT,),
             compare_with=("traffic-lights-preset", (("lidar_noise", "0.5"),)),
