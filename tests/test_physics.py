@@ -90,6 +90,23 @@ def test_euler_integration_moves_at_each_steps_starting_speed(reverse):
     assert (v < 0) == reverse
 
 
+def test_an_euler_step_falls_short_of_the_exact_one_by_half_a_dt_squared():
+    """Over random speeds, accelerations and steps: the Euler step moves ``v * dt``; where the speed
+    reaches no limit inside the step both end at ``v + a * dt`` and the exact step covers
+    ``a * dt^2 / 2`` more; where it does, both end at that limit."""
+    from box2d_driving.physics.kinematics import advance_speed_between, euler_speed
+
+    rng = np.random.default_rng(0)
+    for v, a, dt in zip(rng.uniform(-8, 8, 2000), rng.uniform(-1.5, 1.5, 2000), rng.uniform(0.01, 2.0, 2000)):
+        ds_euler, v_euler = euler_speed(v, a, -8.0, 8.0, dt)
+        ds_exact, v_exact = advance_speed_between(v, a, -8.0, 8.0, dt)
+        assert ds_euler == v * dt and v_euler == v_exact
+        if -8.0 <= v + a * dt <= 8.0:
+            assert v_euler == pytest.approx(v + a * dt) and ds_exact - ds_euler == pytest.approx(a * dt * dt / 2)
+        else:
+            assert v_euler == (8.0 if a > 0 else -8.0)
+
+
 def test_integration_is_a_checked_choice():
     with pytest.raises(box2d_driving.ConfigError, match="integration"):
         box2d_driving.make("intersection-v0", integration="rk4")
