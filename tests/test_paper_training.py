@@ -40,6 +40,8 @@ def test_flags_given_away_from_their_defaults_win_over_the_preset():
     assert cfg.n_envs == 8 and cfg.ent_coef == 0.01 and cfg.env_overrides["horizon"] == 30
     assert cfg.lidar_encoder == "relu"
     assert cfg.epochs == 1  # the rest stays the preset's
+    assert cfg.value_targets == "lambda_returns"
+    assert _config("--preset", "paper", "--value-targets", "rewards_to_go").value_targets == "rewards_to_go"
     # a batch given keeps the preset's one pass in 20 minibatches, as bench --train --preset sizes it
     smaller = _config("--preset", "paper", "--num-cars", "4", "--batch-decisions", "40000")
     assert (smaller.batch_decisions, smaller.minibatch, smaller.epochs) == (40_000, 2_000, 1)
@@ -73,7 +75,8 @@ def test_without_a_preset_nothing_changes():
 
 
 def test_bad_preset_input_is_one_line(tmp_path, capsys):
-    for argv in (["--preset", "nope"], ["--preset", "paper", "--original-epochs", "0"], ["--lidar-encoder", "gelu"]):
+    for argv in (["--preset", "nope"], ["--preset", "paper", "--original-epochs", "0"], ["--lidar-encoder", "gelu"],
+                 ["--value-targets", "monte_carlo"]):
         assert run_script("intersection-v0", Args, argv + ["--out", str(tmp_path / "r")], "") == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "error:" in err[0]

@@ -173,3 +173,53 @@ def test_the_observations_keep_their_memory_from_update_to_update():
     buf.reset()
     assert buf.observations is before and not before.any()  # the same block, zeroed
     assert buf.observations.shape == (4, 6, buf.obs_shape[0]) and buf.pos == 0 and not buf.full
+
+
+def test_rewards_to_go_are_the_lambda_returns_of_lambda_one_and_cut_at_episode_ends():
+    from gymnasium import spaces
+    from stable_baselines3.common.buffers import RolloutBuffer
+
+    from training.ppo.buffer import discounted_returns
+
+    # by hand: one env, rewards 1, 2, 3, an episode starting at step 2, bootstrap value 10
+    r = discounted_returns(np.array([[1.0], [2.0], [3.0]]), np.array([[1.0], [0.0], [1.0]]), np.array([10.0]),
+                           np.array([0.0]), 0.5)
+    assert r[:, 0].tolist() == [1 + 0.5 * 2, 2.0, 3 + 0.5 * 10]
+    assert discounted_returns(np.array([[3.0]]), np.zeros((1, 1)), np.array([10.0]), np.array([1.0]), 0.5)[0, 0] == 3
+    rng = np.random.default_rng(1)
+    steps, envs = 40, 6
+    sb3 = RolloutBuffer(steps, spaces.Box(-1, 1, (2,)), spaces.Discrete(2), n_envs=envs, gae_lambda=1.0, gamma=0.9)
+    starts = rng.random((steps, envs)) < 0.15
+    for t in range(steps):
+        sb3.add(np.zeros((envs, 2)), np.zeros((envs, 1)), rng.normal(size=envs), starts[t],
+                th.as_tensor(rng.normal(size=envs)), th.zeros(envs))
+    last, dones = th.as_tensor(rng.normal(size=envs)), (rng.random(envs) < 0.3).astype(np.float32)
+    sb3.compute_returns_and_advantage(last, dones)
+    ours = discounted_returns(sb3.rewards, sb3.episode_starts, last.numpy(), dones, 0.9)
+    assert np.allclose(ours, sb3.returns, atol=1e-5)
+
+
+def test_the_masked_buffer_trains_its_critic_on_rewards_to_go_when_asked():
+    from gymnasium import spaces
+
+    from training.ppo.buffer import discounted_returns
+    from training.ppo.slots import TeamLayout, slot_observation_space
+
+    lay = TeamLayout(2, 2)
+    space = slot_observation_space(spaces.Box(-1e6, 1e6, (2,), np.float32), 2)
+    rng = np.random.default_rng(2)
+    rewards, values = rng.normal(size=(5, 4)), rng.normal(size=(5, 4))
+    buffers = []
+    for to_go in (False, True):
+        buf = MaskedRolloutBuffer(5, space, spaces.Discrete(2), n_envs=4, layout=lay, gae_lambda=0.9, gamma=0.9,
+                                  returns_to_go=to_go)
+        for t in range(5):
+            obs = _slot_rows(lay, 2, t, np.ones(4, np.float32))
+            buf.add(obs, np.zeros((4, 1)), rewards[t], np.zeros(4), th.as_tensor(values[t]), th.zeros(4))
+        buf.compute_returns_and_advantage(th.ones(4), np.zeros(4))
+        buffers.append(buf)
+    lam, to_go = buffers
+    assert np.array_equal(lam.advantages, to_go.advantages)  # the actor's advantages: GAE either way
+    assert np.allclose(lam.returns, lam.advantages + lam.values)  # SB3's lambda-returns
+    assert np.allclose(to_go.returns, discounted_returns(rewards, np.zeros((5, 4)), np.ones(4), np.zeros(4), 0.9))
+    assert not np.allclose(to_go.returns, lam.returns)

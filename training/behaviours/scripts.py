@@ -80,6 +80,8 @@ class CommonArgs:
         kernel 4, stride 2; the default) or relu (ours until 2026-12-06: 8 channels, kernel 5, ReLU
         after each convolution; its last ReLU can die, leaving the actor blind); default: original,
         or with --init-from the encoder of those weights
+    value_targets: what the critic learns towards: lambda_returns (SB3's, the default, and the
+        paper preset's so far) or rewards_to_go (the paper's code: discounted rewards)
     """
 
     num_cars: int = DrivingConfig.num_cars
@@ -107,6 +109,7 @@ class CommonArgs:
     preset: Optional[str] = None
     original_epochs: Optional[int] = None
     lidar_encoder: Optional[str] = None
+    value_targets: Optional[str] = None
 
     def env_overrides(self) -> dict:
         """Scenario-specific config overrides a script adds (none by default)."""
@@ -169,6 +172,8 @@ def config_from(env_id: str, args: CommonArgs, timesteps: Optional[int] = None) 
         cfg.lidar_encoder = args.lidar_encoder
     elif args.preset is None and args.init_from:  # a fine-tune builds the encoder of its weights
         cfg.lidar_encoder = init_from_encoder(args.init_from) or cfg.lidar_encoder
+    if args.value_targets is not None:
+        cfg.value_targets = args.value_targets
     if args.original_epochs is not None:
         if args.original_epochs < 1:
             raise ConfigError(f"--original-epochs must be >= 1, got {args.original_epochs}")

@@ -35,15 +35,31 @@ from training.ppo.original_update import KLWatch, normalise_per_car
 from training.ppo.slots import TeamLayout
 
 
+def discounted_returns(rewards: np.ndarray, episode_starts: np.ndarray, last_values: np.ndarray,
+                       dones: np.ndarray, gamma: float) -> np.ndarray:
+    """Discounted rewards-to-go ``R_t = r_t + gamma * R_{t+1}`` of a rollout laid out ``(T, E)``
+    as SB3's buffer holds it: the sum stops where an episode ends (``episode_starts[t + 1]``, or
+    ``dones`` after the last step) and is bootstrapped with ``last_values`` where the rollout cuts
+    an episode short. The same as GAE's lambda-returns with ``gae_lambda = 1``."""
+    returns = np.empty_like(rewards)
+    following = last_values * (1.0 - dones)
+    for t in reversed(range(len(rewards))):
+        if t < len(rewards) - 1:
+            following = returns[t + 1] * (1.0 - episode_starts[t + 1])
+        returns[t] = rewards[t] + gamma * following
+    return returns
+
+
 class MaskedRolloutBuffer(RolloutBuffer):
     """:class:`RolloutBuffer` of slot observations (``layout``) whose minibatches contain only
     live transitions (own alive flag set)."""
 
     def __init__(self, *args, layout: TeamLayout, group_size: int = 1, per_car_advantages: bool = False,
-                 **kwargs) -> None:
+                 returns_to_go: bool = False, **kwargs) -> None:
         self.layout = layout
         self.group_size = group_size
         self.per_car_advantages = per_car_advantages  # normalise per car index over the update
+        self.returns_to_go = returns_to_go  # value targets: discounted rewards-to-go (the paper's code)
         self.kl_watch: Optional[KLWatch] = None  # for the paper's KL rule
         super().__init__(*args, **kwargs)
 
@@ -66,6 +82,17 @@ class MaskedRolloutBuffer(RolloutBuffer):
         self.mask[self.pos] = obs[:, lay.self_alive] > 0.5
         compact = np.concatenate([obs[:, lay.own], obs[:, lay.self_alive:lay.self_alive + 1]], axis=1)
         super().add(compact, *args, **kwargs)
+
+    def compute_returns_and_advantage(self, last_values, dones: np.ndarray) -> None:
+        """SB3's GAE advantages; the value targets are SB3's lambda-returns (advantage + value)
+        or, with ``returns_to_go``, the discounted rewards-to-go the paper's code trains its critic
+        on (:func:`discounted_returns`, bootstrapped with ``last_values`` where the rollout cuts an
+        episode)."""
+        super().compute_returns_and_advantage(last_values, dones)
+        if self.returns_to_go:
+            self.returns = discounted_returns(self.rewards, self.episode_starts,
+                                              last_values.clone().cpu().numpy().flatten(),
+                                              np.asarray(dones, dtype=np.float32), self.gamma)
 
     @property
     def n_valid(self) -> int:

@@ -16,6 +16,7 @@ from training.ppo.vec_env import TRANSPORTS
 DEVICES = ("auto", "cpu", "cuda")
 KL_STOPS = ("update", "actor")
 ADVANTAGE_NORMALISATIONS = ("minibatch", "per_car")
+VALUE_TARGETS = ("lambda_returns", "rewards_to_go")
 
 
 @dataclass
@@ -72,6 +73,9 @@ class TrainConfig:
             trains on; :mod:`training.ppo.original_update`).
         advantage_normalisation: ``"minibatch"`` (SB3) or ``"per_car"`` (over the whole update,
             per car index, the paper's code).
+        value_targets: what the critic is trained towards: ``"lambda_returns"`` (SB3: GAE
+            advantage + value) or ``"rewards_to_go"`` (the paper's code: discounted rewards,
+            bootstrapped only where the rollout cuts an episode).
         adam_eps: Adam's epsilon (SB3: 1e-5; the paper's code: 1e-8).
         max_grad_norm: gradients clipped to this global norm (SB3: 0.5); None: not clipped (the
             paper's code).
@@ -109,6 +113,7 @@ class TrainConfig:
     clip_range_vf: Optional[float] = None
     kl_stop: str = "update"
     advantage_normalisation: str = "minibatch"
+    value_targets: str = "lambda_returns"
     adam_eps: float = 1e-5
     max_grad_norm: Optional[float] = 0.5
     bootstrap_truncation: bool = True
@@ -139,6 +144,8 @@ class TrainConfig:
         if self.advantage_normalisation not in ADVANTAGE_NORMALISATIONS:
             raise ConfigError(f"TrainConfig: advantage_normalisation must be one of {ADVANTAGE_NORMALISATIONS}, "
                               f"got {self.advantage_normalisation!r}")
+        if self.value_targets not in VALUE_TARGETS:
+            raise ConfigError(f"TrainConfig: value_targets must be one of {VALUE_TARGETS}, got {self.value_targets!r}")
         if self.transport not in TRANSPORTS:
             raise ConfigError(f"TrainConfig: transport must be one of {TRANSPORTS}, got {self.transport!r}")
         if self.device not in DEVICES:

@@ -149,7 +149,8 @@ def build_model(config: TrainConfig, venv: SlotVecEnv) -> OverlappedPPO:
         max_grad_norm=math.inf if config.max_grad_norm is None else config.max_grad_norm,
         policy_kwargs=policy_kwargs, rollout_buffer_class=MaskedRolloutBuffer,
         rollout_buffer_kwargs={"layout": venv.layout,
-                               "per_car_advantages": config.advantage_normalisation == "per_car"},
+                               "per_car_advantages": config.advantage_normalisation == "per_car",
+                               "returns_to_go": config.value_targets == "rewards_to_go"},
         seed=config.seed, device=resolve_device(config.device), verbose=0,
     )
     model.overlap = config.overlap
