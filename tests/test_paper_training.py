@@ -25,6 +25,7 @@ def test_the_paper_preset_sets_the_original_update():
     assert cfg.minibatch == 32_000 * 4 // 20
     assert cfg.epochs == 1 and cfg.ent_coef == 1e-4 and cfg.clip_range_vf == 0.2
     assert cfg.kl_stop == "actor" and cfg.advantage_normalisation == "per_car"
+    assert cfg.value_targets == "rewards_to_go"  # the critic learns discounted rewards (ret_buf)
     assert cfg.adam_eps == 1e-8 and cfg.max_grad_norm is None and cfg.bootstrap_truncation is False
     assert cfg.lidar_encoder == "original"  # sdriving's linear LiDAR convolutions
     assert cfg.timesteps == 75 * 32_000 * 4  # 9.6 M slot-decisions
@@ -40,8 +41,10 @@ def test_flags_given_away_from_their_defaults_win_over_the_preset():
     assert cfg.n_envs == 8 and cfg.ent_coef == 0.01 and cfg.env_overrides["horizon"] == 30
     assert cfg.lidar_encoder == "relu"
     assert cfg.epochs == 1  # the rest stays the preset's
-    assert cfg.value_targets == "lambda_returns"
-    assert _config("--preset", "paper", "--value-targets", "rewards_to_go").value_targets == "rewards_to_go"
+    assert cfg.value_targets == "rewards_to_go"
+    assert _config("--preset", "paper", "--value-targets", "lambda_returns").value_targets == "lambda_returns"
+    assert _config("--value-targets", "rewards_to_go").value_targets == "rewards_to_go"
+    assert _config().value_targets == "lambda_returns"
     # a batch given keeps the preset's one pass in 20 minibatches, as bench --train --preset sizes it
     smaller = _config("--preset", "paper", "--num-cars", "4", "--batch-decisions", "40000")
     assert (smaller.batch_decisions, smaller.minibatch, smaller.epochs) == (40_000, 2_000, 1)

@@ -406,7 +406,7 @@ def test_a_sweep_records_the_lidar_encoder_its_trials_build_and_reads_older_ones
     assert saved_fixed(old) == {"lidar_encoder": "relu"}
     assert saved_fixed({**old, "fixed": {"preset": "paper"}}) == {
         "preset": "paper", "lidar_encoder": "original", "drive_on": "right", "arrived_heading_error": "zero",
-        "goal_distance": "path", "light_view": "stop_line", "integration": "exact"}
+        "goal_distance": "path", "light_view": "stop_line", "integration": "exact", "value_targets": "lambda_returns"}
     today = SweepSpec("lights", grid={"lidar_noise": ["0"]})
     check_spec(today)
     assert spec_differences(old, today) == ["fixed"]  # would mix encoders: refused
@@ -425,16 +425,18 @@ def test_a_paper_preset_sweep_records_the_world_its_trials_build_and_reads_older
     check_spec(now)
     assert now.fixed["drive_on"] == "left" and now.fixed["arrived_heading_error"] == "minus_heading"
     assert now.fixed["goal_distance"] == "straight" and now.fixed["light_view"] == "axis_point"
-    assert now.fixed["integration"] == "euler"
+    assert now.fixed["integration"] == "euler" and now.fixed["value_targets"] == "rewards_to_go"
     default = SweepSpec("lights", fixed={"num_cars": "4"})
     check_spec(default)
     assert "drive_on" not in default.fixed  # our default world: nothing to record
+    assert "value_targets" not in default.fixed  # nor our update
     old = {"behaviour": "lights", "grid": {}, "seeds": 3, "fixed": {"preset": "paper", "num_cars": "4"},
            "timesteps": None, "minutes": None, "episodes": 200, "quick": False}  # a preset sweep of before
     assert spec_differences(old, now) == ["fixed"]  # would mix the two worlds: refused
     pinned = SweepSpec("lights", fixed={"preset": "paper", "num_cars": "4", "drive_on": "right",
                                         "arrived_heading_error": "zero", "goal_distance": "path",
-                                        "light_view": "stop_line", "integration": "exact"})
+                                        "light_view": "stop_line", "integration": "exact",
+                                        "value_targets": "lambda_returns"})
     check_spec(pinned)
     assert spec_differences(old, pinned) == [] and saved_fixed(old)["drive_on"] == "right"
 

@@ -58,18 +58,21 @@ NOISE1_SETTING = ("The section above at LiDAR noise 1.0 (every ray dropped: the 
                   "original command's 50 epochs of 32,000 joint steps; its trials join the section above as its "
                   "noise-1.0 row, paired by seed with the other levels.")
 # the preset since 2026-12-06: the paper's code's side of the road and its sat-nav readings, with
-# our exact motion (pinned: the preset now steps as the paper's code does, integration=euler)
+# our exact motion and SB3's value targets (pinned: the preset now steps and trains its critic as
+# the paper's code does, integration=euler, value_targets=rewards_to_go)
 PAPER_CODE_WORLD = (("drive_on", "left"), ("arrived_heading_error", "minus_heading"), ("goal_distance", "straight"),
-                    ("light_view", "axis_point"), ("integration", "exact"))
+                    ("light_view", "axis_point"), ("integration", "exact"), ("value_targets", "lambda_returns"))
 PAPER_NOW = ("preset=paper drive_on=left arrived_heading_error=minus_heading goal_distance=straight "
-             "light_view=axis_point integration=exact")
+             "light_view=axis_point integration=exact value_targets=lambda_returns")
 PAPER_CODE_NOTE = ("In the paper's world as its code has it (the preset since 2026-12-06): every car left of its "
                    "road's axis, its light seen within 30 m in a straight line of its arm's axis at the junction, "
                    "its goal distance read in a straight line to the goal on the road axis, and once arrived, for "
                    "good, minus its heading as its heading error (due west -pi) and 1 as its goal "
                    "distance; cars moved by our exact integration (`integration=exact`, pinned in the command), "
                    "where the preset now steps as the paper's code does, at each 0.1 s step's starting speed "
-                   "(`integration=euler`; [paper_world.md](paper_world.md#motion-integration)). The paper's own "
+                   "(`integration=euler`; [paper_world.md](paper_world.md#motion-integration)); and a critic "
+                   "trained on SB3's lambda-returns (`value_targets=lambda_returns`, pinned), where the preset "
+                   "now trains it on discounted rewards as the paper's code does. The paper's own "
                    "trainer's policies drive this world as they drive theirs, and "
                    "policies of ours drive the paper's world as they drive this one "
                    "([paper_world.md](paper_world.md#policies-in-both-worlds)).")
@@ -77,10 +80,10 @@ PAPER_CODE_NOTE = ("In the paper's world as its code has it (the preset since 20
 # reading an arrived car's heading error as 0 and the goal distance along the track
 # (training/sweeps/spec.py, PINNED_WORLD)
 MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"),
-                ("light_view", "stop_line"), ("integration", "exact"))
+                ("light_view", "stop_line"), ("integration", "exact"), ("value_targets", "lambda_returns"))
 # the same, in a sweep command
 PAPER_BEFORE = ("preset=paper drive_on=right arrived_heading_error=zero goal_distance=path light_view=stop_line "
-                "integration=exact")
+                "integration=exact value_targets=lambda_returns")
 MIRROR_NOTE = ("Run before the preset drove on the left as the paper's code does (`drive_on=right`, pinned in the "
                "command): the mirror image of the paper's world, which no scripted driver's statistics tell apart, "
                "and with an arrived car's heading error 0 where the paper's code reads minus its heading "

@@ -175,6 +175,7 @@ def check_spec(spec: SweepSpec) -> None:
         raise SweepError(f"{', '.join(sorted(overlap))} both in --grid and --set")
     encoders = set()
     worlds: dict[str, set] = {key: set() for key in PINNED_WORLD}
+    updates: dict[str, set] = {key: set() for key in PINNED_UPDATE}
     for trial in spec.trials():
         argv = trial["argv"] + ["--out", "unused"]
         try:
@@ -189,12 +190,15 @@ def check_spec(spec: SweepSpec) -> None:
         env = getattr(getattr(config, "accel", config), "env_overrides", {}) or {}
         for key, values in worlds.items():
             values.add(env.get(key))
+        preset = getattr(getattr(config, "accel", config), "preset", None)
+        for key, values in updates.items():  # a preset's update settings (ours are the defaults)
+            values.add(getattr(getattr(config, "accel", config), key, None) if preset else None)
     # the encoder its trials build, recorded though not given: a summary says what it ran with,
     # whatever a later default is (saved_fixed reads sweeps from before this)
     if "lidar_encoder" not in spec.grid and "lidar_encoder" not in spec.fixed and len(encoders) == 1 \
             and None not in encoders:
         spec.fixed["lidar_encoder"] = str(encoders.pop())
-    for key, values in worlds.items():  # likewise the world settings a preset changed later
+    for key, values in {**worlds, **updates}.items():  # likewise the settings a preset changed later
         if key not in spec.grid and key not in spec.fixed and len(values) == 1 and None not in values:
             spec.fixed[key] = str(values.pop())
 
@@ -204,13 +208,15 @@ def check_spec(spec: SweepSpec) -> None:
 # with these (saved_fixed), so its trials are never taken for runs of the preset's world now
 PINNED_WORLD = {"drive_on": "right", "arrived_heading_error": "zero", "goal_distance": "path",
                 "light_view": "stop_line", "integration": "exact"}
+# likewise the update's settings the paper preset changed later (training options, not the world's)
+PINNED_UPDATE = {"value_targets": "lambda_returns"}
 
 
 def saved_fixed(saved: dict) -> dict[str, str]:
     """The fixed options of a saved sweep (``sweep.json``, a summary's ``sweep``), with the LiDAR
     encoder of one from before it was recorded: ours (``relu``, the default then), or its
     preset's; and, for a ``paper`` preset sweep from before the preset drove on the left, the
-    world it ran in (:data:`PINNED_WORLD`)."""
+    world it ran in (:data:`PINNED_WORLD`) and the update it trained with (:data:`PINNED_UPDATE`)."""
     from training.ppo.encoder import LEGACY_LIDAR_ENCODER
     from training.trainers.presets import TRAINING_PRESETS
 
@@ -219,7 +225,7 @@ def saved_fixed(saved: dict) -> dict[str, str]:
         preset = TRAINING_PRESETS.get(str(fixed.get("preset")))
         fixed["lidar_encoder"] = preset.lidar_encoder if preset is not None else LEGACY_LIDAR_ENCODER
     if fixed.get("preset") == "paper":
-        for key, before in PINNED_WORLD.items():
+        for key, before in {**PINNED_WORLD, **PINNED_UPDATE}.items():
             if key not in fixed and key not in (saved.get("grid") or {}):
                 fixed[key] = before
     return fixed

@@ -40,6 +40,7 @@ class TrainingPreset:
         learning_rate, gamma, gae_lambda, clip_range, target_kl: as the original command.
         kl_stop: ``"actor"``: past the KL limit only the actor stops (the critic trains on).
         advantage_normalisation: ``"per_car"``: over the update, per car index.
+        value_targets: ``"rewards_to_go"``: the critic learns discounted rewards (``ret_buf``).
         adam_eps: Adam's epsilon (``eps=1e-8`` in the original's two Adams).
         max_grad_norm: None: gradients are not clipped (the original does not clip).
         bootstrap_truncation: False: the horizon is terminal (value 0), as the original's
@@ -60,6 +61,7 @@ class TrainingPreset:
     target_kl: float = 0.2
     kl_stop: str = "actor"
     advantage_normalisation: str = "per_car"
+    value_targets: str = "rewards_to_go"
     adam_eps: float = 1e-8
     max_grad_norm: Optional[float] = None
     bootstrap_truncation: bool = False
@@ -84,6 +86,7 @@ class TrainingPreset:
         config.learning_rate, config.gamma, config.gae_lambda = self.learning_rate, self.gamma, self.gae_lambda
         config.clip_range, config.target_kl = self.clip_range, self.target_kl
         config.kl_stop, config.advantage_normalisation = self.kl_stop, self.advantage_normalisation
+        config.value_targets = self.value_targets
         config.adam_eps, config.max_grad_norm = self.adam_eps, self.max_grad_norm
         config.bootstrap_truncation = self.bootstrap_truncation
         config.lidar_encoder = self.lidar_encoder
