@@ -209,12 +209,13 @@ def test_training_defaults_are_declared_once():
     for args, config in ((ScriptArgs, TrainConfig), (BilevelArgs, BilevelConfig), (BilevelArgs, TrainConfig)):
         shared = {f.name for f in dataclasses.fields(args)} & {f.name for f in dataclasses.fields(config)}
         assert len(shared) >= 5, (args, config)
-        for name in shared - {"ent_coef", "lidar_encoder"}:  # None on the CLI, so that a preset's can apply
+        for name in shared - {"ent_coef", "lidar_encoder", "value_targets"}:  # None on the CLI: a preset's applies
             assert getattr(args(), name) == getattr(config(), name), (args.__name__, name)
     from training.behaviours.scripts import config_from
 
     assert config_from("intersection-v0", ScriptArgs()).ent_coef == TrainConfig().ent_coef
     assert config_from("intersection-v0", ScriptArgs()).lidar_encoder == TrainConfig().lidar_encoder
+    assert config_from("intersection-v0", ScriptArgs()).value_targets == TrainConfig().value_targets
 
 
 @pytest.mark.parametrize("env_id", scenarios.scenarios())
