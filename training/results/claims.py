@@ -308,7 +308,7 @@ def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
     keys = [(c, key) for c in CLAIMS if (key := deciding_section(c, found_sections)) is not None
             and ("preset", "paper") in section(key).match]
     preset = [c.words for c, _ in keys]
-    # runs from before the preset drove on the left pin its mirror image (paper_world_sections.MIRROR_WORLD)
+    # runs from before the preset drove on the left pin its mirror image (paper_world_sections.MIRROR_SETTINGS)
     mirrored = any(("drive_on", "right") in section(key).match for _, key in keys)
     world = ("the paper's own world and update (its arrived cars stay, its epochs are 32,000 joint steps, its "
              "entropy 1e-4: the `paper` preset, [paper_world.md](paper_world.md)"

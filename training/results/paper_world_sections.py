@@ -60,8 +60,9 @@ NOISE1_SETTING = ("The section above at LiDAR noise 1.0 (every ray dropped: the 
 # the preset since 2026-12-06: the paper's code's side of the road and its sat-nav readings, with
 # our exact motion and SB3's value targets (pinned: the preset now steps and trains its critic as
 # the paper's code does, integration=euler, value_targets=rewards_to_go)
-PAPER_CODE_WORLD = (("drive_on", "left"), ("arrived_heading_error", "minus_heading"), ("goal_distance", "straight"),
-                    ("light_view", "axis_point"), ("integration", "exact"), ("value_targets", "lambda_returns"))
+PAPER_CODE_SETTINGS = (("drive_on", "left"), ("arrived_heading_error", "minus_heading"),
+                       ("goal_distance", "straight"), ("light_view", "axis_point"), ("integration", "exact"),
+                       ("value_targets", "lambda_returns"))
 PAPER_NOW = ("preset=paper drive_on=left arrived_heading_error=minus_heading goal_distance=straight "
              "light_view=axis_point integration=exact value_targets=lambda_returns")
 PAPER_CODE_NOTE = ("In the paper's world as its code has it (the preset since 2026-12-06): every car left of its "
@@ -76,11 +77,11 @@ PAPER_CODE_NOTE = ("In the paper's world as its code has it (the preset since 20
                    "trainer's policies drive this world as they drive theirs, and "
                    "policies of ours drive the paper's world as they drive this one "
                    "([paper_world.md](paper_world.md#policies-in-both-worlds)).")
-# the world every section here ran in: the preset as it stood before 2026-12-06, on the right,
-# reading an arrived car's heading error as 0 and the goal distance along the track
-# (training/sweeps/spec.py, PINNED_WORLD)
-MIRROR_WORLD = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"),
-                ("light_view", "stop_line"), ("integration", "exact"), ("value_targets", "lambda_returns"))
+# the world (and value targets) every section here ran with: the preset as it stood before
+# 2026-12-06, on the right, reading an arrived car's heading error as 0 and the goal distance
+# along the track (training/sweeps/spec.py, PINNED)
+MIRROR_SETTINGS = (("drive_on", "right"), ("arrived_heading_error", "zero"), ("goal_distance", "path"),
+                   ("light_view", "stop_line"), ("integration", "exact"), ("value_targets", "lambda_returns"))
 # the same, in a sweep command
 PAPER_BEFORE = ("preset=paper drive_on=right arrived_heading_error=zero goal_distance=path light_view=stop_line "
                 "integration=exact value_targets=lambda_returns")
@@ -136,11 +137,11 @@ _PAPER_CODE_LIGHTS: tuple[Section, ...] = (
     *_noise_grid(
         "traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network (on the "
         "left)", "Stopping at red lights in the paper's own world, update and network (on the left), LiDAR noise 1.0",
-        PAPER_CODE_WORLD, PAPER_NOW, "original", "sweep-lights-paper-left",
+        PAPER_CODE_SETTINGS, PAPER_NOW, "original", "sweep-lights-paper-left",
         f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}"),
     Section("traffic-lights-paper-left-1car", "A lone car in the paper's own world, update and network (on the left)",
             "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *PAPER_CODE_WORLD,
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *PAPER_CODE_SETTINGS,
              ("lidar_encoder", "original")),
             LIGHTS_METRICS, LONE_CAR_CLAIM,
             f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 {PAPER_NOW} lidar_encoder=original "
@@ -151,7 +152,7 @@ _PAPER_CODE_LIGHTS: tuple[Section, ...] = (
             paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
     Section("traffic-lights-paper-left-8cars", "Denser traffic in the paper's own world, update and network (on the "
             "left, 8 cars)", "lights",
-            (("num_cars", "8"), ("preset", "paper"), *PAPER_CODE_WORLD, ("approach_order", "random"),
+            (("num_cars", "8"), ("preset", "paper"), *PAPER_CODE_SETTINGS, ("approach_order", "random"),
              ("lidar_encoder", "original")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red (the paper's 8-car run, fine-tuned from its 4-car policy).",
@@ -170,14 +171,14 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
     *_noise_grid(
         "traffic-lights-preset", "Stopping at red lights in the paper's world, update and network",
         "Stopping at red lights in the paper's world, update and network, LiDAR noise 1.0",
-        MIRROR_WORLD, PAPER_BEFORE, "original", "sweep-lights-paper-net", GRID_SETTING, NOISE1_SETTING,
+        MIRROR_SETTINGS, PAPER_BEFORE, "original", "sweep-lights-paper-net", GRID_SETTING, NOISE1_SETTING,
         headlines=(Headline("stop at red lights, the paper's world, update, network and budget",
                             "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
                             "32,000 joint steps (9.6 M decisions, the paper's own run)",
                             (("lidar_noise", "0.5"),),
                             ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
     Section("traffic-lights-preset-1car", "A lone car in the paper's world, update and network", "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_WORLD,
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_SETTINGS,
              ("lidar_encoder", "original")),
             LIGHTS_METRICS, LONE_CAR_CLAIM,
             f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 {PAPER_BEFORE} lidar_encoder=original "
@@ -188,7 +189,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
             paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
     Section("traffic-lights-preset-8cars", "Denser traffic in the paper's world, update and network (8 cars)",
             "lights",
-            (("num_cars", "8"), ("preset", "paper"), *MIRROR_WORLD,
+            (("num_cars", "8"), ("preset", "paper"), *MIRROR_SETTINGS,
              ("approach_order", "random"), ("lidar_encoder", "original")),
             LIGHTS_METRICS,
             "With more cars, fewer cars enter on red (the paper's 8-car run, fine-tuned from its 4-car policy).",
@@ -204,7 +205,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
     *_noise_grid(
         "traffic-lights-preset-relu", "Stopping at red lights in the paper's world and update, our LiDAR encoder",
         "Stopping at red lights in the paper's world and update, LiDAR noise 1.0, our LiDAR encoder",
-        MIRROR_WORLD, PAPER_BEFORE, "relu", "sweep-lights-preset",
+        MIRROR_SETTINGS, PAPER_BEFORE, "relu", "sweep-lights-preset",
         f"{RELU_NOTE} Otherwise the section \"Stopping at red lights in the paper's world, update and network\": "
         "4 cars from scratch, `--preset paper`, 75 epochs of 32,000 joint steps at noise 0.25, 0.5 and 0.75 and, "
         "joined below it, 50 at noise 1.0, the same training seeds at every level. Six seeds at every level were "
@@ -213,7 +214,8 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
         "dropped, so no encoder can see another car."),
     Section("traffic-lights-preset-relu-1car", "A lone car in the paper's world and update, our LiDAR encoder",
             "lights",
-            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_WORLD, ("lidar_encoder", "relu")),
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_SETTINGS,
+             ("lidar_encoder", "relu")),
             LIGHTS_METRICS, LONE_CAR_CLAIM,
             f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.25 {PAPER_BEFORE} lidar_encoder=relu "
             "original_epochs=75 --out runs/sweep-lights-preset-1car",

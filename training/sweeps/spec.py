@@ -186,13 +186,14 @@ def check_spec(spec: SweepSpec) -> None:
             config = trainer.config(script.ENV_ID, args)
         except ValueError as exc:
             raise SweepError(f"trial {trial['name']}: {exc}") from None
-        encoders.add(getattr(getattr(config, "accel", config), "lidar_encoder", None))
-        env = getattr(getattr(config, "accel", config), "env_overrides", {}) or {}
+        flat = getattr(config, "accel", config)  # the PPO trainers' options, or a bandit's config
+        encoders.add(getattr(flat, "lidar_encoder", None))
+        env = getattr(flat, "env_overrides", {}) or {}
         for key, values in worlds.items():
             values.add(env.get(key))
-        preset = getattr(getattr(config, "accel", config), "preset", None)
+        preset = getattr(flat, "preset", None)
         for key, values in updates.items():  # a preset's update settings (ours are the defaults)
-            values.add(getattr(getattr(config, "accel", config), key, None) if preset else None)
+            values.add(getattr(flat, key, None) if preset else None)
     # the encoder its trials build, recorded though not given: a summary says what it ran with,
     # whatever a later default is (saved_fixed reads sweeps from before this)
     if "lidar_encoder" not in spec.grid and "lidar_encoder" not in spec.fixed and len(encoders) == 1 \
@@ -210,6 +211,8 @@ PINNED_WORLD = {"drive_on": "right", "arrived_heading_error": "zero", "goal_dist
                 "light_view": "stop_line", "integration": "exact"}
 # likewise the update's settings the paper preset changed later (training options, not the world's)
 PINNED_UPDATE = {"value_targets": "lambda_returns"}
+# both, as a sweep from before records them
+PINNED = {**PINNED_WORLD, **PINNED_UPDATE}
 
 
 def saved_fixed(saved: dict) -> dict[str, str]:
@@ -225,7 +228,7 @@ def saved_fixed(saved: dict) -> dict[str, str]:
         preset = TRAINING_PRESETS.get(str(fixed.get("preset")))
         fixed["lidar_encoder"] = preset.lidar_encoder if preset is not None else LEGACY_LIDAR_ENCODER
     if fixed.get("preset") == "paper":
-        for key, before in {**PINNED_WORLD, **PINNED_UPDATE}.items():
+        for key, before in PINNED.items():
             if key not in fixed and key not in (saved.get("grid") or {}):
                 fixed[key] = before
     return fixed
