@@ -94,6 +94,9 @@ class DrivingConfig:
         light_start: ``"random_phase"`` (a uniformly random point of the cycle at reset) or
             ``"green_or_red"`` (the paper's code: each group starts at the beginning of green or
             of red, at random).
+        light_first_green: with ``"green_or_red"``, the probability that light group 0 starts at
+            the beginning of green (else the other group does): 1/2 in the paper's code's 4-car
+            world, 1/8 in its turning world (``ordering in range(8)``).
         light_period_step: ``T`` is drawn on a grid of this step (s); the paper's code draws it in
             physics steps of 0.1 s. 0: continuous.
         lidar_dropout: ``"exact"`` (exactly ``round(lidar_noise * n_rays)`` rays dropped) or
@@ -154,6 +157,7 @@ class DrivingConfig:
     arrived_cars_stay: bool = False
     reverse: bool = False
     light_start: str = "random_phase"
+    light_first_green: float = 0.5
     light_period_step: float = 0.0
     lidar_dropout: str = "exact"
     lidar_min_range: float = 0.0
@@ -197,6 +201,8 @@ class DrivingConfig:
         _choice(self, "render_mode", RENDER_MODES)
         _choice(self, "comm_fallback", COMM_FALLBACKS)
         _choice(self, "light_start", LIGHT_STARTS)
+        if not 0.0 <= self.light_first_green <= 1.0:
+            raise ConfigError(f"light_first_green must be in [0, 1], got {self.light_first_green}")
         _choice(self, "lidar_dropout", LIDAR_DROPOUTS)
         _choice(self, "smoothness", SMOOTHNESS)
         _choice(self, "arrived_heading_error", ARRIVED_HEADING_ERRORS)

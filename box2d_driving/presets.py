@@ -58,7 +58,21 @@ PAPER = Preset(
     },
 )
 
-PRESETS = {p.name: p for p in (PAPER,)}
+PAPER_TURNS = Preset(
+    name="paper-turns",
+    description="the paper's code's turning junction, as its lone-car run has it (docs/paper_world.md)",
+    env_overrides={
+        "intersection-v0": {
+            **PAPER.env_overrides["intersection-v0"],
+            "horizon": 20,  # horizon=200 physics steps
+            "turns": True,  # turns=True: the exit among the three other roads
+            "turn_motion": "paper",  # _FixedTrackAccelerationModel
+            "light_first_green": 0.125,  # learn_right_of_way: merged phases, ordering in range(8)
+        },
+    },
+)
+
+PRESETS = {p.name: p for p in (PAPER, PAPER_TURNS)}
 
 
 def preset_overrides(name: str, env_id: str) -> dict[str, Any]:

@@ -14,7 +14,8 @@ from box2d_driving.scenarios import scenario
 
 ENV_IDS = sorted(box2d_driving.registry())
 VARIANTS = [(e, {}) for e in ENV_IDS] + [("intersection-v0", {"communication": True, "lidar_noise": 0.5}),
-                                         ("intersection-v0", {"preset": "paper", "lidar_noise": 0.25})]
+                                         ("intersection-v0", {"preset": "paper", "lidar_noise": 0.25}),
+                                         ("intersection-v0", {"turns": True, "preset": "paper"})]
 
 
 @pytest.mark.parametrize("env_id,overrides", VARIANTS)

@@ -218,7 +218,8 @@ def test_the_table_says_which_rows_come_from_the_papers_own_world():
 
     noise, lone = CLAIMS[0], CLAIMS[1]
     assert noise.sections[:2] == ("traffic-lights-paper-left", "traffic-lights-preset")
-    assert lone.sections[:2] == ("traffic-lights-paper-left-1car", "traffic-lights-preset-1car")
+    assert lone.sections[:3] == ("traffic-lights-paper-turns-1car", "traffic-lights-paper-left-1car",
+                                 "traffic-lights-preset-1car")
     says = "- red-light violations: noise 1.0 against 0.25: fewer with noise, as in the paper."
     default_only = {noise.sections[-1]: _result([says])}  # the noise claim read from our default world
     assert worlds_sentence({}).startswith("None of these runs is yet in the paper's own world")
@@ -228,3 +229,14 @@ def test_the_table_says_which_rows_come_from_the_papers_own_world():
     assert some.startswith(f"2 of the {len(CLAIMS)} rows are read from runs in the paper's own world")
     assert f"*{noise.words}*; *{lone.words}*; the others from our default world" in some
     assert "the mirror image of that world, on the right" in some  # these sections pin the preset's earlier world
+
+
+def test_a_lone_car_read_from_the_turning_junction_counts_as_the_papers_world_and_says_which():
+    from training.results.claims import worlds_sentence
+
+    lone = CLAIMS[1]
+    says = "- 1 car, red-light violations against rule-free scripted drivers: x"
+    turning = worlds_sentence({"traffic-lights-paper-turns-1car": _result([says])})
+    assert turning.startswith(f"1 of the {len(CLAIMS)} rows are read from runs in the paper's own world")
+    assert f"*{lone.words}*" in turning and "`paper-turns` preset" in turning
+    assert "`paper-turns`" not in worlds_sentence({"traffic-lights-preset-1car": _result([says])})

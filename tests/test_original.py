@@ -296,7 +296,7 @@ def test_both_worlds_must_place_cars_by_the_same_rule(tmp_path, monkeypatch, cap
     assert len(err) == 1 and "approach_order=random" in err[0]
     assert not (tmp_path / "c").exists()
     assert cli.section_name("paper", 4) == "paper" and cli.section_name("paper", 8) == "paper-8cars"
-    assert cli.section_name(None, 4) == "default"
+    assert cli.section_name(None, 4) == "default" and cli.section_name("paper-turns", 1) == "paper-turns-1car"
 
 
 def test_the_page_section_is_replaced_whole_and_only_it(tmp_path):
@@ -430,3 +430,16 @@ def test_both_worlds_pools_policies_on_their_shared_episodes_and_continues_a_sto
     err = [line for line in capsys.readouterr().err.splitlines() if line]
     assert len(err) == 3 and "drawn with" in err[0] and "two drivers named" in err[1] and "--policy" in err[2]
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_the_lone_car_run_is_the_original_command_on_its_turning_junction():
+    from training.original.commands import LONE_CAR_EPOCHS, lone_car_run
+
+    spec = OriginalRun(lidar_noise=0.0, **lone_car_run()).spec()
+    assert spec["epochs"] == LONE_CAR_EPOCHS == 60
+    assert spec["env_kwargs"] == {"horizon": 200, "nagents": 1, "lidar_noise": 0.0, "history_len": 5,
+                                  "timesteps": 10, "npoints": 100, "turns": True, "learn_right_of_way": True,
+                                  "default_color": True, "balance_cars": True}
+    assert spec["trainer"]["entropy_coeff"] == 1e-3
+    with pytest.raises(OriginalError, match="turns"):
+        OriginalRun(lidar_noise=0.0, epochs=1, turns=1)  # type: ignore[arg-type]

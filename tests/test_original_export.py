@@ -137,3 +137,19 @@ def test_evaluate_drives_either_world_and_refuses_in_one_line(tmp_path, capsys):
                      "--out", str(mirrored)]) == 0
     assert json.loads(mirrored.read_text())["overrides"] == {"drive_on": "right"}
     assert not kept.exists()
+
+
+def test_the_lone_car_turning_run_maps_to_the_paper_turns_preset_and_back():
+    from training.original.commands import lone_car_run
+
+    run = OriginalRun(lidar_noise=0.0, seed=3, **lone_car_run())
+    config = preset_config(run.spec(), 500)
+    env = config.env_overrides
+    assert config.preset == "paper-turns" and config.ent_coef == 1e-3
+    assert (env["num_cars"], env["horizon"], env["turns"], env["turn_motion"], env["light_first_green"]) == \
+        (1, 20, True, "paper", 0.125)
+    spec = original_spec(json.loads(json.dumps({"algorithm": "ppo", **dataclasses.asdict(config)})))
+    assert spec["env_kwargs"] == run.spec()["env_kwargs"]
+    with pytest.raises(OriginalError, match="horizon"):  # a turning policy of another horizon
+        original_spec({"env_id": "intersection-v0", "preset": "paper-turns", "lidar_encoder": "original",
+                       "env_overrides": {**env, "horizon": 25}})

@@ -192,6 +192,8 @@ class DrivingEnv(ParallelEnv, EzPickle):
         self._goals = np.array([c.path.points[-1] if c.goal is None else c.goal for c in self.layout.cars])
         self._arrived_before = np.zeros(n, dtype=bool)
         self._light_index = np.array([c.light_index for c in self.layout.cars], dtype=np.int64)
+        # tracks that bend (a turn at the junction): the paper's readings of such a car differ
+        self._turned = np.array([len(c.path.points) > 2 for c in self.layout.cars], dtype=bool)
         self._prev_level = np.zeros(n)
         self._bits = np.zeros(n)
         self._received = np.zeros(n)

@@ -194,7 +194,8 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
         satnav[:, 3] = np.where(arrived, 1.0, 1.0 / np.maximum(np.hypot(to_goal[0], to_goal[1]), 1.0))
     # past its goal: 0, or the paper's code's reading with the goal moved onto the car
     if cfg.arrived_heading_error == "minus_heading":
-        heading_error[arrived] = arrived_heading_reading(head[arrived])
+        turned = _cat([env._turned for env in envs])[flat]
+        heading_error[arrived] = arrived_heading_reading(head[arrived], turned[arrived])
     else:
         heading_error[past] = 0.0
     satnav[:, 2] = heading_error
@@ -207,20 +208,26 @@ def frames(envs: Envs, cars: Sequence[np.ndarray],
     return lidar_frame, satnav
 
 
-# a heading this close to +-pi counts as due west (rad)
-DUE_WEST_TOLERANCE = 1e-6
+# a heading this close to +-pi counts as due west (rad): a straight track's heading is exact, a
+# turned car's is Box2D's float32 angle after the turn's rotations (measured 1.8e-6 off)
+DUE_WEST_TOLERANCE = 1e-4
 
 
-def arrived_heading_reading(heading: np.ndarray) -> np.ndarray:
+def arrived_heading_reading(heading: np.ndarray, turned: np.ndarray | None = None) -> np.ndarray:
     """The paper's code's heading error of an arrived car (its goal moved onto it): minus its
     ``heading`` (rad), wrapped to ``[-pi, pi)``. That code holds a car heading due west as +pi
     (float32), so it reads -pi; ours may hold the same car just above -pi, which negated would
     land on the other side of the cut (+pi): a heading within :data:`DUE_WEST_TOLERANCE` of +-pi
-    is taken as +pi first. Only the sign at the cut changes, but a policy reads -pi and +pi as
-    far apart as two inputs can be."""
+    is taken as +pi first. A car whose track ``turned`` (its start heading plus a right angle,
+    in float32, just past +-pi) reads +pi there instead, as the paper's code's turning world
+    records it. Only the sign at the cut changes, but a policy reads -pi and +pi as far apart
+    as two inputs can be."""
     heading = np.asarray(heading, dtype=float)
     west = np.abs(np.abs(heading) - np.pi) < DUE_WEST_TOLERANCE
-    return wrap_angle(-np.where(west, np.pi, heading))
+    reading = wrap_angle(-np.where(west, np.pi, heading))
+    if turned is not None:
+        reading = np.where(west & np.asarray(turned, dtype=bool), np.pi, reading)
+    return reading
 
 
 def _update_lights_seen(envs: Envs, cars: Sequence[np.ndarray], flat: np.ndarray, pos: np.ndarray,

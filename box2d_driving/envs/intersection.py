@@ -4,7 +4,8 @@ Geometry (per episode): four arms of length ``L ~ U[road_length_range)`` and wid
 ``W ~ U[road_width_range)`` around a ``W x W`` junction box centred at the origin. Approach ``a``
 (0: from the west, 1: south, 2: east, 3: north) drives in direction ``(cos a*pi/2, sin a*pi/2)``
 on the right-hand side of the road (``lane_fraction * W/2`` right of the axis) from its spawn slot
-to a goal on the opposite road ``0.5 * (goal_fraction * L + W)`` from the centre. Car ``i`` starts
+to a goal on the opposite road ``0.5 * (goal_fraction * L + W)`` from the centre (with ``turns``,
+on the road it turns into: see :mod:`box2d_driving.road.turns`). Car ``i`` starts
 on approach ``i % 4`` (round-robin) in a random free slot; slots sit ``spawn_first_slot +
 k * spawn_slot_spacing`` (+- ``spawn_jitter``) before the stop line, which is the junction box's
 edge. Lights: approaches 0 and 2 form group 0, approaches 1 and 3 group 1.
@@ -23,12 +24,14 @@ from box2d_driving.envs.base import DrivingEnv
 from box2d_driving.road.geometry import Path
 from box2d_driving.road.layout import CarSpawn, LaneAxis, Layout
 from box2d_driving.road.lights import sample_lights
+from box2d_driving.road.turns import exit_direction, paper_turning_track, turning_track
 
 N_APPROACHES = 4
 SPAWN_MODES = ("slots", "arm")
 DRIVE_SIDES = ("right", "left")
 LIGHT_VIEWS = ("stop_line", "axis_point")
 APPROACH_ORDERS = ("fixed", "rotate", "random")
+TURN_MOTIONS = ("circle", "paper")
 
 
 @dataclass(frozen=True)
@@ -69,6 +72,17 @@ class IntersectionConfig(DrivingConfig):
             facing the way it drives; or ``"axis_point"`` (the paper's code), while its centre is
             within that straight-line distance of the point where its arm's axis meets the
             junction, until it passes that point's line (a car off the axis sees the light later).
+        turns: each car leaves by one of the three other roads, drawn uniformly (straight on, left
+            or right; the paper's code's ``turns=True``), turning on a quarter circle about a
+            junction corner and keeping its side of the road; False: every car goes straight on.
+            The lights stay two merged phases, read by the road a car comes from (as in the
+            paper's code with ``learn_right_of_way``); lane offsets are read on that road's axis.
+        turn_motion: how a turning car moves: ``"circle"``, along the quarter circle at its
+            speed; ``"paper"``, as the paper's code moves it (its heading turns by the arc driven
+            over a quarter circle's length, in radians; its position read off the circle at that
+            heading for the circle's first radian, then moving along that heading until it points
+            down the new road: :func:`box2d_driving.road.turns.paper_turning_track`). Needs
+            ``goal_radius`` (the car need not come out on its lane).
     """
 
     horizon: int = 36
@@ -88,6 +102,8 @@ class IntersectionConfig(DrivingConfig):
     road_end_walls: bool = False
     drive_on: str = "right"
     light_view: str = "stop_line"
+    turns: bool = False
+    turn_motion: str = "circle"
 
     def _validate(self) -> None:
         require(self, 1 <= self.slots_per_approach <= 16, ("slots_per_approach",),
@@ -120,6 +136,9 @@ class IntersectionConfig(DrivingConfig):
                 f"approach_order must be one of {APPROACH_ORDERS}")
         require(self, self.drive_on in DRIVE_SIDES, ("drive_on",), f"drive_on must be one of {DRIVE_SIDES}")
         require(self, self.light_view in LIGHT_VIEWS, ("light_view",), f"light_view must be one of {LIGHT_VIEWS}")
+        require(self, self.turn_motion in TURN_MOTIONS, ("turn_motion",), f"turn_motion must be one of {TURN_MOTIONS}")
+        require(self, self.turn_motion == "circle" or self.goal_radius is not None, ("turn_motion", "goal_radius"),
+                "turn_motion='paper' needs goal_radius (the paper's code's goal test)")
         a_lo, a_hi = self.arm_spawn_range
         require(self, 0.0 <= a_lo < a_hi <= 1.0 and a_lo * lo_l >= self.car_length / 2,
                 ("arm_spawn_range", "road_length_range", "car_length"),
@@ -146,12 +165,18 @@ class IntersectionConfig(DrivingConfig):
     def worst_case_arrival_time(self) -> float:
         """Seconds a car needs in the worst case: spawned at the farthest slot on the largest
         map, it drives to the stop line and stops there, waits a full red (``T_max - yellow``),
-        then drives to its goal; at ``v_lim`` and the largest acceleration. The timing
-        invariant asks this to fit in the horizon (with a decision of slack per phase)."""
+        then drives to its goal (with ``turns``, by the longest turn); at ``v_lim`` and the
+        largest acceleration. The timing invariant asks this to fit in the horizon (with a
+        decision of slack per phase)."""
         a, v = max(self.accelerations), self.v_lim
         d_stop = self.farthest_spawn()
         t_stop = 2 * v / a + (d_stop - v * v / a) / v if d_stop >= v * v / a else 2 * math.sqrt(d_stop / a)
         d_go = self.road_width_range[1] + 0.5 * self.goal_fraction * self.road_length_range[1]
+        if self.turns:  # the longest turn (across the road) beside crossing the junction straight
+            half = self.road_width_range[1] / 2
+            lane = self.lane_fraction * half if self.lane_offset_range is None \
+                else self.lane_offset_range[1] * self.road_width_range[1]
+            d_go += max(0.0, 0.5 * math.pi * (half + lane) - 2 * half)
         t_go = v / a + (d_go - v * v / (2 * a)) / v if d_go >= v * v / (2 * a) else math.sqrt(2 * d_go / a)
         return t_stop + (self.light_period_range[1] - self.light_yellow) + t_go
 
@@ -186,13 +211,14 @@ class IntersectionEnv(DrivingEnv):
         stop_points = -half * dirs + lane * sides
         stop_lines = np.stack([-half * dirs, -half * dirs + half * sides], axis=1)
         lights = sample_lights(rng, stop_points, dirs, np.arange(N_APPROACHES) % 2,
-                               cfg.light_period_range, cfg.light_yellow, cfg.light_start, cfg.light_period_step)
+                               cfg.light_period_range, cfg.light_yellow, cfg.light_start, cfg.light_period_step,
+                               cfg.light_first_green)
         if cfg.road_end_walls:  # across the far end of every arm
             edges += [[u * (half + length) - r * half, u * (half + length) + r * half] for u, r in zip(dirs, rights)]
 
         goal_dist = 0.5 * (cfg.goal_fraction * length + width)
         if cfg.spawn_mode == "arm" or cfg.approach_order != "fixed" or cfg.lane_offset_range is not None \
-                or cfg.goal_radius is not None or cfg.arrived_cars_stay or cfg.reverse:
+                or cfg.goal_radius is not None or cfg.arrived_cars_stay or cfg.reverse or cfg.turns:
             cars = self._paper_spawns(rng, length, width, dirs, sides, goal_dist)
             return Layout(edges=np.array(edges), cars=cars, lights=lights,
                           junction_box=(-half, -half, half, half), drivable=drivable, stop_lines=stop_lines)
@@ -252,6 +278,10 @@ class IntersectionEnv(DrivingEnv):
             placed.append((a, back, lane))
             d, r = dirs[a], sides[a]
             far = half + length
+            turn = _TURNS[int(rng.integers(len(_TURNS)))] if cfg.turns else 0
+            if turn != 0:
+                cars.append(self._turning_spawn(a, d, r, lane, half, width, back, far, goal_dist, turn))
+                continue
             start = (-far if cfg.reverse else -back) * d + lane * r
             if cfg.goal_radius is None:
                 goal = goal_dist * d + lane * r
@@ -267,6 +297,57 @@ class IntersectionEnv(DrivingEnv):
                                  start_s=(far - back) if cfg.reverse else 0.0, goal_s=goal_s, goal=goal))
         return cars
 
+    def _turning_spawn(self, a: int, d: np.ndarray, side: np.ndarray, lane: float, half: float, width: float,
+                       back: float, far: float, goal_dist: float, turn: int) -> CarSpawn:
+        """The spawn of a car from approach ``a`` (direction ``d``, ``lane`` m towards ``side``)
+        that turns left (``turn`` 1) or right (-1): its goal on the road it turns into, as a
+        straight-on car's is on the opposite road."""
+        cfg = self.config
+        out = exit_direction(d, turn)
+        start = far if cfg.reverse else back
+        end = far if cfg.arrived_cars_stay else goal_dist
+        if cfg.turn_motion == "paper":
+            assert cfg.goal_radius is not None  # _validate
+            goal = goal_dist * out
+            path = paper_turning_track(d, side, lane, half, start - half, out, far)
+            goal_s = _first_within(path, goal, cfg.goal_radius * width, path.cumlen[1])
+            if not cfg.arrived_cars_stay and goal_s <= path.length:
+                path = _cut(path, goal_s)
+            return CarSpawn(path=path, light_index=a, rating=1.0, lane_axis=LaneAxis(np.zeros(2), d.copy(), half),
+                            approach=a, start_s=(far - back) if cfg.reverse else 0.0, goal_s=goal_s, goal=goal)
+        path, leave_s = turning_track(d, side, lane, half, start - half, out, end - half)
+        leave = path.pose(leave_s)[0]
+        if cfg.goal_radius is None:
+            goal = leave + (goal_dist - half) * out
+            goal_s = leave_s + goal_dist - half
+        else:  # the goal on the road's axis, reached within goal_radius * W of it
+            goal = goal_dist * out
+            reach = math.sqrt((cfg.goal_radius * width) ** 2 - lane ** 2)
+            goal_s = leave_s + goal_dist - half - reach
+            if not cfg.arrived_cars_stay:
+                path = Path.from_points(np.concatenate([path.points[:-1], [leave + (goal_s - leave_s) * out]]))
+        return CarSpawn(path=path, light_index=a, rating=1.0, lane_axis=LaneAxis(np.zeros(2), d.copy(), half),
+                        approach=a, start_s=(far - back) if cfg.reverse else 0.0, goal_s=goal_s, goal=goal)
+
+
+def _first_within(path: Path, point: np.ndarray, radius: float, s_from: float, step: float = 0.01) -> float:
+    """The first arc length from ``s_from`` at which ``path`` comes within ``radius`` (m) of
+    ``point``, on a grid of ``step`` m; past the path's end (never) if it does not."""
+    s = np.arange(s_from, path.length + step, step)
+    pos, _ = path.pose(s)
+    inside = np.flatnonzero(np.hypot(pos[:, 0] - point[0], pos[:, 1] - point[1]) <= radius)
+    return float(min(s[inside[0]], path.length)) if len(inside) else path.length + 1.0
+
+
+def _cut(path: Path, s_end: float) -> Path:
+    """``path`` up to arc length ``s_end``."""
+    keep = path.cumlen < s_end
+    end, _ = path.pose(s_end)
+    return Path(np.concatenate([path.points[keep], [end]]), np.concatenate([path.cumlen[keep], [s_end]]))
+
+
+# a turning car's draw: straight on, left, right (the paper's code: the three other roads)
+_TURNS = (0, 1, -1)
 
 # draws of one car's spawn before it is given up (a crowded arm)
 _MAX_SPAWN_TRIES = 1000

@@ -115,7 +115,8 @@ class RealJunctionEnv(DrivingEnv):
                 dirs.append((lane[-1] - lane[-2]) / np.linalg.norm(lane[-1] - lane[-2]))
             lights = sample_lights(rng, np.array([h.position for h in m.signals]), np.array(dirs),
                                    np.array([h.group for h in m.signals]) % 2, cfg.light_period_range,
-                                   cfg.light_yellow, cfg.light_start, cfg.light_period_step)
+                                   cfg.light_yellow, cfg.light_start, cfg.light_period_step,
+                                   cfg.light_first_green)
 
         # lanes in a random order, round-robin; positions on each lane without overlap
         regions = [m.spawn_regions[k] for k in rng.permutation(len(m.spawn_regions))]

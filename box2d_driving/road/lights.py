@@ -176,15 +176,19 @@ def phase_value(phase: np.ndarray, half_period: float | np.ndarray, yellow: floa
 
 def sample_lights(rng: np.random.Generator, stop_points: np.ndarray, directions: np.ndarray,
                   groups: np.ndarray, period_range: tuple[float, float], yellow: float,
-                  start: str = "random_phase", period_step: float = 0.0) -> TrafficLights:
+                  start: str = "random_phase", period_step: float = 0.0,
+                  first_green: float = 0.5) -> TrafficLights:
     """Lights with ``T ~ U[period_range)`` (rounded down to a multiple of ``period_step`` s when
     it is positive) and a start phase that is uniformly random (``start="random_phase"``) or the
-    beginning of green or of red for group 0, each with probability 1/2 (``"green_or_red"``)."""
+    beginning of green for group 0 with probability ``first_green``, else of red
+    (``"green_or_red"``)."""
     half_period = float(rng.uniform(*period_range))
     if period_step > 0.0:
         half_period = math.floor(half_period / period_step) * period_step
-    if start == "green_or_red":
+    if start == "green_or_red" and first_green == 0.5:  # the draw every world before first_green made
         offset = float(half_period * rng.integers(2))
+    elif start == "green_or_red":
+        offset = half_period * float(rng.random() >= first_green)
     else:
         offset = float(rng.uniform(0.0, 2.0 * half_period))
     return TrafficLights(np.asarray(stop_points, float), np.asarray(directions, float),

@@ -32,7 +32,7 @@ from typing import Optional, Sequence
 
 from training.common.cli_args import OneLineParser, error, prog_name
 from training.common.seeds import REPORT, SELECTION, SeedError
-from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun
+from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun, lone_car_run
 from training.original.compare import DRIVERS
 from training.original.tables import (WORKER, policy_source, require_venv, run_weights, score_table,
                                       trained_original_table, venv_dir, venv_python, write_table)
@@ -89,7 +89,7 @@ def prepare_folder(run: OriginalRun, out: Path, resume: bool) -> None:
 def section_name(preset: str | None, cars: int) -> str:
     """The page section a comparison writes by default: the preset's name (``default`` without
     one), with ``-Ncars`` appended unless the cars are the noise runs' 4."""
-    return (preset or "default") + ("" if cars == 4 else f"-{cars}cars")
+    return (preset or "default") + ("" if cars == 4 else f"-{cars}car{'' if cars == 1 else 's'}")
 
 
 def _compare(args) -> int:
@@ -263,6 +263,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     t.add_argument("--seed", type=int, default=0, help="training seed (default: 0)")
     t.add_argument("--epochs", type=int, default=None,
                    help="epochs of 32,000 joint steps (default: the original command's)")
+    t.add_argument("--turns", action="store_true",
+                   help="the original's 1-car run on its turning junction (1 car, horizon 20, entropy 1e-3, "
+                        "60 epochs by default; its command has --lidar-noise 0)")
     t.add_argument("--out", type=Path, required=True, help="run folder")
     t.add_argument("--resume", action="store_true", help="continue the run in --out")
     t.add_argument("--time-limit", type=float, default=None,
@@ -340,7 +343,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if args.command == "compare":
         return _compare(args)
     try:
-        run = OriginalRun(lidar_noise=args.lidar_noise, seed=args.seed, epochs=args.epochs)
+        run = OriginalRun(lidar_noise=args.lidar_noise, seed=args.seed, epochs=args.epochs,
+                          **(lone_car_run() if args.turns else {}))
         if args.time_limit is not None and not args.time_limit > 0:
             raise OriginalError(f"--time-limit must be a positive number of minutes, got {args.time_limit}")
         require_venv()

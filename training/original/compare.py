@@ -89,9 +89,7 @@ def check_spawns(nagents: int, overrides: dict[str, Any], preset: Optional[str])
     ``False``), it must be the one the original uses with ``nagents`` cars (round robin up to 4,
     random beyond: the 8-car command). Our default ``fixed`` order has no counterpart and is a
     listed difference of the default world, so it passes."""
-    from box2d_driving.presets import preset_overrides
-
-    ours = {**(preset_overrides(preset, "intersection-v0") if preset else {}), **overrides}.get("approach_order")
+    ours = _ours(overrides, preset).get("approach_order")
     theirs = "rotate" if OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents).balanced else "random"
     if ours in ("rotate", "random") and ours != theirs:
         raise OriginalError(
@@ -100,11 +98,19 @@ def check_spawns(nagents: int, overrides: dict[str, Any], preset: Optional[str])
             f"(balance_cars={theirs == 'rotate'}): add --set approach_order={theirs}")
 
 
+def _ours(overrides: dict[str, Any], preset: Optional[str]) -> dict[str, Any]:
+    """Our side's config values: the preset's, then ``overrides``."""
+    from box2d_driving.presets import preset_overrides
+
+    return {**(preset_overrides(preset, "intersection-v0") if preset else {}), **overrides}
+
+
 def original_table(python: Path, worker: Path, driver: str, episodes: int, first_seed: int, nagents: int,
-                   out: Path) -> dict[str, np.ndarray]:
+                   out: Path, turns: bool = False) -> dict[str, np.ndarray]:
     """The same in sdriving's world (the light runs' env settings for ``nagents`` cars, LiDAR
-    noise 0: ``balance_cars`` as the original commands set it, see :attr:`OriginalRun.balanced`)."""
-    spec = OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents).spec()
+    noise 0: ``balance_cars`` as the original commands set it, see :attr:`OriginalRun.balanced`;
+    ``turns``: its turning junction, :attr:`OriginalRun.turns`)."""
+    spec = OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents, turns=turns).spec()
     spec_path = out.with_suffix(".run.json")
     spec_path.write_text(json.dumps(spec))
     subprocess.run([str(python), str(worker), "rollout", str(spec_path), "--driver", driver,
@@ -138,12 +144,13 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
             overrides: dict[str, Any], out: Path, preset: Optional[str] = None) -> str:
     """Record both worlds per driver into ``out`` and return the markdown tables."""
     check_spawns(nagents, overrides, preset)
+    turns = bool(_ours(overrides, preset).get("turns", False))  # the original's junction to match
     out.mkdir(parents=True, exist_ok=True)
     parts = []
     for driver in drivers:
         theirs_path = out / f"original_{driver}.npz"
         theirs = (load_table(theirs_path) if theirs_path.exists()
-                  else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path))
+                  else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path, turns))
         ours_path = out / f"ours_{driver}.npz"
         ours = load_table(ours_path) if ours_path.exists() else ours_table(
             driver, episodes, first_seed, {"num_cars": nagents, **overrides}, preset)

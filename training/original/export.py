@@ -83,43 +83,47 @@ def original_spec(config: dict[str, Any]) -> dict[str, Any]:
     from training.original.commands import OriginalRun
 
     env = config.get("env_overrides", {})
-    if config.get("env_id") != "intersection-v0" or config.get("preset") != "paper":
+    if config.get("env_id") != "intersection-v0" or config.get("preset") not in ("paper", "paper-turns"):
         raise OriginalError(f"the policy was trained on {config.get('env_id')} with preset {config.get('preset')}: "
-                            f"the original's world is the intersection of the paper preset")
+                            f"the original's world is the intersection of the paper or paper-turns preset")
+    turns = config.get("preset") == "paper-turns"
     if config.get("lidar_encoder") != "original":
         raise OriginalError("this actor has our own LiDAR encoder (lidar_encoder='relu'): only one with the "
                             "paper code's ('original') runs in the original's network")
-    if env.get("horizon", 25) != 25:
-        raise OriginalError(f"the policy's horizon is {env['horizon']} decisions; the original's light runs have 25")
+    horizon = 20 if turns else 25
+    if env.get("horizon", horizon) != horizon:
+        raise OriginalError(f"the policy's horizon is {env['horizon']} decisions; the original's world has {horizon}")
     order = env.get("approach_order", "rotate")
     if order not in ("rotate", "random"):
         raise OriginalError(f"approach_order={order!r} has no counterpart in the original's world")
     return OriginalRun(lidar_noise=float(env.get("lidar_noise", 0.0)), epochs=1, nagents=int(env.get("num_cars", 4)),
-                       balance_cars=order == "rotate").spec()
+                       balance_cars=order == "rotate", turns=turns).spec()
 
 
 def preset_config(spec: dict[str, Any], car_decisions: int) -> Any:
-    """Our run config of the ``paper`` preset with an original run's cars, LiDAR noise, spawn rule
-    (``balance_cars``) and horizon; ``car_decisions``: what it trained on, recorded as
-    ``timesteps``. Refuses a run whose world the preset does not cover (turns, right-of-way
-    lights) or whose horizon is not a whole number of decisions."""
+    """Our run config of the ``paper`` preset (``paper-turns`` for a run on the turning junction)
+    with an original run's cars, LiDAR noise, spawn rule (``balance_cars``) and horizon;
+    ``car_decisions``: what it trained on, recorded as ``timesteps``. Refuses a run whose world
+    no preset covers (turns without right-of-way lights or the reverse) or whose horizon is not a
+    whole number of decisions."""
     from box2d_driving.presets import preset_overrides
     from training.trainers.presets import training_preset
     from training.trainers.train_config import TrainConfig
 
     env = spec["env_kwargs"]
-    for key in ("turns", "learn_right_of_way"):
-        if env.get(key):
-            raise OriginalError(f"run.json sets {key}: the paper preset's world has no turns or right-of-way lights")
+    if bool(env.get("turns")) != bool(env.get("learn_right_of_way")):
+        raise OriginalError("run.json sets one of turns and learn_right_of_way: the paper-turns preset's world has "
+                            "both, the paper preset's neither")
+    preset = "paper-turns" if env.get("turns") else "paper"
     if env["horizon"] % env["timesteps"]:
         raise OriginalError(f"run.json: horizon {env['horizon']} is not a whole number of decisions of "
                             f"{env['timesteps']} steps")
-    overrides = {**preset_overrides("paper", "intersection-v0"), "num_cars": int(env["nagents"]),
+    overrides = {**preset_overrides(preset, "intersection-v0"), "num_cars": int(env["nagents"]),
                  "lidar_noise": float(env["lidar_noise"]), "horizon": env["horizon"] // env["timesteps"],
                  "approach_order": "rotate" if env.get("balance_cars", True) else "random"}
     config = TrainConfig(env_id="intersection-v0", env_overrides=overrides, seed=int(spec["seed"]),
-                         timesteps=max(1, int(car_decisions)), preset="paper")
-    training_preset("paper").apply(config, int(env["nagents"]))
+                         timesteps=max(1, int(car_decisions)), preset=preset)
+    training_preset(preset).apply(config, int(env["nagents"]))
     config.validate()
     return config
 

@@ -110,7 +110,8 @@ CLAIMS: tuple[Claim, ...] = (
           "red_light_violation_rate", "red-light violations", arbiter=True),
     # a lone car has no car to see: the runs with our (often dead) LiDAR encoder still speak to it
     Claim("A lone car has no need to follow the light",
-          ("traffic-lights-paper-left-1car", "traffic-lights-preset-1car", "traffic-lights-preset-relu-1car"),
+          ("traffic-lights-paper-turns-1car", "traffic-lights-paper-left-1car", "traffic-lights-preset-1car",
+           "traffic-lights-preset-relu-1car"),
           (Reading(r"- 1 car, red-light violations against rule-free scripted drivers "),
            # beside it: the lone car against the 4-car row of the same world, budget and noise
            Reading(r"- red-light violations: these trials", decides=False)),
@@ -306,8 +307,9 @@ def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
     """Which of the claims table's rows are read from runs in the paper's own world and update
     (sections of the ``paper`` preset) and which from our default world, in words."""
     keys = [(c, key) for c in CLAIMS if (key := deciding_section(c, found_sections)) is not None
-            and ("preset", "paper") in section(key).match]
+            and any(("preset", name) in section(key).match for name in ("paper", "paper-turns"))]
     preset = [c.words for c, _ in keys]
+    turning = any(("preset", "paper-turns") in section(key).match for _, key in keys)
     # runs from before the preset drove on the left pin its mirror image (paper_world_sections.MIRROR_SETTINGS)
     mirrored = any(("drive_on", "right") in section(key).match for _, key in keys)
     world = ("the paper's own world and update (its arrived cars stay, its epochs are 32,000 joint steps, its "
@@ -315,7 +317,9 @@ def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
              + ("; as the preset stood before 2026-12-06, the mirror image of that world, on the right, with an "
                 "arrived car's heading error 0 and the distance to the goal read along the track: "
                 "[what that changes](paper_world.md#policies-in-both-worlds)"
-                if mirrored else "") + ")")
+                if mirrored else "")
+             + ("; the lone car on the junction of the paper's 1-car run, where cars turn and the entropy is "
+                "1e-3: the `paper-turns` preset" if turning else "") + ")")
     if not preset:
         return f"None of these runs is yet in {world}; each row gives its share of the paper's joint steps."
     if len(preset) == len(CLAIMS):

@@ -33,8 +33,17 @@ LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of 
                     "the number of cars differs, so that section's noise-0.25 row is the 4-car comparison. The "
                     "original's own 1-car run differed in more: turning tracks on a junction of 12 signals with "
                     "right-of-way lights (`turns`, `learn_right_of_way`), a horizon of 20 decisions, entropy "
-                    "1e-3, LiDAR noise 0, 60 epochs; our intersection has no turning tracks. Six seeds were "
-                    "planned before any was run.")
+                    "1e-3, LiDAR noise 0, 60 epochs: the section \"A lone car in the paper's own turning "
+                    "world\" runs that. Six seeds were planned before any was run.")
+LONE_CAR_TURNS_SETTING = ("Each trial trains one car alone in the paper's own turning junction, as the original's "
+                          "1-car run has it (`preset=paper-turns`: each car's exit drawn among the three other "
+                          "roads, the paper's code's turning motion, two merged phases of lights that start green "
+                          "for approaches 0 and 2 one time in eight, a horizon of 20 decisions; and the `paper` "
+                          "preset's world, update and network as they are now, Euler steps and a critic trained "
+                          "on discounted rewards included; what each is: [paper_world.md](paper_world.md"
+                          "#the-lone-car-turning-world)), with the original command's settings: LiDAR noise 0, "
+                          "entropy 1e-3, 60 epochs of 32,000 joint steps (1.92 M decisions of the one car), from "
+                          "scratch. Six seeds were planned before any was run.")
 LONE_CAR_BUDGET = ("1 car for 60 epochs of 32,000 joint steps (1.92 M), with turns and right-of-way lights, horizon "
                    "20 decisions, entropy 1e-3, LiDAR noise 0")
 DENSER_SETTING = ("Each trial fine-tunes, with 8 cars, one 4-car policy of the grid above (its noise-0.5 trial of "
@@ -139,6 +148,14 @@ _PAPER_CODE_LIGHTS: tuple[Section, ...] = (
         "left)", "Stopping at red lights in the paper's own world, update and network (on the left), LiDAR noise 1.0",
         PAPER_CODE_SETTINGS, PAPER_NOW, "original", "sweep-lights-paper-left",
         f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}"),
+    Section("traffic-lights-paper-turns-1car", "A lone car in the paper's own turning world", "lights",
+            (("init_from", "false"), ("num_cars", "1"), ("preset", "paper-turns"), ("lidar_noise", "0.0"),
+             ("lidar_encoder", "original")),
+            LIGHTS_METRICS, LONE_CAR_CLAIM,
+            f"{SWEEP} lights --seeds 6 --set num_cars=1 lidar_noise=0.0 preset=paper-turns lidar_encoder=original "
+            "original_epochs=60 --out runs/sweep-lights-paper-turns-1car",
+            setting=LONE_CAR_TURNS_SETTING, baseline=lights_baselines, statements=(lone_car_statement,),
+            paper_budget=LONE_CAR_BUDGET, paper_joint_steps=60 * TrainerSettings.steps_per_epoch, cars=1),
     Section("traffic-lights-paper-left-1car", "A lone car in the paper's own world, update and network (on the left)",
             "lights",
             (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *PAPER_CODE_SETTINGS,

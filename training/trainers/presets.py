@@ -106,7 +106,8 @@ class TrainingPreset:
             config.epochs = epochs
 
 
-TRAINING_PRESETS = {"paper": TrainingPreset()}
+# the lone-car run of the paper's experiment list trains with entropy 1e-3
+TRAINING_PRESETS = {"paper": TrainingPreset(), "paper-turns": TrainingPreset(ent_coef=1e-3)}
 
 
 def training_preset(name: str) -> TrainingPreset:
