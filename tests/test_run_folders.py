@@ -117,3 +117,26 @@ def test_render_overwrite_and_interruption_leave_no_stale_or_partial_files(tmp_p
         record(env, _Interrupting(env, 3), episodes=1, video=video, frames_dir=frames, overwrite=True)
     assert video.read_bytes() == before and len(list(frames.iterdir())) == second.frames
     assert sorted(p.name for p in tmp_path.iterdir()) == ["frames", "v.mp4"]  # no *.partial*
+
+
+def test_resume_compares_the_env_configs_the_overrides_make():
+    """A setting added after a run started, given now at the value the run had by default, does
+    not block its --resume; one that changes the world does, naming the key."""
+    from types import SimpleNamespace
+
+    from training.runs.run_dir import check_same_run
+
+    before = {"horizon": 25, "arm_spawn_range": [0.2, 0.8], "drive_on": "left", "num_cars": 4}
+    saved = {"env_id": "intersection-v0", "env_overrides": before, "critic": "mean"}
+
+    def now(**extra):
+        return SimpleNamespace(env_id="intersection-v0", critic="mean",
+                               env_overrides={**before, "arm_spawn_range": (0.2, 0.8), **extra})
+
+    check_same_run(saved, now())
+    check_same_run(saved, now(integration="exact"))  # the default it ran with
+    for extra in ({"integration": "euler"}, {"horizon": 30}, {"bogus": 1}):
+        with pytest.raises(RunError, match="env_overrides differs"):
+            check_same_run(saved, now(**extra))
+    with pytest.raises(RunError, match="critic differs"):
+        check_same_run(saved, SimpleNamespace(env_id="intersection-v0", critic="local", env_overrides=before))

@@ -45,11 +45,31 @@ def check_resumable(out: Path, needed: Iterable[str]) -> None:
 
 
 def check_same_run(saved: dict, config: Any) -> None:
-    """Refuse to resume a run (its saved TrainConfig as a dict) under another env or critic."""
+    """Refuse to resume a run (its saved TrainConfig as a dict) under another env or critic. The
+    env's overrides are compared as the configs they make, so a setting added after the run
+    started, now given at the value the run had by default, does not block it."""
     for key in ("env_id", "env_overrides", "critic"):
-        if saved.get(key) != json.loads(json.dumps(getattr(config, key))):
-            raise RunError(f"--resume: {key} differs from the checkpoint's "
-                           f"({saved.get(key)!r} vs {getattr(config, key)!r})")
+        now = json.loads(json.dumps(getattr(config, key)))
+        if saved.get(key) == now:
+            continue
+        if key == "env_overrides" and saved.get("env_id") == config.env_id \
+                and (before := _env_config(config.env_id, saved.get(key) or {})) is not None \
+                and before == _env_config(config.env_id, now):
+            continue
+        raise RunError(f"--resume: {key} differs from the checkpoint's "
+                       f"({saved.get(key)!r} vs {getattr(config, key)!r})")
+
+
+def _env_config(env_id: str, overrides: dict) -> Any:
+    """The full env config ``overrides`` make for ``env_id``, as JSON values; None if they make
+    none (an unknown field, a refused value)."""
+    from box2d_driving.scenarios import scenario
+
+    try:
+        config = getattr(scenario(env_id).env_class, "config_class")(**overrides)
+    except (TypeError, ValueError, KeyError):
+        return None
+    return json.loads(json.dumps(dataclasses.asdict(config)))
 
 
 def write_json_atomic(path: Path, data: Any) -> None:
