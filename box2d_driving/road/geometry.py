@@ -19,7 +19,10 @@ class Path:
 
     Attributes:
         points: ``(P, 2)`` vertices (m), P >= 2, consecutive vertices distinct.
-        cumlen: ``(P,)`` arc length at each vertex (m); ``cumlen[0] == 0``.
+        cumlen: ``(P,)`` arc length at each vertex (m); ``cumlen[0] == 0``. A track that a car
+            drives off its geometry (the paper's code's turns,
+            :func:`box2d_driving.road.turns.paper_turning_track`) gives the distance driven
+            instead, increasing but not the polyline's length.
     """
 
     points: np.ndarray
