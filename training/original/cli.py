@@ -301,8 +301,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     e.add_argument("--out", type=Path, required=True,
                    help="metrics JSON to write (must not exist); the rollout table goes beside it (.npz)")
     e.add_argument("--world", choices=("original", "ours"), default="original",
-                   help="drive the original's world (sdriving) or ours with the paper preset, the actor "
-                        "renamed for the other's network where needed (default: original)")
+                   help="drive the original's world (sdriving) or ours with the paper preset (paper-turns for "
+                        "a --turns run), the actor renamed for the other's network where needed (default: original)")
     e.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="with --world ours: an override of our world's config, e.g. --set drive_on=right")
     b = sub.add_parser("both-worlds", help="trained policies in both worlds on the same report episodes, each "
