@@ -330,13 +330,23 @@ class IntersectionEnv(DrivingEnv):
                         approach=a, start_s=(far - back) if cfg.reverse else 0.0, goal_s=goal_s, goal=goal)
 
 
-def _first_within(path: Path, point: np.ndarray, radius: float, s_from: float, step: float = 0.01) -> float:
+def _first_within(path: Path, point: np.ndarray, radius: float, s_from: float, step: float = 0.1,
+                  fine: float = 0.001) -> float:
     """The first arc length from ``s_from`` at which ``path`` comes within ``radius`` (m) of
-    ``point``, on a grid of ``step`` m; past the path's end (never) if it does not."""
+    ``point``, to ``fine`` m; past the path's end (never) if it does not. A position moves at
+    most as far as the arc length (``cumlen`` is at least the polyline's length), so between
+    samples ``step`` apart the distance dips at most ``step / 2`` below theirs: only samples
+    within ``radius + step / 2`` are searched finely."""
     s = np.arange(s_from, path.length + step, step)
     pos, _ = path.pose(s)
-    inside = np.flatnonzero(np.hypot(pos[:, 0] - point[0], pos[:, 1] - point[1]) <= radius)
-    return float(min(s[inside[0]], path.length)) if len(inside) else path.length + 1.0
+    near = np.flatnonzero(np.hypot(pos[:, 0] - point[0], pos[:, 1] - point[1]) <= radius + step / 2)
+    for i in near:
+        grid = np.arange(max(s_from, s[i] - step), min(s[i] + step, path.length) + fine, fine)
+        pos, _ = path.pose(grid)
+        inside = np.flatnonzero(np.hypot(pos[:, 0] - point[0], pos[:, 1] - point[1]) <= radius)
+        if len(inside):
+            return float(min(grid[inside[0]], path.length))
+    return path.length + 1.0
 
 
 def _cut(path: Path, s_end: float) -> Path:
