@@ -226,3 +226,32 @@ def test_bad_turn_settings_are_refused_by_name():
         box2d_driving.make("intersection-v0", turns=True, turn_motion="paper")
     with pytest.raises(ConfigError, match="light_first_green"):
         box2d_driving.make("intersection-v0", light_first_green=1.5)
+
+
+hypothesis = pytest.importorskip("hypothesis")
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@given(st.integers(0, 3), st.sampled_from([1.0, -1.0]), st.sampled_from([1, -1]), st.floats(7.5, 15.0),
+       st.floats(0.05, 0.45), st.floats(0.5, 60.0), st.floats(1.0, 80.0))
+def test_any_turning_track_is_continuous_and_ends_down_the_new_road(approach, side_sign, turn, half, lane_share,
+                                                                  before, after):
+    from box2d_driving.road.turns import paper_turning_track
+
+    d = DIRS[approach]
+    side, out = side_sign * _right(d), exit_direction(d, turn)
+    lane = lane_share * 2 * half
+    circle, _ = turning_track(d, side, lane, half, before, out, after)
+    paper = paper_turning_track(d, side, lane, half, before, out, half + 30.0 + after)
+    for path in (circle, paper):
+        assert np.allclose(path.points[0], -half * d + lane * side - before * d)
+        steps = np.diff(path.cumlen)
+        chords = np.linalg.norm(np.diff(path.points, axis=0), axis=1)
+        assert (steps > 0).all() and (steps >= chords - 1e-9).all()  # what _first_within relies on
+        assert (chords[1:-1] < 2.0).all()  # the turn itself in short chords
+        end = path.points[-1] - path.points[-2]
+        assert np.allclose(end / np.linalg.norm(end), out, atol=1e-9)
+    assert np.allclose(circle.cumlen, np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(
+        circle.points, axis=0), axis=1))]))  # the circle's track is driven at its geometry
+    assert paper.points[-1] @ out == pytest.approx(half + 30.0 + after)
