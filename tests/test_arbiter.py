@@ -108,3 +108,17 @@ def test_training_curves_are_read_from_each_runs_log_and_drawn(tmp_path):
     figures2 = tmp_path / "none"
     assert "training curves" not in "\n".join(arbiter_section(load_original_runs(runs_dir), figures2))
     assert not figures2.exists()
+
+
+def test_runs_of_other_commands_are_not_read_as_noise_runs(tmp_path):
+    """The lone car's turning-junction run (noise 0, one car) or an 8-car run in the same folder
+    stays out of the noise claim's runs."""
+    _run(tmp_path, 0.25, 0, 0.02)
+    for name, kwargs in (("lone", {"lidar_noise": 0.0, "nagents": 1, "turns": True}),
+                         ("eight", {"lidar_noise": 0.25, "nagents": 8, "turns": False})):
+        here = tmp_path / name
+        here.mkdir()
+        (here / "run.json").write_text(json.dumps({"seed": 0, "epochs": 60, "env_kwargs": kwargs}))
+        (here / "state.json").write_text(json.dumps({"epochs_done": 1, "joint_steps": 32000,
+                                                     "car_decisions": 32000}))
+    assert [r.name for r in load_original_runs(tmp_path)] == ["noise0.25_seed0"]

@@ -60,13 +60,17 @@ class OriginalRun:
 
 
 def load_original_runs(folder: Path = ORIGINAL_RUNS) -> list[OriginalRun]:
-    """Every run folder in ``folder`` (a ``run.json`` and a ``state.json``), by noise then seed;
-    :class:`ResultsError` naming the file that cannot be read."""
+    """Every run folder in ``folder`` (a ``run.json`` and a ``state.json``) of the noise claim's
+    commands (the 4-car junction without turns; a run of the 1-car turning junction, ``original
+    train --turns``, is not one), by noise then seed; :class:`ResultsError` naming the file that
+    cannot be read."""
     runs = []
     for run_json in sorted(Path(folder).glob("*/run.json")):
         here = run_json.parent
         try:
             spec = json.loads(run_json.read_text())
+            if spec["env_kwargs"].get("turns") or int(spec["env_kwargs"].get("nagents", 4)) != 4:
+                continue
             state = json.loads((here / "state.json").read_text())
             report_path = here / "report.json"
             report = json.loads(report_path.read_text()) if report_path.exists() else None
