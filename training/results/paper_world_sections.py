@@ -33,8 +33,9 @@ LONE_CAR_SETTING = ("Each trial trains one car alone in the world and update of 
                     "the number of cars differs, so that section's noise-0.25 row is the 4-car comparison. The "
                     "original's own 1-car run differed in more: turning tracks on a junction of 12 signals with "
                     "right-of-way lights (`turns`, `learn_right_of_way`), a horizon of 20 decisions, entropy "
-                    "1e-3, LiDAR noise 0, 60 epochs: the section \"A lone car in the paper's own turning "
-                    "world\" runs that. Six seeds were planned before any was run.")
+                    "1e-3, LiDAR noise 0, 60 epochs: [A lone car in the paper's own turning world]"
+                    "(#a-lone-car-in-the-papers-own-turning-world) runs that. Six seeds were planned before any "
+                    "was run.")
 LONE_CAR_TURNS_SETTING = ("Each trial trains one car alone in the paper's own turning junction, as the original's "
                           "1-car run has it (`preset=paper-turns`: each car's exit drawn among the three other "
                           "roads, the paper's code's turning motion, two merged phases of lights that start green "
