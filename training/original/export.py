@@ -80,6 +80,7 @@ def original_spec(config: dict[str, Any]) -> dict[str, Any]:
     """The original world's settings (a ``run.json`` for the worker's rollouts) for a policy of
     ours trained in the ``paper`` preset's world (its run ``config``): its cars, noise and spawn
     rule; :class:`OriginalError` for a policy of another world or encoder."""
+    from box2d_driving.presets import preset_overrides
     from training.original.commands import OriginalRun
 
     env = config.get("env_overrides", {})
@@ -90,7 +91,7 @@ def original_spec(config: dict[str, Any]) -> dict[str, Any]:
     if config.get("lidar_encoder") != "original":
         raise OriginalError("this actor has our own LiDAR encoder (lidar_encoder='relu'): only one with the "
                             "paper code's ('original') runs in the original's network")
-    horizon = 20 if turns else 25
+    horizon = preset_overrides(str(config.get("preset")), "intersection-v0")["horizon"]  # the original's, in decisions
     if env.get("horizon", horizon) != horizon:
         raise OriginalError(f"the policy's horizon is {env['horizon']} decisions; the original's world has {horizon}")
     order = env.get("approach_order", "rotate")
