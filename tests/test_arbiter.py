@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from training.results.arbiter import arbiter_cell, arbiter_section, load_original_runs, noise_verdict
+from training.results.arbiter import (arbiter_cell, arbiter_section, load_driver_reports, load_original_runs,
+                                      noise_verdict)
 from training.results.data import ResultsError
 
 COMMITTED = Path(__file__).resolve().parents[1] / "assets" / "original"
@@ -26,6 +27,7 @@ def _run(folder: Path, noise: float, seed: int, violations: float | None, done: 
     if violations is not None:
         (here / "report.json").write_text(json.dumps({
             "red_light_violation_rate": violations, "success_rate": 0.9, "collision_rate": 0.05, "epochs": done,
+            "episodes": 200, "first_seed": 1_500_000_000,
             "intervals": {"red_light_violation_rate": {"half_width": 0.01}}}))
 
 
@@ -82,6 +84,8 @@ def test_the_committed_runs_read():
     runs = load_original_runs(COMMITTED)
     assert runs and all(r.epochs_done <= r.epochs for r in runs)
     assert {r.lidar_noise for r in runs} <= {0.25, 1.0}
+    drivers = load_driver_reports(COMMITTED)
+    assert {d.driver for d in drivers} <= {"full-throttle", "random", "rule"}
 
 
 def test_training_curves_are_read_from_each_runs_log_and_drawn(tmp_path):
@@ -122,3 +126,43 @@ def test_runs_of_other_commands_are_not_read_as_noise_runs(tmp_path):
         (here / "state.json").write_text(json.dumps({"epochs_done": 1, "joint_steps": 32000,
                                                      "car_decisions": 32000}))
     assert [r.name for r in load_original_runs(tmp_path)] == ["noise0.25_seed0"]
+
+
+def _driver(folder: Path, name: str, violations: float, first_seed: int = 1_500_000_000, cars: int = 4,
+            turns: bool = False, file: str | None = None) -> None:
+    here = folder / "drivers"
+    here.mkdir(parents=True, exist_ok=True)
+    (here / (file or f"{name}.json")).write_text(json.dumps({
+        "world": "original", "driver": name, "cars_per_episode": cars, "turns": turns, "episodes": 200,
+        "first_seed": first_seed, "red_light_violation_rate": violations,
+        "intervals": {"red_light_violation_rate": {"half_width": 0.05}}}))
+
+
+def test_scripted_drivers_on_the_same_episodes_are_what_the_runs_are_read_against(tmp_path):
+    _run(tmp_path, 0.25, 0, 0.02)
+    _run(tmp_path, 1.0, 0, 0.40)  # its interval (+-0.01) reaches above the lowest rule-free rate, 0.38
+    _run(tmp_path, 1.0, 1, 0.01, done=20)  # unfinished: shown, not counted
+    assert "Scripted drivers" not in "\n".join(arbiter_section(load_original_runs(tmp_path)))
+    _driver(tmp_path, "full-throttle", 0.5)
+    _driver(tmp_path, "random", 0.38)
+    _driver(tmp_path, "rule", 0.01)
+    _driver(tmp_path, "full-throttle", 0.6, file="other-episodes.json", first_seed=1_500_000_500)
+    _driver(tmp_path, "full-throttle", 0.3, file="turning.json", cars=1, turns=True)  # another world
+    drivers = load_driver_reports(tmp_path)
+    assert len(drivers) == 5 and not any(d.driver == "drivers" for d in drivers)
+    assert len(load_original_runs(tmp_path)) == 3  # the drivers' folder is no run
+    text = "\n".join(arbiter_section(load_original_runs(tmp_path), drivers=drivers))
+    line = next(x for x in text.splitlines() if x.startswith("**Scripted drivers"))
+    assert "full-throttle 0.500 ± 0.050, random 0.380 ± 0.050" in line and "light rule" in line and "0.010" in line
+    assert "0.600" not in line and "0.300" not in line  # other episodes, another world: left out
+    assert "1 of the 2 finished runs enter on red less than every rule-free driver" in line
+    assert "learns to stop" not in line
+    _run(tmp_path / "all", 0.25, 0, 0.02)
+    _run(tmp_path / "all", 1.0, 0, 0.10)
+    _driver(tmp_path / "all", "full-throttle", 0.5)
+    both = tmp_path / "all"
+    text = "\n".join(arbiter_section(load_original_runs(both), drivers=load_driver_reports(both)))
+    assert "2 of the 2 finished runs" in text and "learns to stop at red at every noise level it ran" in text
+    (tmp_path / "drivers" / "broken.json").write_text(json.dumps({"world": "ours", "driver": "rule"}))
+    with pytest.raises(ResultsError, match="broken.json"):
+        load_driver_reports(tmp_path)

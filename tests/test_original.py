@@ -395,6 +395,49 @@ def test_a_report_names_its_weights_within_the_run_so_it_travels_with_it(tmp_pat
     assert calls and str(run / "actors" / "epoch_0050.safetensors") in calls[0]
 
 
+def test_evaluate_scores_a_scripted_driver_in_either_world_and_refuses_in_one_line(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    specs: list = []
+
+    def fake_worker(cmd, **kwargs):  # the recorded table stands in for sdriving's rollout
+        specs.append((json.loads(Path(cmd[3]).read_text()), cmd[cmd.index("--driver") + 1]))
+        shutil.copy(FIXTURE, cmd[cmd.index("--out") + 1])
+    monkeypatch.setattr(cli, "require_venv", lambda: None)
+    monkeypatch.setattr(cli.subprocess, "run", fake_worker)
+    out = tmp_path / "drivers" / "full-throttle.json"
+    assert cli.main(["evaluate", "--driver", "full-throttle", "--episodes", "3", "--out", str(out)]) == 0
+    report = json.loads(out.read_text())
+    (spec, driver), = specs
+    assert driver == "full-throttle" and spec["env_kwargs"]["nagents"] == 4 and not spec["env_kwargs"]["turns"]
+    assert spec["env_kwargs"]["lidar_noise"] == 0.0
+    assert (report["driver"], report["cars_per_episode"], report["turns"], report["world"]) == \
+        ("full-throttle", 4, False, "original")
+    assert report["collision_rate"] == pytest.approx(0.5) and "run" not in report  # scored from the worker's table
+    turning = tmp_path / "drivers" / "random-turns.json"
+    assert cli.main(["evaluate", "--driver", "random", "--turns", "--episodes", "3", "--out", str(turning)]) == 0
+    spec, driver = specs[1]
+    assert driver == "random" and spec["env_kwargs"]["nagents"] == 1 and spec["env_kwargs"]["turns"]
+    assert json.loads(turning.read_text())["cars_per_episode"] == 1
+    ours = tmp_path / "ours.json"  # our side: the paper-turns preset, the same episodes
+    assert cli.main(["evaluate", "--driver", "full-throttle", "--turns", "--world", "ours", "--episodes", "2",
+                     "--out", str(ours)]) == 0
+    mine = json.loads(ours.read_text())
+    assert (mine["world"], mine["cars"], mine["junction_entries"]) == ("ours", 2, 2) and len(specs) == 2
+    capsys.readouterr()
+    bad = tmp_path / "bad.json"
+    assert cli.main(["evaluate", "--run", str(tmp_path), "--cars", "2", "--out", str(bad)]) == 2
+    assert cli.main(["evaluate", "--driver", "rule", "--epoch", "5", "--out", str(bad)]) == 2
+    assert cli.main(["evaluate", "--driver", "rule", "--cars", "17", "--out", str(bad)]) == 2
+    assert cli.main(["evaluate", "--driver", "rule", "--world", "ours", "--cars", "8", "--out", str(bad)]) == 2
+    assert cli.main(["evaluate", "--driver", "rule", "--out", str(out)]) == 2  # nothing replaced
+    err = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(err) == 5 and all("error:" in line for line in err)
+    assert "need --driver" in err[0] and "--epoch" in err[1] and "nagents" in err[2]
+    assert "approach_order=random" in err[3] and "exists" in err[4]
+    assert not bad.exists() and len(specs) == 2 and json.loads(out.read_text()) == report
+
+
 def test_both_worlds_pools_policies_on_their_shared_episodes_and_continues_a_stopped_folder(tmp_path, monkeypatch,
                                                                                            capsys):
     from box2d_driving.metrics.intervals import pooled_rate_intervals

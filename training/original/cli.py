@@ -6,8 +6,9 @@
   level (:mod:`training.original.commands`), run by sdriving's own ``ppo_distributed`` trainer in
   one process (``sdriving_worker.py``); ``--time-limit`` stops after the last epoch that fits, and
   ``--resume`` continues a folder from its last epoch;
-* ``original evaluate --run DIR`` (or ``--policy P``, one of ours): a policy on report episodes of
-  either world (``--world original | ours``), scored by our metric code;
+* ``original evaluate --run DIR`` (or ``--policy P``, one of ours, or ``--driver NAME``, a scripted
+  driver): a policy on report episodes of either world (``--world original | ours``), scored by
+  our metric code;
 * ``original both-worlds --policy P ... | --run DIR ...``: several policies in both worlds on the
   same report episodes, and all of them together (``both_worlds.py``);
 * ``original export --run DIR --out P``: a run's actor as a policy of ours (``export.py``);
@@ -34,7 +35,7 @@ from training.common.cli_args import OneLineParser, error, prog_name
 from training.common.seeds import REPORT, SELECTION, SeedError
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun, lone_car_run
 from training.original.compare import DRIVERS
-from training.original.tables import (WORKER, policy_source, require_venv, run_weights, score_table,
+from training.original.tables import (WORKER, driver_table, policy_source, require_venv, run_weights, score_table,
                                       trained_original_table, venv_dir, venv_python, write_table)
 
 # what the worker's environment installs: sdriving without its training-only dependencies, and
@@ -186,20 +187,26 @@ def _evaluate(args) -> int:
         if overrides and args.world != "ours":
             raise OriginalError("--set changes our world's settings: it needs --world ours")
         weights, original = None, None
+        cars = _driver_world(args)
         if args.run is not None:
             weights = run_weights(args.run, args.epoch)
         elif args.epoch is not None:
             raise OriginalError("--epoch picks an actor of an original run (--run), not of --policy")
-        elif args.world == "original":  # a policy of ours: refused here, before anything is written, if the
-            original = policy_source(args.policy)  # original cannot run it
+        elif args.policy is not None and args.world == "original":  # a policy of ours: refused here, before
+            # anything is written, if the original cannot run it
+            original = policy_source(args.policy)
         for path in (args.out, table_path):
             if path.exists():
                 raise OriginalError(f"--out: {path} exists (choose another name)")
         if args.world == "original":
             require_venv()
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        write_table(table_path, args.world, args.episodes, args.first_seed, run=args.run, weights=weights,
-                    epoch=args.epoch, policy=args.policy, original=original, overrides=overrides)
+        if args.driver is not None:
+            driver_table(table_path, args.driver, args.world, args.episodes, args.first_seed, cars, args.turns,
+                         overrides)
+        else:
+            write_table(table_path, args.world, args.episodes, args.first_seed, run=args.run, weights=weights,
+                        epoch=args.epoch, policy=args.policy, original=original, overrides=overrides)
     except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
         return error(str(exc))
     metrics = score_table(load_table(table_path))
@@ -212,6 +219,8 @@ def _evaluate(args) -> int:
                        weights=weights.relative_to(args.run).as_posix(),
                        joint_steps=state.get("joint_steps") if latest else None,
                        car_decisions=state.get("car_decisions") if latest else None)
+    elif args.driver is not None:
+        metrics.update(driver=args.driver, cars_per_episode=cars, turns=args.turns)
     else:
         metrics.update(policy=str(args.policy))
     tmp_out = args.out.with_name(args.out.name + ".partial")
@@ -219,6 +228,21 @@ def _evaluate(args) -> int:
     os.replace(tmp_out, args.out)
     print(json.dumps({k: v for k, v in metrics.items() if not isinstance(v, dict)}, default=float))
     return 0
+
+
+def _driver_world(args) -> int:
+    """The cars of a scripted driver's world (``--cars``; default 1 with ``--turns``, else the noise
+    runs' 4); :class:`OriginalError` where ``--cars`` or ``--turns`` come without ``--driver``
+    (a run or policy brings its own world)."""
+    if args.driver is None:
+        if args.cars is not None or args.turns:
+            raise OriginalError("--cars and --turns choose a scripted driver's world: they need --driver")
+        return 0
+    if args.epoch is not None:
+        raise OriginalError("--epoch picks an actor of an original run (--run), not of --driver")
+    cars = args.cars if args.cars is not None else (1 if args.turns else 4)
+    OriginalRun(lidar_noise=0.0, epochs=1, nagents=cars, turns=args.turns)  # refuses a count the original lacks
+    return cars
 
 
 def _both_worlds(args) -> int:
@@ -293,6 +317,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     who.add_argument("--policy", type=Path,
                      help="a policy of ours trained with the paper preset and the paper code's LiDAR encoder "
                           "(a run folder, a kept trial, a shipped name)")
+    who.add_argument("--driver", choices=DRIVERS,
+                     help="a scripted driver (light-blind full throttle, the light rule, uniform random) in the "
+                          "noise runs' world at LiDAR noise 0 (--cars, --turns choose another): the rule-free "
+                          "rates a trained policy is read against on the same episodes")
+    e.add_argument("--cars", type=int, default=None,
+                   help="with --driver: cars per episode (default: 4, 1 with --turns)")
+    e.add_argument("--turns", action="store_true",
+                   help="with --driver: the original's turning junction of its 1-car run (our side: paper-turns)")
     e.add_argument("--epoch", type=int, default=None,
                    help="score the actor kept after this epoch (actors/epoch_NNNN.safetensors; default: the latest)")
     e.add_argument("--episodes", type=int, default=200, help="report episodes (default: 200)")

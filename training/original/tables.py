@@ -137,3 +137,27 @@ def write_table(table_path: Path, world: str, episodes: int, first_seed: int, *,
             save_table(trained_our_table(policy, episodes, first_seed, overrides), table_path)
         else:
             raise OriginalError("a rollout table needs an original run's weights or a policy of ours")
+
+
+def driver_table(table_path: Path, driver: str, world: str, episodes: int, first_seed: int, cars: int,
+                 turns: bool = False, overrides: Optional[dict] = None) -> None:
+    """Write to ``table_path`` the rollout table of the scripted ``driver`` on ``episodes`` report
+    episodes from ``first_seed``: in the original world (the noise runs' junction with ``cars``
+    cars, or with ``turns`` the 1-car run's turning junction; LiDAR noise 0, which no scripted
+    driver reads), or in ours (the ``paper`` preset, ``paper-turns`` with ``turns``, and
+    ``overrides``; spawn rules checked against the original's as ``original compare`` does)."""
+    from box2d_driving.metrics.rollouts import run_episodes, save_table
+    from box2d_driving.policies.scripted import make_policy
+    from box2d_driving.registry import make
+    from training.original.compare import check_spawns, original_table
+
+    if world == "original":
+        original_table(venv_python(), WORKER, driver, episodes, first_seed, cars, table_path, turns)
+        return
+    preset = "paper-turns" if turns else "paper"
+    check_spawns(cars, overrides or {}, preset)
+    env = make("intersection-v0", preset=preset, **{"num_cars": cars, **(overrides or {})})
+    try:
+        save_table(run_episodes(env, make_policy(driver, env, seed=first_seed), episodes, seed=first_seed), table_path)
+    finally:
+        env.close()

@@ -24,14 +24,17 @@ from training.results.data import ResultsError
 from box2d_driving.metrics.stats import mean_ci, p_text, t_test_p
 from training.results.seed_counts import seeds_needed
 
-__all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "OriginalRun", "arbiter_cell", "arbiter_section", "load_original_runs",
-           "training_curve_figure"]
+__all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "DriverReport", "OriginalRun", "arbiter_cell", "arbiter_section",
+           "load_driver_reports", "load_original_runs", "training_curve_figure"]
 
 ORIGINAL_RUNS = Path("assets/original")
 ARBITER_TITLE = "The paper's own code, in its own world"
 LOW, HIGH = 0.25, 1.0  # the paper's noise runs at the two ends (75 and 50 epochs)
 METRIC = "red_light_violation_rate"
 CURVE_FIGURE = "original_training.png"
+# scripted drivers' reports in the original world (``original evaluate --driver NAME``), under ORIGINAL_RUNS
+DRIVERS_FOLDER = "drivers"
+RULE_FREE = ("full-throttle", "random")  # drivers that never look at the light; "rule" follows it
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,37 @@ def load_original_runs(folder: Path = ORIGINAL_RUNS) -> list[OriginalRun]:
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise ResultsError(f"{here}: not a readable original run ({exc})") from None
     return sorted(runs, key=lambda r: (r.lidar_noise, r.seed))
+
+
+@dataclass(frozen=True)
+class DriverReport:
+    """A scripted driver scored on report episodes of the original world (``original evaluate
+    --driver``): the reference a trained actor's red-light violations are read against."""
+
+    driver: str
+    cars: int  # per episode
+    turns: bool
+    episodes: int
+    first_seed: int
+    violations: float
+    half_width: Optional[float]  # of the violations' 95 % interval, episodes as clusters
+
+
+def load_driver_reports(folder: Path = ORIGINAL_RUNS) -> list[DriverReport]:
+    """Every driver report in ``folder``/drivers/*.json, by name; :class:`ResultsError` naming a
+    file that is not a scripted driver's report of the original world."""
+    out = []
+    for path in sorted((Path(folder) / DRIVERS_FOLDER).glob("*.json")):
+        try:
+            r = json.loads(path.read_text())
+            if r.get("world") != "original" or not isinstance(r.get("driver"), str):
+                raise ValueError("not a scripted driver in the original world")
+            half = (r.get("intervals") or {}).get(METRIC, {}).get("half_width")
+            out.append(DriverReport(r["driver"], int(r["cars_per_episode"]), bool(r["turns"]), int(r["episodes"]),
+                                    int(r["first_seed"]), float(r[METRIC]), None if half is None else float(half)))
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise ResultsError(f"{path}: not a driver report of `original evaluate --driver` ({exc})") from None
+    return out
 
 
 def _training_curve(path: Path) -> tuple[tuple[int, float], ...]:
@@ -195,8 +229,55 @@ def arbiter_cell(runs: list[OriginalRun]) -> str:
     return f"**{verdict}** ([{ARBITER_TITLE}](#{anchor(ARBITER_TITLE)})): {words}"
 
 
-def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel: str = "images/results") -> list[str]:
-    """The page's section on the original trainer's runs: the table of runs, their training
+def drivers_part(runs: list[OriginalRun], drivers: list[DriverReport]) -> list[str]:
+    """The scripted drivers of the noise runs' world (4 cars, no turns) on the same report
+    episodes as the evaluated runs, and how many finished runs enter on red less than every
+    rule-free driver (the run's interval over its episodes below the lowest rule-free rate); empty
+    where no driver was scored on those episodes."""
+    evaluated = [r for r in runs if r.report is not None]
+    episodes = {(int(report.get("first_seed", -1)), int(report.get("episodes", -1)))
+                for report in (r.report for r in evaluated) if report is not None}
+    if len(episodes) != 1:
+        return []
+    first, count = episodes.pop()
+    here = [d for d in drivers if d.cars == 4 and not d.turns and (d.first_seed, d.episodes) == (first, count)]
+    if not here:
+        return []
+
+    def rate(d: DriverReport) -> str:
+        return f"{d.violations:.3f}" + ("" if d.half_width is None else f" ± {d.half_width:.3f}")
+    free = [d for d in here if d.driver in RULE_FREE]
+    others = [d for d in here if d.driver not in RULE_FREE]
+    words = "; ".join([", ".join(f"{d.driver} {rate(d)}" for d in free)]
+                      + ([f"for comparison, the scripted light rule (brakes while its light shows yellow or red, "
+                          f"else full throttle) "
+                          f"{', '.join(rate(d) for d in others)}"] if others else []))
+    line = (f"**Scripted drivers on the same {count} report episodes of the original world** (red-light violations; "
+            f"`box2d-driving original evaluate --driver NAME --out {ORIGINAL_RUNS.as_posix()}/{DRIVERS_FOLDER}/"
+            f"NAME.json`): {words}.")
+    finished = [r for r in evaluated if r.epochs_done == r.epochs and r.evaluated_epochs == r.epochs]
+    if free and finished:
+        lowest = min(d.violations for d in free)
+        below = [r for r in finished if _upper(r) < lowest]
+        line += (f" {len(below)} of the {len(finished)} finished runs enter on red less than every rule-free driver "
+                 f"(their interval's upper end below {lowest:.3f})"
+                 + (": the paper's code learns to stop at red at every noise level it ran." if len(below) == len(
+                     finished) else "."))
+    return [line, ""]
+
+
+def _upper(run: OriginalRun) -> float:
+    """The upper end of a run's violations' interval over its report episodes (the rate itself
+    where the report has no interval)."""
+    report = run.report or {}
+    half = (report.get("intervals") or {}).get(METRIC, {}).get("half_width")
+    return float(report[METRIC]) + (half or 0.0)
+
+
+def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel: str = "images/results",
+                    drivers: tuple[DriverReport, ...] | list[DriverReport] = ()) -> list[str]:
+    """The page's section on the original trainer's runs: the table of runs, the scripted
+    drivers on the same episodes (``drivers``, :func:`load_driver_reports`), their training
     curves (drawn into ``figures``, linked as ``rel``/..., where ``figures`` is given) and the
     verdict."""
     parts = [f"## {ARBITER_TITLE}", "",
@@ -221,8 +302,9 @@ def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel
         parts.append(row([f"`{r.name}`", _noise(r.lidar_noise), str(r.seed), f"{r.epochs_done} of {r.epochs}",
                           f"{r.joint_steps:,}", f"{r.car_decisions:,}",
                           "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *rates]))
+    parts += [""] + drivers_part(runs, list(drivers))
     verdict, words = noise_verdict(runs)
-    parts += ["", f"**The noise claim, by the paper's own code: {verdict}.** {words[:1].upper()}{words[1:]}.", ""]
+    parts += [f"**The noise claim, by the paper's own code: {verdict}.** {words[:1].upper()}{words[1:]}.", ""]
     if figures is not None and training_curve_figure(runs, figures / CURVE_FIGURE):
         parts += [f"![The original trainer's training curves]({rel}/{CURVE_FIGURE})", "",
                   "*Left: each run's mean episode return per epoch, from the trainer's own log "

@@ -22,7 +22,8 @@ from pathlib import Path
 from typing import Any, Optional
 
 from training.common.markdown import row, separator
-from training.results.arbiter import ORIGINAL_RUNS, arbiter_cell, arbiter_section, load_original_runs
+from training.results.arbiter import (ORIGINAL_RUNS, arbiter_cell, arbiter_section, load_driver_reports,
+                                      load_original_runs)
 from training.results.claims import SectionResult, claims_table, worlds_sentence
 from training.results.matching import grid_order, joined_groups, reference, section_summaries
 from training.results.readme import README_START, readme_table, readme_text, update_readme
@@ -91,6 +92,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
     ``figures``; returns the page text. With ``gifs``, (re)draw each section's animation of its
     shipped policy first (needs the checkpoints; without, existing animations are linked)."""
     runs = load_original_runs(original) if Path(original).is_dir() else []
+    drivers = load_driver_reports(original) if Path(original).is_dir() else []
     figures.mkdir(parents=True, exist_ok=True)
     rel = Path(_relative(figures, out.parent))
     parts = _page_intro()
@@ -111,7 +113,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
                   "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
-    parts += arbiter_section(runs, figures, rel.as_posix())
+    parts += arbiter_section(runs, figures, rel.as_posix(), drivers)
     parts[intro:intro] = _claims_part(found_sections, arbiter_cell(runs)) + _glance_part(summaries)
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
