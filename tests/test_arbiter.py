@@ -25,10 +25,13 @@ def _run(folder: Path, noise: float, seed: int, violations: float | None, done: 
     (here / "state.json").write_text(json.dumps({"epochs_done": done, "joint_steps": done * 32000,
                                                  "car_decisions": done * 126000}))
     if violations is not None:
-        (here / "report.json").write_text(json.dumps({
-            "red_light_violation_rate": violations, "success_rate": 0.9, "collision_rate": 0.05, "epochs": done,
-            "episodes": 200, "first_seed": 1_500_000_000,
-            "intervals": {"red_light_violation_rate": {"half_width": 0.01}}}))
+        _report(here, violations, done, 0.01)
+
+
+def _report(here: Path, violations: float, done: int, half: float) -> None:
+    (here / "report.json").write_text(json.dumps({
+        "red_light_violation_rate": violations, "success_rate": 0.9, "collision_rate": 0.05, "epochs": done,
+        "episodes": 200, "first_seed": 1_500_000_000, "intervals": {"red_light_violation_rate": {"half_width": half}}}))
 
 
 def test_no_verdict_without_both_ends_and_two_paired_seeds(tmp_path):
@@ -166,3 +169,53 @@ def test_scripted_drivers_on_the_same_episodes_are_what_the_runs_are_read_agains
     (tmp_path / "drivers" / "broken.json").write_text(json.dumps({"world": "ours", "driver": "rule"}))
     with pytest.raises(ResultsError, match="broken.json"):
         load_driver_reports(tmp_path)
+
+
+def _lone(folder: Path, seed: int, violations: float | None, done: int = 60) -> None:
+    here = folder / f"turns_seed{seed}"
+    here.mkdir(parents=True)
+    (here / "run.json").write_text(json.dumps({"seed": seed, "epochs": 60, "env_kwargs": {
+        "lidar_noise": 0.0, "nagents": 1, "turns": True}}))
+    (here / "state.json").write_text(json.dumps({"epochs_done": done, "joint_steps": done * 32000,
+                                                 "car_decisions": done * 32000}))
+    if violations is not None:
+        _report(here, violations, done, 0.07)
+
+
+def test_the_lone_car_runs_are_read_apart_and_judged_against_the_turning_worlds_drivers(tmp_path):
+    from training.results.lone_car_arbiter import lone_car_cell, lone_car_section, lone_car_verdict
+    from training.results.original_runs import load_lone_car_runs
+
+    assert "No run carried yet" in "\n".join(lone_car_section([], []))
+    assert lone_car_verdict([], [])[0] == "not run yet"
+    _run(tmp_path, 0.25, 0, 0.02)
+    _lone(tmp_path, 0, 0.465)
+    _lone(tmp_path, 1, 0.2, done=30)  # unfinished: shown, not counted
+    runs = load_lone_car_runs(tmp_path)
+    assert [r.name for r in runs] == ["turns_seed0", "turns_seed1"]
+    assert [r.name for r in load_original_runs(tmp_path)] == ["noise0.25_seed0"]  # each claim its own runs
+    assert lone_car_verdict(runs, [])[0] == "no reference yet"
+    _driver(tmp_path, "full-throttle", 0.1)  # the 4-car junction's: not this world's reference
+    _driver(tmp_path, "full-throttle", 0.465, file="full-throttle-turns.json", cars=1, turns=True)
+    _driver(tmp_path, "random", 0.43, file="random-turns.json", cars=1, turns=True)
+    drivers = load_driver_reports(tmp_path)
+    assert lone_car_verdict(runs, drivers)[0] == "no interval yet"  # one finished seed
+    _lone(tmp_path, 2, 0.455)
+    runs = load_lone_car_runs(tmp_path)
+    verdict, words = lone_car_verdict(runs, drivers)
+    assert verdict == "reproduced" and "seeds finished and evaluated: 2" in words
+    assert "full-throttle 0.465, random 0.430" in words and "0.100" not in words
+    assert "not below every rule-free driver" in words and "as in the paper" in words
+    assert lone_car_cell(runs, drivers).startswith(
+        "**reproduced** ([The paper's own code on its lone car](#the-papers-own-code-on-its-lone-car)): ")
+    text = "\n".join(lone_car_section(runs, drivers))
+    assert "| `turns_seed1` | 1 | 30 of 60 |" in text and "--driver NAME --turns" in text
+    assert "0 of the 2 finished runs enter on red less than every rule-free driver" in text
+    stops = tmp_path / "stops"
+    for seed, v in enumerate((0.02, 0.03, 0.01)):
+        _lone(stops, seed, v)
+    _driver(stops, "full-throttle", 0.465, cars=1, turns=True)
+    got, words = lone_car_verdict(load_lone_car_runs(stops), load_driver_reports(stops))
+    assert got == "opposite" and "stops for the light, unlike the paper" in words
+    assert "each learnt to stop for the light" in "\n".join(lone_car_section(load_lone_car_runs(stops),
+                                                                             load_driver_reports(stops)))

@@ -157,8 +157,9 @@ def test_every_claim_names_real_sections_and_is_decided_by_the_committed_page(tm
     for claim, full in zip(CLAIMS, rows):
         assert full.startswith(f"| {claim.words.replace('|', chr(92) + '|')} |")
         line, arbiter = full.rsplit(" | ", 1)  # our columns, and the paper's own code's
-        assert (("([The paper's own code, in its own world]" in arbiter) if claim.arbiter
-                else arbiter == "not run there yet |"), full
+        assert (("([The paper's own code, in its own world]" in arbiter) if claim.arbiter == "noise"
+                else ("([The paper's own code on its lone car]" in arbiter or arbiter == "not run there yet |")
+                if claim.arbiter == "lone-car" else arbiter == "not run there yet |"), full
         if not ran & set(claim.sections):  # its sweep has no committed trials yet
             assert ": not run yet |" in line and line.endswith("| no trials yet"), line
             continue
@@ -240,3 +241,12 @@ def test_a_lone_car_read_from_the_turning_junction_counts_as_the_papers_world_an
     assert turning.startswith(f"1 of the {len(CLAIMS)} rows are read from runs in the paper's own world")
     assert f"*{lone.words}*" in turning and "`paper-turns` preset" in turning
     assert "`paper-turns`" not in worlds_sentence({"traffic-lights-preset-1car": _result([says])})
+
+
+def test_the_last_column_shows_the_paper_codes_cell_only_for_the_claims_it_ran():
+    from training.results.claims import NOT_RUN_THERE, claims_table
+
+    rows = claims_table({}, {"lone-car": "LONE"})[2:]
+    assert len(rows) == len(CLAIMS)
+    for claim, line in zip(CLAIMS, rows):
+        assert line.endswith("| LONE |" if claim.arbiter == "lone-car" else f"| {NOT_RUN_THERE} |"), line

@@ -13,129 +13,21 @@ fewer than two seeds at each end.
 
 from __future__ import annotations
 
-import csv
-import json
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Optional
 
 from training.common.markdown import anchor, row, separator
-from training.results.data import ResultsError
 from box2d_driving.metrics.stats import mean_ci, p_text, t_test_p
+from training.results.original_runs import (METRIC, ORIGINAL_RUNS, DriverReport, OriginalRun, drivers_part,
+                                            finished, load_driver_reports, load_original_runs, report_rates)
 from training.results.seed_counts import seeds_needed
 
 __all__ = ["ARBITER_TITLE", "ORIGINAL_RUNS", "DriverReport", "OriginalRun", "arbiter_cell", "arbiter_section",
            "load_driver_reports", "load_original_runs", "training_curve_figure"]
 
-ORIGINAL_RUNS = Path("assets/original")
 ARBITER_TITLE = "The paper's own code, in its own world"
 LOW, HIGH = 0.25, 1.0  # the paper's noise runs at the two ends (75 and 50 epochs)
-METRIC = "red_light_violation_rate"
 CURVE_FIGURE = "original_training.png"
-# scripted drivers' reports in the original world (``original evaluate --driver NAME``), under ORIGINAL_RUNS
-DRIVERS_FOLDER = "drivers"
-RULE_FREE = ("full-throttle", "random")  # drivers that never look at the light; "rule" follows it
-
-
-@dataclass(frozen=True)
-class OriginalRun:
-    """One carried run of the original trainer and its report-episode evaluation (None: not
-    evaluated yet)."""
-
-    name: str
-    lidar_noise: float
-    seed: int
-    epochs: int  # the original command's budget
-    epochs_done: int
-    joint_steps: int
-    car_decisions: int
-    report: Optional[dict[str, Any]]
-    # per epoch, from the run's progress.csv: joint steps so far and the mean return of the episodes
-    # that ended in it (the trainer's own log; empty where the run kept none)
-    curve: tuple[tuple[int, float], ...] = field(default=(), compare=False)
-    # per kept actor, from the run's curve.csv (``original curve``): joint steps and red-light
-    # violations on selection episodes
-    violations: tuple[tuple[int, float], ...] = field(default=(), compare=False)
-
-    @property
-    def evaluated_epochs(self) -> Optional[int]:
-        return None if self.report is None else self.report.get("epochs")
-
-
-def load_original_runs(folder: Path = ORIGINAL_RUNS) -> list[OriginalRun]:
-    """Every run folder in ``folder`` (a ``run.json`` and a ``state.json``) of the noise claim's
-    commands (the 4-car junction without turns; a run of the 1-car turning junction, ``original
-    train --turns``, is not one), by noise then seed; :class:`ResultsError` naming the file that
-    cannot be read."""
-    runs = []
-    for run_json in sorted(Path(folder).glob("*/run.json")):
-        here = run_json.parent
-        try:
-            spec = json.loads(run_json.read_text())
-            if spec["env_kwargs"].get("turns") or int(spec["env_kwargs"].get("nagents", 4)) != 4:
-                continue
-            state = json.loads((here / "state.json").read_text())
-            report_path = here / "report.json"
-            report = json.loads(report_path.read_text()) if report_path.exists() else None
-            runs.append(OriginalRun(here.name, float(spec["env_kwargs"]["lidar_noise"]), int(spec["seed"]),
-                                    int(spec["epochs"]), int(state["epochs_done"]), int(state["joint_steps"]),
-                                    int(state["car_decisions"]), report, _training_curve(here / "progress.csv"),
-                                    _violations_curve(here / "curve.csv")))
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise ResultsError(f"{here}: not a readable original run ({exc})") from None
-    return sorted(runs, key=lambda r: (r.lidar_noise, r.seed))
-
-
-@dataclass(frozen=True)
-class DriverReport:
-    """A scripted driver scored on report episodes of the original world (``original evaluate
-    --driver``): the reference a trained actor's red-light violations are read against."""
-
-    driver: str
-    cars: int  # per episode
-    turns: bool
-    episodes: int
-    first_seed: int
-    violations: float
-    half_width: Optional[float]  # of the violations' 95 % interval, episodes as clusters
-
-
-def load_driver_reports(folder: Path = ORIGINAL_RUNS) -> list[DriverReport]:
-    """Every driver report in ``folder``/drivers/*.json, by name; :class:`ResultsError` naming a
-    file that is not a scripted driver's report of the original world."""
-    out = []
-    for path in sorted((Path(folder) / DRIVERS_FOLDER).glob("*.json")):
-        try:
-            r = json.loads(path.read_text())
-            if r.get("world") != "original" or not isinstance(r.get("driver"), str):
-                raise ValueError("not a scripted driver in the original world")
-            half = (r.get("intervals") or {}).get(METRIC, {}).get("half_width")
-            out.append(DriverReport(r["driver"], int(r["cars_per_episode"]), bool(r["turns"]), int(r["episodes"]),
-                                    int(r["first_seed"]), float(r[METRIC]), None if half is None else float(half)))
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
-            raise ResultsError(f"{path}: not a driver report of `original evaluate --driver` ({exc})") from None
-    return out
-
-
-def _training_curve(path: Path) -> tuple[tuple[int, float], ...]:
-    """(joint steps so far, mean episode return) per epoch of a run's ``progress.csv``."""
-    if not path.exists():
-        return ()
-    with path.open(newline="") as f:
-        rows = list(csv.DictReader(f))
-    out, steps = [], 0
-    for r in rows:
-        steps += int(r["joint_steps"])
-        out.append((steps, float(r["episode_return"])))
-    return tuple(out)
-
-
-def _violations_curve(path: Path) -> tuple[tuple[int, float], ...]:
-    """(joint steps, red-light violations) per kept actor of a run's ``curve.csv``."""
-    if not path.exists():
-        return ()
-    with path.open(newline="") as f:
-        return tuple((int(r["joint_steps"]), float(r[METRIC])) for r in csv.DictReader(f))
 
 
 def training_curve_figure(runs: list[OriginalRun], path: Path) -> bool:
@@ -193,9 +85,7 @@ def _noise(value: float) -> str:
 def _evaluated(runs: list[OriginalRun], noise: float) -> dict[int, float]:
     """Seed -> violations of the runs at ``noise`` that finished their budget and were evaluated
     at their last epoch."""
-    return {r.seed: float(r.report[METRIC]) for r in runs
-            if r.lidar_noise == noise and r.report is not None and r.epochs_done == r.epochs
-            and r.evaluated_epochs == r.epochs}
+    return {r.seed: float(r.report[METRIC]) for r in finished(runs) if r.lidar_noise == noise and r.report}
 
 
 def noise_verdict(runs: list[OriginalRun]) -> tuple[str, str]:
@@ -229,51 +119,6 @@ def arbiter_cell(runs: list[OriginalRun]) -> str:
     return f"**{verdict}** ([{ARBITER_TITLE}](#{anchor(ARBITER_TITLE)})): {words}"
 
 
-def drivers_part(runs: list[OriginalRun], drivers: list[DriverReport]) -> list[str]:
-    """The scripted drivers of the noise runs' world (4 cars, no turns) on the same report
-    episodes as the evaluated runs, and how many finished runs enter on red less than every
-    rule-free driver (the run's interval over its episodes below the lowest rule-free rate); empty
-    where no driver was scored on those episodes."""
-    evaluated = [r for r in runs if r.report is not None]
-    episodes = {(int(report.get("first_seed", -1)), int(report.get("episodes", -1)))
-                for report in (r.report for r in evaluated) if report is not None}
-    if len(episodes) != 1:
-        return []
-    first, count = episodes.pop()
-    here = [d for d in drivers if d.cars == 4 and not d.turns and (d.first_seed, d.episodes) == (first, count)]
-    if not here:
-        return []
-
-    def rate(d: DriverReport) -> str:
-        return f"{d.violations:.3f}" + ("" if d.half_width is None else f" ± {d.half_width:.3f}")
-    free = [d for d in here if d.driver in RULE_FREE]
-    others = [d for d in here if d.driver not in RULE_FREE]
-    words = "; ".join([", ".join(f"{d.driver} {rate(d)}" for d in free)]
-                      + ([f"for comparison, the scripted light rule (brakes while its light shows yellow or red, "
-                          f"else full throttle) "
-                          f"{', '.join(rate(d) for d in others)}"] if others else []))
-    line = (f"**Scripted drivers on the same {count} report episodes of the original world** (red-light violations; "
-            f"`box2d-driving original evaluate --driver NAME --out {ORIGINAL_RUNS.as_posix()}/{DRIVERS_FOLDER}/"
-            f"NAME.json`): {words}.")
-    finished = [r for r in evaluated if r.epochs_done == r.epochs and r.evaluated_epochs == r.epochs]
-    if free and finished:
-        lowest = min(d.violations for d in free)
-        below = [r for r in finished if _upper(r) < lowest]
-        line += (f" {len(below)} of the {len(finished)} finished runs enter on red less than every rule-free driver "
-                 f"(their interval's upper end below {lowest:.3f})"
-                 + (": the paper's code learns to stop at red at every noise level it ran." if len(below) == len(
-                     finished) else "."))
-    return [line, ""]
-
-
-def _upper(run: OriginalRun) -> float:
-    """The upper end of a run's violations' interval over its report episodes (the rate itself
-    where the report has no interval)."""
-    report = run.report or {}
-    half = (report.get("intervals") or {}).get(METRIC, {}).get("half_width")
-    return float(report[METRIC]) + (half or 0.0)
-
-
 def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel: str = "images/results",
                     drivers: tuple[DriverReport, ...] | list[DriverReport] = ()) -> list[str]:
     """The page's section on the original trainer's runs: the table of runs, the scripted
@@ -294,15 +139,11 @@ def arbiter_section(runs: list[OriginalRun], figures: Optional[Path] = None, rel
               "red-light violations", "success", "collisions"]
     parts += [row(header), separator(len(header))]
     for r in runs:
-        rates = ["not evaluated"] * 3
-        if r.report is not None:
-            half = {k: v.get("half_width") for k, v in (r.report.get("intervals") or {}).items()}
-            rates = [f"{r.report[k]:.3f}" + (f" ± {half[k]:.3f}" if half.get(k) is not None else "")
-                     for k in (METRIC, "success_rate", "collision_rate")]
         parts.append(row([f"`{r.name}`", _noise(r.lidar_noise), str(r.seed), f"{r.epochs_done} of {r.epochs}",
                           f"{r.joint_steps:,}", f"{r.car_decisions:,}",
-                          "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *rates]))
-    parts += [""] + drivers_part(runs, list(drivers))
+                          "-" if r.evaluated_epochs is None else str(r.evaluated_epochs), *report_rates(r)]))
+    parts += [""] + drivers_part(runs, list(drivers), cars=4, turns=False,
+                                 all_below="the paper's code learns to stop at red at every noise level it ran")
     verdict, words = noise_verdict(runs)
     parts += [f"**The noise claim, by the paper's own code: {verdict}.** {words[:1].upper()}{words[1:]}.", ""]
     if figures is not None and training_curve_figure(runs, figures / CURVE_FIGURE):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from collections import Counter
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any, Mapping, Optional
 
 from training.results.curves import (PLATEAU_TOLERANCE, TOO_NOISY, late_changes, plateau_verdict, seeds_to_settle,
                                      settle_words)
@@ -58,7 +58,9 @@ class Claim:
     readings: tuple[Reading, ...]
     curve: str
     curve_label: str
-    arbiter: bool = False  # run by the paper's own trainer too (training/results/arbiter.py)
+    # the cell of the paper's own trainer, where it ran the claim: "noise" (training/results/arbiter.py),
+    # "lone-car" (training/results/lone_car_arbiter.py); "" none
+    arbiter: str = ""
 
 
 @dataclass
@@ -107,7 +109,7 @@ CLAIMS: tuple[Claim, ...] = (
           ("traffic-lights-paper-left", "traffic-lights-preset", "traffic-lights-paper"),
           (Reading(r"- 4 cars, red-light violations: "),
            Reading(r"- red-light violations against scripted drivers ", decides=False)),
-          "red_light_violation_rate", "red-light violations", arbiter=True),
+          "red_light_violation_rate", "red-light violations", arbiter="noise"),
     # a lone car has no car to see: the runs with our (often dead) LiDAR encoder still speak to it
     Claim("A lone car has no need to follow the light",
           ("traffic-lights-paper-turns-1car", "traffic-lights-paper-left-1car", "traffic-lights-preset-1car",
@@ -115,7 +117,7 @@ CLAIMS: tuple[Claim, ...] = (
           (Reading(r"- 1 car, red-light violations against rule-free scripted drivers "),
            # beside it: the lone car against the 4-car row of the same world, budget and noise
            Reading(r"- red-light violations: these trials", decides=False)),
-          "red_light_violation_rate", "red-light violations"),
+          "red_light_violation_rate", "red-light violations", arbiter="lone-car"),
     Claim("With more cars, fewer cars enter on red",
           ("traffic-lights-paper-left-8cars", "traffic-lights-preset-8cars", "denser-traffic-paper"),
           (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
@@ -292,15 +294,17 @@ def with_holm(rows: list[list[str]]) -> list[list[str]]:
 NOT_RUN_THERE = "not run there yet"
 
 
-def claims_table(found: dict[str, SectionResult], arbiter: str = NOT_RUN_THERE) -> list[str]:
+def claims_table(found: dict[str, SectionResult], arbiter: Optional[Mapping[str, str]] = None) -> list[str]:
     """The page's claims table (Markdown lines), a row per :data:`CLAIMS` entry, every p-value
-    with its Holm-adjusted value beside it (:func:`with_holm`); the last column, ``arbiter``
-    (the original trainer's cell) for the claims it runs."""
+    with its Holm-adjusted value beside it (:func:`with_holm`); the last column, the original
+    trainer's cell ``arbiter[claim.arbiter]`` for the claims it has run, else :data:`NOT_RUN_THERE`."""
+    cells = dict(arbiter or {})
     header = ["the paper's claim", "the paper's run", "our largest run so far", "now", "what decides it",
               "the paper's own code, in its world"]
     rows = with_holm([claim_row(c, found) for c in CLAIMS])
     return [row(header), separator(len(header)),
-            *(row(cells + [arbiter if c.arbiter else NOT_RUN_THERE]) for c, cells in zip(CLAIMS, rows))]
+            *(row(ours + [cells.get(c.arbiter, NOT_RUN_THERE) if c.arbiter else NOT_RUN_THERE])
+              for c, ours in zip(CLAIMS, rows))]
 
 
 def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:

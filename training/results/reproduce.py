@@ -24,6 +24,8 @@ from typing import Any, Optional
 from training.common.markdown import row, separator
 from training.results.arbiter import (ORIGINAL_RUNS, arbiter_cell, arbiter_section, load_driver_reports,
                                       load_original_runs)
+from training.results.lone_car_arbiter import lone_car_cell, lone_car_section
+from training.results.original_runs import load_lone_car_runs
 from training.results.claims import SectionResult, claims_table, worlds_sentence
 from training.results.matching import grid_order, joined_groups, reference, section_summaries
 from training.results.readme import README_START, readme_table, readme_text, update_readme
@@ -93,6 +95,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
     shipped policy first (needs the checkpoints; without, existing animations are linked)."""
     runs = load_original_runs(original) if Path(original).is_dir() else []
     drivers = load_driver_reports(original) if Path(original).is_dir() else []
+    lone = load_lone_car_runs(original) if Path(original).is_dir() else []
     figures.mkdir(parents=True, exist_ok=True)
     rel = Path(_relative(figures, out.parent))
     parts = _page_intro()
@@ -113,8 +116,9 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "summary (its finished trials are kept), then rewrites this page. It runs this sweep, which "
                   "also continues when run again with the same `--out`:", "",
                   "```bash", section.command, "```", ""]
-    parts += arbiter_section(runs, figures, rel.as_posix(), drivers)
-    parts[intro:intro] = _claims_part(found_sections, arbiter_cell(runs)) + _glance_part(summaries)
+    parts += arbiter_section(runs, figures, rel.as_posix(), drivers) + lone_car_section(lone, drivers)
+    cells = {"noise": arbiter_cell(runs), **({"lone-car": lone_car_cell(lone, drivers)} if lone else {})}
+    parts[intro:intro] = _claims_part(found_sections, cells) + _glance_part(summaries)
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
@@ -237,7 +241,7 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     return parts, result
 
 
-def _claims_part(found_sections: dict[str, SectionResult], arbiter: str) -> list[str]:
+def _claims_part(found_sections: dict[str, SectionResult], arbiter: dict[str, str]) -> list[str]:
     """The table of where the page stands on each of the paper's claims, with how to read it."""
     return ["## Where the page stands on the paper's claims", "",
             "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
@@ -256,8 +260,9 @@ def _claims_part(found_sections: dict[str, SectionResult], arbiter: str) -> list
             "end of training "
             "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
             "noisy to tell, how many seeds with curves the observed spread would need to settle it. The last column: "
-            "what the paper's own trainer, run on the paper's own command in its own world, says (so far only the "
-            "noise claim has been run there).", "",
+            "what the paper's own trainer, run on the paper's own command in its own world, says (so far "
+            + ("the noise claim and the lone car have" if "lone-car" in arbiter else "only the noise claim has")
+            + " been run there).", "",
             *claims_table(found_sections, arbiter), ""]
 
 
