@@ -148,7 +148,12 @@ _PAPER_CODE_LIGHTS: tuple[Section, ...] = (
         "traffic-lights-paper-left", "Stopping at red lights in the paper's own world, update and network (on the "
         "left)", "Stopping at red lights in the paper's own world, update and network (on the left), LiDAR noise 1.0",
         PAPER_CODE_SETTINGS, PAPER_NOW, "original", "sweep-lights-paper-left",
-        f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}"),
+        f"{GRID_SETTING} {PAPER_CODE_NOTE}", f"{NOISE1_SETTING} {PAPER_CODE_NOTE}",
+        headlines=(Headline("stop at red lights, the paper's world, update, network and budget",
+                            "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
+                            "32,000 joint steps (9.6 M decisions, the paper's own run)",
+                            (("lidar_noise", "0.5"),),
+                            ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
     Section("traffic-lights-paper-turns-1car", "A lone car in the paper's own turning world", "lights",
             (("init_from", "false"), ("num_cars", "1"), ("preset", "paper-turns"), ("lidar_noise", "0.0"),
              ("lidar_encoder", "original")),
@@ -189,12 +194,7 @@ _PAPER_WORLD_LIGHTS: tuple[Section, ...] = (
     *_noise_grid(
         "traffic-lights-preset", "Stopping at red lights in the paper's world, update and network",
         "Stopping at red lights in the paper's world, update and network, LiDAR noise 1.0",
-        MIRROR_SETTINGS, PAPER_BEFORE, "original", "sweep-lights-paper-net", GRID_SETTING, NOISE1_SETTING,
-        headlines=(Headline("stop at red lights, the paper's world, update, network and budget",
-                            "`intersection-v0` with `preset=\"paper\"`, 4 cars, LiDAR noise 0.5, 75 epochs of "
-                            "32,000 joint steps (9.6 M decisions, the paper's own run)",
-                            (("lidar_noise", "0.5"),),
-                            ("red_light_violation_rate", "success_rate", "collision_rate"), in_readme=True),)),
+        MIRROR_SETTINGS, PAPER_BEFORE, "original", "sweep-lights-paper-net", GRID_SETTING, NOISE1_SETTING),
     Section("traffic-lights-preset-1car", "A lone car in the paper's world, update and network", "lights",
             (("init_from", "false"), ("num_cars", "1"), ("preset", "paper"), *MIRROR_SETTINGS,
              ("lidar_encoder", "original")),
