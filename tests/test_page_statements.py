@@ -517,6 +517,11 @@ def test_a_lone_car_follows_the_light_only_below_every_rule_free_driver():
     low = mean_ci([0.10, 0.20, 0.30]).low
     assert line.endswith(f"not below every rule-free driver (our interval reaches down to {max(low, 0.0):.3f}): "
                          "the light is not followed, as in the paper.")
+    assert "no width" not in line
+    alike = Group({}, [0, 1, 2], {"red_light_violation_rate": mean_ci([0.3, 0.3, 0.3])})  # every seed the same
+    line = lone_car_statement([alike], drivers)[0]
+    assert "ours 0.300 ± 0.000 (all 3 seeds scored 0.300 on these episodes: the interval over seeds has no " \
+           "width" in line
     assert lone_car_statement([ignores], {}) == []  # no baseline measured: nothing said
     one_seed = Group({}, [0], {"red_light_violation_rate": mean_ci([0.2])})
     assert lone_car_statement([one_seed], drivers) == []  # no interval from one seed

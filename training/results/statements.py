@@ -359,8 +359,11 @@ def lone_car_statement(groups: list[Group], baseline: Baseline) -> list[str]:
         else:
             verdict = (f"not below every rule-free driver (our interval reaches down to {max(low, 0.0):.3f}): the "
                        "light is not followed, as in the paper")
+        # seeds that all score the same leave an interval of no width: say so, and what it leaves out
+        same = (f" (all {e.n} seeds scored {e.mean:.3f} on these episodes: the interval over seeds has no width, and "
+                f"the episodes' own sampling error is not in it)" if len(set(e.values)) == 1 else "")
         lines.append(f"- 1 car, red-light violations against rule-free scripted drivers on the same {episodes} report "
-                     f"episodes ({_where(g.point)}): ours {e.format()}; {them}: {verdict}.")
+                     f"episodes ({_where(g.point)}): ours {e.format()}{same}; {them}: {verdict}.")
     return lines
 
 
