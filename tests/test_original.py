@@ -431,10 +431,11 @@ def test_evaluate_scores_a_scripted_driver_in_either_world_and_refuses_in_one_li
     assert cli.main(["evaluate", "--driver", "rule", "--cars", "17", "--out", str(bad)]) == 2
     assert cli.main(["evaluate", "--driver", "rule", "--world", "ours", "--cars", "8", "--out", str(bad)]) == 2
     assert cli.main(["evaluate", "--driver", "rule", "--out", str(out)]) == 2  # nothing replaced
+    assert cli.main(["evaluate", "--driver", "rule", "--world", "ours", "--set", "num_cars=2", "--out", str(bad)]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line]
-    assert len(err) == 5 and all("error:" in line for line in err)
+    assert len(err) == 6 and all("error:" in line for line in err)
     assert "need --driver" in err[0] and "--epoch" in err[1] and "nagents" in err[2]
-    assert "approach_order=random" in err[3] and "exists" in err[4]
+    assert "approach_order=random" in err[3] and "exists" in err[4] and "--set num_cars" in err[5]
     assert not bad.exists() and len(specs) == 2 and json.loads(out.read_text()) == report
 
 

@@ -155,6 +155,9 @@ def driver_table(table_path: Path, driver: str, world: str, episodes: int, first
         original_table(venv_python(), WORKER, driver, episodes, first_seed, cars, table_path, turns)
         return
     preset = "paper-turns" if turns else "paper"
+    for key, flag in (("num_cars", "--cars"), ("turns", "--turns")):
+        if key in (overrides or {}):  # one way to say it, so the report's cars and world are the ones driven
+            raise OriginalError(f"--set {key}: a scripted driver's world takes it from {flag}")
     check_spawns(cars, overrides or {}, preset)
     env = make("intersection-v0", preset=preset, **{"num_cars": cars, **(overrides or {})})
     try:
