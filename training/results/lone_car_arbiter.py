@@ -17,6 +17,7 @@ from training.common.markdown import anchor, row, separator
 from box2d_driving.metrics.stats import mean_ci
 from training.results.original_runs import (METRIC, RULE_FREE, DriverReport, OriginalRun, drivers_part, finished,
                                             report_rates, same_episodes)
+from training.results.statements import light_followed
 
 __all__ = ["LONE_CAR_TITLE", "lone_car_cell", "lone_car_section", "lone_car_verdict"]
 
@@ -43,10 +44,8 @@ def lone_car_verdict(runs: list[OriginalRun], drivers: list[DriverReport]) -> tu
     low, high = e.interval
     them = ", ".join(f"{name} {value:.3f}" for name, value in free.items())
     words = f"{seeds}; 1 car, red-light violations {e.format()} over seeds; on the same episodes {them}"
-    if high < min(free.values()):
-        return "opposite", words + ": below every rule-free driver: the lone car stops for the light, unlike the paper"
-    return "reproduced", (words + f": not below every rule-free driver (the interval reaches down to "
-                          f"{max(low, 0.0):.3f}): the light is not followed, as in the paper")
+    follows, reading = light_followed(low, high, min(free.values()), "the")
+    return ("opposite" if follows else "reproduced"), f"{words}: {reading}"
 
 
 def lone_car_cell(runs: list[OriginalRun], drivers: list[DriverReport]) -> str:

@@ -93,9 +93,9 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
     per rule, then the original trainer's runs carried in ``original``) and its figures into
     ``figures``; returns the page text. With ``gifs``, (re)draw each section's animation of its
     shipped policy first (needs the checkpoints; without, existing animations are linked)."""
-    runs = load_original_runs(original) if Path(original).is_dir() else []
-    drivers = load_driver_reports(original) if Path(original).is_dir() else []
-    lone = load_lone_car_runs(original) if Path(original).is_dir() else []
+    carried = Path(original).is_dir()
+    runs, drivers, lone = ((load_original_runs(original), load_driver_reports(original), load_lone_car_runs(original))
+                           if carried else ([], [], []))
     figures.mkdir(parents=True, exist_ok=True)
     rel = Path(_relative(figures, out.parent))
     parts = _page_intro()

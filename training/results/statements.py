@@ -333,6 +333,16 @@ def reference_statement(groups: list[Group], reference: Group, label: str, more_
     return lines
 
 
+def light_followed(low: float, high: float, lowest: float, whose: str) -> tuple[bool, str]:
+    """Whether a lone car's violations interval ``[low, high]`` lies below ``lowest``, the lowest
+    rule-free scripted driver's rate on the same episodes (the light followed, unlike the paper),
+    and the words for it; ``whose``: how the words name the interval ("our", "the")."""
+    if high < lowest:
+        return True, "below every rule-free driver: the lone car stops for the light, unlike the paper"
+    return False, (f"not below every rule-free driver ({whose} interval reaches down to {max(low, 0.0):.3f}): the "
+                   "light is not followed, as in the paper")
+
+
 def lone_car_statement(groups: list[Group], baseline: Baseline) -> list[str]:
     """The paper's lone car: "in a single agent environment, there is no need to follow the
     signals". A car follows the light only where its violations' interval lies below every
@@ -354,11 +364,7 @@ def lone_car_statement(groups: list[Group], baseline: Baseline) -> list[str]:
         low, high = e.interval
         them = ", ".join(f"{d} {v:.3f}" for d, v in drivers.items())
         lowest = min(drivers.values())
-        if high < lowest:
-            verdict = "below every rule-free driver: the lone car stops for the light, unlike the paper"
-        else:
-            verdict = (f"not below every rule-free driver (our interval reaches down to {max(low, 0.0):.3f}): the "
-                       "light is not followed, as in the paper")
+        _, verdict = light_followed(low, high, lowest, "our")
         # seeds that all score the same leave an interval of no width: say so, and what it leaves out
         same = (f" (all {e.n} seeds scored {e.mean:.3f} on these episodes: the interval over seeds has no width, and "
                 f"the episodes' own sampling error is not in it)" if len(set(e.values)) == 1 else "")
