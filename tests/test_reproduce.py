@@ -132,6 +132,22 @@ def test_seeds_a_command_asks_beyond_its_summary_count_as_planned(tmp_path, monk
     assert "12 of 16 planned trials done" in page.read_text()
 
 
+def test_a_sweep_with_no_finished_trial_shows_no_empty_table(tmp_path):
+    """Trials carried part-way or pending only: the section says none has finished, with no table
+    header over no rows and no count of kept weights."""
+    statuses = {f"lights_lidar_noise={n}_num_cars={c}_seed={s}": ("stopped" if s == 0 else "pending")
+                for (n, c) in VIOLATIONS for s in range(3)}
+    summary = lights_summary(tmp_path / "lights.json", VIOLATIONS, statuses=statuses)
+    page = tmp_path / "results.md"
+    assert main([str(summary), "--out", str(page)]) == 0
+    text = page.read_text()
+    part = text[text.index("**Ours** (0 of 12 planned trials done"):]
+    part = part[:part.index("\n## ")]
+    assert "No trial has finished yet" in part and "final weights kept" not in part
+    assert "| lidar_noise | num_cars | seeds |" not in part
+    assert "`lights_lidar_noise=0_num_cars=1_seed=0` (stopped)" in part
+
+
 def test_every_rules_rerun_command_is_a_valid_sweep():
     import shlex
 

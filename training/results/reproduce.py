@@ -191,18 +191,22 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     curves = load_curves(curves_path(summary["path"]), keys,
                          trials={r["trial"] for r in trials if r.get("status") == "done"})
     kept, _ = kept_count(Path(summary["path"]), trials)
+    weights = (f"; final weights kept for {kept} of the {done}, which `reproduce --reevaluate` can measure again"
+               if done else "")
     parts = [f"**Ours** ({done} of {planned} planned trials done; summary `{summary['path']}`; "
              f"{trial_budget(summary['sweep'])} per trial{ran_budget(trials)}, "
-             f"{summary['sweep']['episodes']} report episodes each; final weights kept for {kept} of the {done}, "
-             f"which `reproduce --reevaluate` can measure again). {section.setting}"
+             f"{summary['sweep']['episodes']} report episodes each{weights}). {section.setting}"
              + budget_note(section, curves is not None) + joined_note(section, joined_paths, joined), ""]
-    header = [*keys, "seeds", *(label for _, label in section.metrics)]
-    parts += [row(header), separator(len(header))]
-    for g in groups:
-        cells = [g.point[k] for k in keys] + [str(len(g.seeds))]
-        cells += [_estimate_cell(g.estimates[m], g.seeds, section.seeds_before_look) for m in metrics]
-        parts.append(row(cells))
-    parts.append("")
+    if groups:
+        header = [*keys, "seeds", *(label for _, label in section.metrics)]
+        parts += [row(header), separator(len(header))]
+        for g in groups:
+            cells = [g.point[k] for k in keys] + [str(len(g.seeds))]
+            cells += [_estimate_cell(g.estimates[m], g.seeds, section.seeds_before_look) for m in metrics]
+            parts.append(row(cells))
+        parts.append("")
+    else:  # trials stopped part-way or pending only: no row to show yet, and no empty table
+        parts += ["No trial has finished yet: the table comes with the first.", ""]
     blind = blind_line(summary, keys)
     for line in (start_line(summary, kept), blind):
         if line:
