@@ -148,6 +148,36 @@ def test_a_sweep_with_no_finished_trial_shows_no_empty_table(tmp_path):
     assert "`lights_lidar_noise=0_num_cars=1_seed=0` (stopped)" in part
 
 
+def test_a_trial_carried_part_way_is_named_with_how_far_it_got(tmp_path):
+    """A trial stopped part-way and carried beside the summary is named under its section's table
+    with its decisions against its budget (from the carried run's own files); a finished trial's
+    leftover carry is not; an unreadable carry is an error naming it."""
+    import json
+
+    from training.results.data import ResultsError
+    from training.results.notes import carried_line
+
+    statuses = {f"lights_lidar_noise={n}_num_cars={c}_seed={s}": ("stopped" if (s, c) == (0, "1") else "done")
+                for (n, c) in VIOLATIONS for s in range(3)}
+    summary = lights_summary(tmp_path / "lights.json", VIOLATIONS, statuses=statuses)
+    for trial, ran in (("lights_lidar_noise=0_num_cars=1_seed=0", 5_000),
+                       ("lights_lidar_noise=0_num_cars=4_seed=0", 20_480)):
+        run = tmp_path / "carried" / "lights" / trial
+        run.mkdir(parents=True)
+        (run / "state.json").write_text(json.dumps({"decisions": ran}))
+        (run / "config.json").write_text(json.dumps({"timesteps": 20_000}))
+    page = tmp_path / "results.md"
+    assert main([str(summary), "--out", str(page)]) == 0
+    text = page.read_text()
+    assert "`lights_lidar_noise=0_num_cars=1_seed=0` at 5,000 of 20,000 (25 %) decisions." in text
+    assert "num_cars=4_seed=0` at" not in text  # done: its carry is a leftover, not a trial part-way
+
+    loaded = {"path": str(summary), "trials": [{"trial": t, "status": st} for t, st in statuses.items()]}
+    (tmp_path / "carried" / "lights" / "lights_lidar_noise=0_num_cars=1_seed=0" / "state.json").write_text("{")
+    with pytest.raises(ResultsError, match="num_cars=1_seed=0: a carried run"):
+        carried_line(loaded)
+
+
 def test_every_rules_rerun_command_is_a_valid_sweep():
     import shlex
 

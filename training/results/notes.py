@@ -4,13 +4,16 @@ from and which finished trials the learning curves cover."""
 
 from __future__ import annotations
 
-from typing import Any
+import json
+from pathlib import Path
+from typing import Any, Optional
 
-from training.results.data import Group
+from training.results.data import Group, ResultsError
 from training.original.commands import TrainerSettings
 from training.results.sections import Section, section as section_by_key
 
-__all__ = ["budget_note", "curve_coverage", "joined_note", "ran_budget", "ran_decisions", "trial_budget"]
+__all__ = ["budget_note", "carried_line", "curve_coverage", "joined_note", "ran_budget", "ran_decisions",
+           "trial_budget"]
 
 
 def trial_budget(sweep: dict[str, Any]) -> str:
@@ -90,3 +93,33 @@ def ran_budget(trials: list[dict[str, Any]]) -> str:
         return ""
     ran_text = f"{ran[0]:,}" if len(ran) == 1 else f"{ran[0]:,} to {ran[-1]:,}"
     return f" (each ran {ran_text} decisions: whole rollouts)"
+
+
+def carried_line(summary: dict[str, Any], command: Optional[str] = None) -> Optional[str]:
+    """The trials of ``summary`` stopped part-way and carried beside it (``carried/NAME/<trial>/``,
+    not yet in its table): how far each got in decisions, from its ``state.json``, against the budget
+    its ``config.json`` asks for, and ``command``, which continues them; None where none is carried.
+    :class:`ResultsError` names a carried run whose files cannot be read."""
+    from training.sweeps.carry import carried_folder
+
+    path = Path(summary["path"])
+    folder = carried_folder(path.parent, path.stem)
+    if not folder.is_dir():
+        return None
+    done = {r["trial"] for r in summary["trials"] if r.get("status") == "done"}
+    found = []
+    # a finished trial's carry is removed when it lands; one left beside a committed summary is not part-way
+    for run in sorted(p for p in folder.iterdir()
+                      if p.is_dir() and not p.name.endswith(".partial") and p.name not in done):
+        try:
+            ran = int(json.loads((run / "state.json").read_text())["decisions"])
+            asked = json.loads((run / "config.json").read_text()).get("timesteps")
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ResultsError(f"{run}: a carried run without a readable state.json and config.json ({exc})") from exc
+        of = f" of {int(asked):,} ({100 * ran / int(asked):.0f} %)" if isinstance(asked, (int, float)) and asked else ""
+        found.append(f"`{run.name}` at {ran:,}{of} decisions")
+    if not found:
+        return None
+    return (f"Carried part-way, not in the table (`{folder.as_posix()}/`: each trial's latest checkpoint with its "
+            "optimiser state): " + ", ".join(found) + "."
+            + (f" `{command}` continues them." if command else ""))

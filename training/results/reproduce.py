@@ -34,7 +34,8 @@ from training.results.figures import COMPARED
 from training.results.data import Group, ResultsError, grid_product, groups_of, load_summary
 from training.results.lidar_blind import blind_line, start_line
 from training.results.reevaluate import kept_count
-from training.results.notes import budget_note, curve_coverage, joined_note, ran_budget, ran_decisions, trial_budget
+from training.results.notes import (budget_note, carried_line, curve_coverage, joined_note, ran_budget,
+                                    ran_decisions, trial_budget)
 from training.results.sections import SECTIONS, PaperValue, Section, statements
 from training.common.seeds import REPORT
 from box2d_driving.metrics.stats import Estimate
@@ -184,7 +185,8 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     done = sum(r.get("status") == "done" for r in trials)
     # seeds the command now asks for count as planned before a run adds them to the summary
     seeds = summary["sweep"]["seeds"]
-    if Path(summary["path"]).stem == section.summary_name:
+    own_sweep = Path(summary["path"]).stem == section.summary_name  # the one `--only KEY` runs
+    if own_sweep:
         seeds = max(seeds, section.seeds)
     planned = len(grid_product([summary["grid"][k] for k in keys])) * seeds
     # finished trials only: a trial carried part-way has curve rows before it has a summary row
@@ -208,7 +210,8 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
     else:  # trials stopped part-way or pending only: no row to show yet, and no empty table
         parts += ["No trial has finished yet: the table comes with the first.", ""]
     blind = blind_line(summary, keys)
-    for line in (start_line(summary, kept), blind):
+    carried = carried_line(summary, f"box2d-driving reproduce --run --only {section.key}" if own_sweep else None)
+    for line in (carried, start_line(summary, kept), blind):
         if line:
             parts += [line, ""]
     if section.seeds_before_look is not None and any(s >= section.seeds_before_look for g in groups for s in g.seeds):
