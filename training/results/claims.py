@@ -24,8 +24,8 @@ from training.original.commands import TrainerSettings
 from training.results.sections import section
 from box2d_driving.metrics.stats import ONE_SEED
 
-__all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_table", "combined_verdict",
-           "reading_verdict"]
+__all__ = ["CLAIMS", "Claim", "Reading", "SectionResult", "claim_row", "claims_part", "claims_table",
+           "combined_verdict", "reading_verdict"]
 
 # the verdicts, one rule for all (stated once, in the page's legend): the effect shown in the
 # paper's direction or the paper's value inside our interval; the effect shown the other way; no
@@ -332,3 +332,28 @@ def worlds_sentence(found_sections: dict[str, SectionResult]) -> str:
             + "; ".join(f"*{w}*" for w in preset)
             + "; the others from our default world (what differs: the same page); each row gives its share of the "
               "paper's joint steps.")
+
+
+def claims_part(found_sections: dict[str, SectionResult], arbiter: dict[str, str]) -> list[str]:
+    """The table of where the page stands on each of the paper's claims, with how to read it."""
+    return ["## Where the page stands on the paper's claims", "",
+            "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
+            "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
+            f"section below). {worlds_sentence(found_sections)} "
+            "One rule decides every verdict: *reproduced* where the interval shows the effect in "
+            "the paper's direction (excludes no effect), or holds the paper's value; *opposite* where it excludes no "
+            "effect in the other direction; *not detected* where it straddles no effect (the statement says the "
+            "largest effect in the paper's direction the interval still allows); *differs* where the paper gives a "
+            "value and our interval excludes it. A claim of several parts takes the first of opposite, differs, not "
+            "detected that any part has, else reproduced. Seed counts that would tell are planning estimates: they "
+            "take the observed mean and spread as true. An interval reaching past its metric's range (a share below 0 "
+            "or above 1, a correlation past +-1) is cut at the range and printed as [low, high]. Every p-value of "
+            "the table stands with its Holm-adjusted value over the table's family of tests (the verdicts read the "
+            "95 % intervals, which are not adjusted). And whether the claim's measure had stopped moving by the "
+            "end of training "
+            "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
+            "noisy to tell, how many seeds with curves the observed spread would need to settle it. The last column: "
+            "what the paper's own trainer, run on the paper's own command in its own world, says (so far "
+            + ("the noise claim and the lone car have" if "lone-car" in arbiter else "only the noise claim has")
+            + " been run there).", "",
+            *claims_table(found_sections, arbiter), ""]

@@ -26,7 +26,7 @@ from training.results.arbiter import (ORIGINAL_RUNS, arbiter_cell, arbiter_secti
                                       load_original_runs)
 from training.results.lone_car_arbiter import lone_car_cell, lone_car_section
 from training.results.original_runs import load_lone_car_runs
-from training.results.claims import SectionResult, claims_table, worlds_sentence
+from training.results.claims import SectionResult, claims_part
 from training.results.matching import grid_order, joined_groups, reference, section_summaries
 from training.results.readme import README_START, readme_table, readme_text, update_readme
 from training.results.curves import curve_figure, curves_path, load_curves, plateau_lines
@@ -119,7 +119,7 @@ def write_page(summaries: list[dict[str, Any]], out: Path, figures: Path, gifs: 
                   "```bash", section.command, "```", ""]
     parts += arbiter_section(runs, figures, rel.as_posix(), drivers) + lone_car_section(lone, drivers)
     cells = {"noise": arbiter_cell(runs), **({"lone-car": lone_car_cell(lone, drivers)} if lone else {})}
-    parts[intro:intro] = _claims_part(found_sections, cells) + _glance_part(summaries)
+    parts[intro:intro] = claims_part(found_sections, cells) + _glance_part(summaries)
     text = "\n".join(parts)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".partial")
@@ -246,31 +246,6 @@ def _summary_part(section: Section, summary: dict[str, Any], summaries: list[dic
                   "checkpoint where their run folder under `runs/` is still there, else from the start): "
                   + ", ".join(f"`{r['trial']}` ({r['status']})" for r in failed), ""]
     return parts, result
-
-
-def _claims_part(found_sections: dict[str, SectionResult], arbiter: dict[str, str]) -> list[str]:
-    """The table of where the page stands on each of the paper's claims, with how to read it."""
-    return ["## Where the page stands on the paper's claims", "",
-            "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
-            "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
-            f"section below). {worlds_sentence(found_sections)} "
-            "One rule decides every verdict: *reproduced* where the interval shows the effect in "
-            "the paper's direction (excludes no effect), or holds the paper's value; *opposite* where it excludes no "
-            "effect in the other direction; *not detected* where it straddles no effect (the statement says the "
-            "largest effect in the paper's direction the interval still allows); *differs* where the paper gives a "
-            "value and our interval excludes it. A claim of several parts takes the first of opposite, differs, not "
-            "detected that any part has, else reproduced. Seed counts that would tell are planning estimates: they "
-            "take the observed mean and spread as true. An interval reaching past its metric's range (a share below 0 "
-            "or above 1, a correlation past +-1) is cut at the range and printed as [low, high]. Every p-value of "
-            "the table stands with its Holm-adjusted value over the table's family of tests (the verdicts read the "
-            "95 % intervals, which are not adjusted). And whether the claim's measure had stopped moving by the "
-            "end of training "
-            "(its learning curves on selection episodes; the section says how each was read) and, where that is too "
-            "noisy to tell, how many seeds with curves the observed spread would need to settle it. The last column: "
-            "what the paper's own trainer, run on the paper's own command in its own world, says (so far "
-            + ("the noise claim and the lone car have" if "lone-car" in arbiter else "only the noise claim has")
-            + " been run there).", "",
-            *claims_table(found_sections, arbiter), ""]
 
 
 def _relative(target: Path, start: Path) -> str:
