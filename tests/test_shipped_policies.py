@@ -10,6 +10,7 @@ import pytest
 
 from box2d_driving.metrics.rollouts import run_episodes
 from tests.helpers import assert_nested_close
+from training.common.asset_budgets import ASSET_BUDGETS
 from training.runs.checkpoint import read_checkpoint
 from training.runs.inference import load_policy
 
@@ -29,21 +30,9 @@ def test_policies_are_shipped_safely():
         read_checkpoint(path)  # a valid checkpoint of our format
 
 
-# what every clone pays for: the shipped policies (one small policy per result row), reports,
-# maps, sweep summaries and curves...
-SHIPPED_BUDGET = 25 * 2**20
-# ...and, apart, each landed sweep trial's final actor (assets/sweeps/weights, ~0.3 MB a trial),
-# kept so that `reproduce --reevaluate` measures a trial again without retraining it (and
-# `lidar-use` whether it sees): the paper preset's lights sections are 34 trials with the paper
-# code's encoder in its mirror-image world (4-car grid, noise 1.0, lone car, 8 cars) and 34 in
-# its world on the left (grid, noise 1.0, lone car, 8 cars), beside the 22 of its first runs
+# the budgets, with why each is what it is: training/common/asset_budgets.py
 KEPT_WEIGHTS = ROOT / "assets" / "sweeps" / "weights"
-KEPT_WEIGHTS_BUDGET = 32 * 2**20
-# ...and the paper's own trainer's runs (assets/original): a finished one keeps its last actor and
-# report (~0.4 MB), one still training its weights with both Adam states to resume from (~2 MB)
-# and the actors it kept that its curve.csv has not drawn yet (0.3 MB each)
 ORIGINAL_RUNS = ROOT / "assets" / "original"
-ORIGINAL_RUNS_BUDGET = 10 * 2**20
 
 
 def test_assets_stay_lean():
@@ -53,10 +42,10 @@ def test_assets_stay_lean():
     files = [p for p in (ROOT / "assets").rglob("*") if p.is_file()]
     kept = [p for p in files if KEPT_WEIGHTS in p.parents]
     original = [p for p in files if ORIGINAL_RUNS in p.parents]
-    assert sum(p.stat().st_size for p in kept) <= KEPT_WEIGHTS_BUDGET
-    assert sum(p.stat().st_size for p in original) <= ORIGINAL_RUNS_BUDGET
-    assert sum(p.stat().st_size for p in files if p not in set(kept) | set(original)) <= SHIPPED_BUDGET
-    big = [(str(p.relative_to(ROOT)), p.stat().st_size) for p in files if p.stat().st_size > 2 * 2**20]
+    assert sum(p.stat().st_size for p in kept) <= ASSET_BUDGETS.kept_weights
+    assert sum(p.stat().st_size for p in original) <= ASSET_BUDGETS.original_runs
+    assert sum(p.stat().st_size for p in files if p not in set(kept) | set(original)) <= ASSET_BUDGETS.shipped
+    big = [(str(p.relative_to(ROOT)), p.stat().st_size) for p in files if p.stat().st_size > ASSET_BUDGETS.file]
     assert not big, big
 
 
