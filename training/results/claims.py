@@ -19,6 +19,7 @@ from typing import Any, Mapping, Optional
 from training.results.curves import (PLATEAU_TOLERANCE, TOO_NOISY, late_changes, plateau_verdict, seeds_to_settle,
                                      settle_words)
 from training.results.data import Group
+from training.results.deviations import PaperCommand, deviations, section_settings
 from training.common.markdown import all_of, anchor, row, separator
 from training.original.commands import TrainerSettings
 from training.results.sections import section
@@ -61,6 +62,8 @@ class Claim:
     # the cell of the paper's own trainer, where it ran the claim: "noise" (training/results/arbiter.py),
     # "lone-car" (training/results/lone_car_arbiter.py); "" none
     arbiter: str = ""
+    # the paper's command for it, against which the row lists what its run did differently
+    command: Optional[PaperCommand] = None
 
 
 @dataclass
@@ -104,12 +107,17 @@ LANES_READINGS = (Reading(r"- one-sided offset \(num_cars=8\b", "the cars keep t
                   # beside it: each car count against drivers with no lane rule on random paths
                   Reading(r"- one-sided offset against scripted drivers ", "learnt", decides=False))
 
+# the lanes and nuScenes commands, whose lines the experiment list left empty: its entropy for
+# every lane and nuScenes run (1e-4); where training started, not stated
+LANES_COMMAND = PaperCommand(1e-4, start=None)
+NUSCENES_COMMAND = PaperCommand(1e-4, start=None, maps="nuScenes junctions")
+
 CLAIMS: tuple[Claim, ...] = (
     Claim("With more LiDAR noise, fewer cars enter on red",
           ("traffic-lights-paper-left", "traffic-lights-preset", "traffic-lights-paper"),
           (Reading(r"- 4 cars, red-light violations: "),
            Reading(r"- red-light violations against scripted drivers ", decides=False)),
-          "red_light_violation_rate", "red-light violations", arbiter="noise"),
+          "red_light_violation_rate", "red-light violations", arbiter="noise", command=PaperCommand(1e-4)),
     # a lone car has no car to see: the runs with our (often dead) LiDAR encoder still speak to it
     Claim("A lone car has no need to follow the light",
           ("traffic-lights-paper-turns-1car", "traffic-lights-paper-left-1car", "traffic-lights-preset-1car",
@@ -117,26 +125,29 @@ CLAIMS: tuple[Claim, ...] = (
           (Reading(r"- 1 car, red-light violations against rule-free scripted drivers "),
            # beside it: the lone car against the 4-car row of the same world, budget and noise
            Reading(r"- red-light violations: these trials", decides=False)),
-          "red_light_violation_rate", "red-light violations", arbiter="lone-car"),
+          "red_light_violation_rate", "red-light violations", arbiter="lone-car",
+          command=PaperCommand(1e-3)),
     Claim("With more cars, fewer cars enter on red",
           ("traffic-lights-paper-left-8cars", "traffic-lights-preset-8cars", "denser-traffic-paper"),
-          (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations"),
+          (Reading(r"- red-light violations: these trials"),), "red_light_violation_rate", "red-light violations",
+          command=PaperCommand(1e-4, start="from its 4-car noise-0 model, actor and critic")),
     Claim("Lanes with 8 cars, none with 4", ("lanes-paper-16M", "lanes-noise", "lanes-paper"),
           LANES_READINGS,
-          "lanes.one_sided_offset", "one-sided offset"),
+          "lanes.one_sided_offset", "one-sided offset", command=LANES_COMMAND),
     Claim("Lanes with 8 cars, none with 4, the path picked as in the paper's code (one 216-way softmax)",
           ("lanes-joint",),
           LANES_READINGS,
-          "lanes.one_sided_offset", "one-sided offset"),
+          "lanes.one_sided_offset", "one-sided offset", command=LANES_COMMAND),
     Claim("Lanes more consistent with LiDAR noise than with perfect perception", ("lanes-noise",),
-          (Reading(r"- num_cars=\d+, one-sided offset: noise 0 "),), "lanes.one_sided_offset", "one-sided offset"),
+          (Reading(r"- num_cars=\d+, one-sided offset: noise 0 "),), "lanes.one_sided_offset", "one-sided offset",
+          command=LANES_COMMAND),
     Claim("Turn signals: speaker consistency and |Pearson(heading change, bit)| rise with LiDAR noise",
           ("communication-paper-32M", "communication-paper-16M", "communication-paper"),
           (Reading(r"- speaker consistency \(bits\): noise "),
            Reading(r"- \|Pearson\(heading change, bit\)\|: noise "),
            # beside it: whether the bit says anything at each level, against bits that say nothing
            Reading(r"- speaker consistency \(bits\) against scripted drivers ", "learnt", decides=False)),
-          "communication.speaker_consistency_bits", "speaker consistency"),
+          "communication.speaker_consistency_bits", "speaker consistency", command=NUSCENES_COMMAND),
     # every leader counts (wrecks too: collided cars stay on the road in the paper's code as in
     # ours), the reading the verdict uses; leaders that move are the other reading, shown beside it
     Claim("98.45 % of following samples keep the speed-matching distance (the verdict counts every car ahead, "
@@ -144,12 +155,12 @@ CLAIMS: tuple[Claim, ...] = (
           (Reading(r"- safety_distance\.safe_share ", "lies inside our interval"),
            Reading(r"- safety_distance\.safe_share_moving_leader ", "lies inside our interval", decides=False),
            Reading(r"- safe-distance share against scripted drivers ")),
-          "safety_distance.safe_share", "safe-distance share"),
+          "safety_distance.safe_share", "safe-distance share", command=NUSCENES_COMMAND),
     Claim("Cars leave the junction in the order they entered 85.25 +- 8.9 % of the time",
           ("right-of-way-paper-32M", "right-of-way"),
           (Reading(r"- right_of_way\.fifo_share ", "our mean is inside that spread"),
            Reading(r"- FIFO share against scripted drivers ")),
-          "right_of_way.fifo_share", "FIFO share"),
+          "right_of_way.fifo_share", "FIFO share", command=NUSCENES_COMMAND),
 )
 
 
@@ -240,6 +251,10 @@ def claim_row(claim: Claim, found: dict[str, SectionResult]) -> list[str]:
     else:
         seeds_text = f"{seeds[0]} seeds" if len(seeds) == 1 else f"{seeds[0]}-{seeds[-1]} seeds"
     ours = f"[{result.title}](#{anchor(result.title)}): {_budget(result)}, {seeds_text}"
+    if claim.command is not None:
+        differs = deviations(section_settings(key), claim.command)
+        ours += ("; unlike the paper's command: " + "; ".join(differs) if differs
+                 else "; the paper's command but for the budget")
     now = f"**{verdict}**; {_plateau(result, claim.curve, claim.curve_label)}"
     said = "<br>".join(line[2:] for line, _ in lines) or "no statement yet (too few seeds for an interval)"
     return [claim.words, result.paper_budget, ours, now, said]
@@ -339,7 +354,9 @@ def claims_part(found_sections: dict[str, SectionResult], arbiter: dict[str, str
     return ["## Where the page stands on the paper's claims", "",
             "Each of the paper's claims this page tests, read from its largest run so far that speaks to "
             "every part of the claim (a larger run with statements on only part of it so far is reported in its own "
-            f"section below). {worlds_sentence(found_sections)} "
+            f"section below). {worlds_sentence(found_sections)} Each row also lists where its run differs from the "
+            "paper's command beyond the budget (the world and its junctions, entropy, collision reward, where "
+            "training started, the LiDAR encoder), read from the settings its sweep command builds. "
             "One rule decides every verdict: *reproduced* where the interval shows the effect in "
             "the paper's direction (excludes no effect), or holds the paper's value; *opposite* where it excludes no "
             "effect in the other direction; *not detected* where it straddles no effect (the statement says the "
