@@ -8,7 +8,7 @@ state it. The budget has its own words in the claims table (epochs of joint step
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Optional
 
 __all__ = ["PaperCommand", "TrialSettings", "deviations", "section_settings"]
 
@@ -53,18 +53,15 @@ def section_settings(key: str) -> TrialSettings:
     ``init_from`` string, as the page shows it; the env's default collision reward where the
     command sets none)."""
     from box2d_driving.scenarios import scenario
-    from training.common.cli_args import parse
     from training.results.sections import section
-    from training.sweeps.spec import algorithm, script_module
+    from training.sweeps.spec import script_module, trial_options
 
     spec, _ = section(key).spec()
-    script = script_module(spec.behaviour)
-    trial = spec.trials()[0]
-    config = algorithm(spec.behaviour).config(script.ENV_ID, parse(script.Args, trial["argv"] + ["--out", "unused"]))
-    flat: Any = getattr(config, "accel", config)  # a bilevel run's acceleration stage holds these
+    env_id = script_module(spec.behaviour).ENV_ID
+    flat = trial_options(spec, spec.trials()[0])
     env = flat.env_overrides or {}
-    default = scenario(script.ENV_ID).env_class().config_class().collision_reward
-    return TrialSettings(script.ENV_ID, float(flat.ent_coef), float(env.get("collision_reward", default)),
+    default = scenario(env_id).env_class().config_class().collision_reward
+    return TrialSettings(env_id, float(flat.ent_coef), float(env.get("collision_reward", default)),
                          spec.fixed.get("init_from") or spec.grid.get("init_from", [None])[0],
                          getattr(flat, "preset", None), getattr(flat, "lidar_encoder", None),
                          env.get("integration"), getattr(flat, "value_targets", None))

@@ -100,7 +100,7 @@ def carried_line(summary: dict[str, Any], command: Optional[str] = None) -> Opti
     not yet in its table): how far each got in decisions, from its ``state.json``, against the budget
     its ``config.json`` asks for, and ``command``, which continues them; None where none is carried.
     :class:`ResultsError` names a carried run whose files cannot be read."""
-    from training.sweeps.carry import carried_folder
+    from training.sweeps.carry import carried_folder, carried_trials
 
     path = Path(summary["path"])
     folder = carried_folder(path.parent, path.stem)
@@ -109,8 +109,7 @@ def carried_line(summary: dict[str, Any], command: Optional[str] = None) -> Opti
     done = {r["trial"] for r in summary["trials"] if r.get("status") == "done"}
     found = []
     # a finished trial's carry is removed when it lands; one left beside a committed summary is not part-way
-    for run in sorted(p for p in folder.iterdir()
-                      if p.is_dir() and not p.name.endswith(".partial") and p.name not in done):
+    for run in (r for r in carried_trials(folder) if r.name not in done):
         try:
             ran = int(json.loads((run / "state.json").read_text())["decisions"])
             asked = json.loads((run / "config.json").read_text()).get("timesteps")

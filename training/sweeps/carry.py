@@ -25,7 +25,7 @@ from typing import Any, Optional
 from training.runs.run_dir import LOCK_FILE
 from training.sweeps.spec import SweepError, SweepSpec
 
-__all__ = ["LEFT_BEHIND", "carried_folder", "carried_runs", "carry_run"]
+__all__ = ["LEFT_BEHIND", "carried_folder", "carried_runs", "carried_trials", "carry_run"]
 
 # what a carried run leaves behind: the kept checkpoints (at any depth: a bilevel run's stages
 # have their own), TensorBoard logs, an evaluation (a carried trial has not finished), and the
@@ -56,6 +56,12 @@ def carry_run(run: Path, dest: Path) -> Path:
     return dest
 
 
+def carried_trials(folder: Path) -> list[Path]:
+    """The carried run folders in ``folder`` (one per trial, by name), less a carry still being
+    written (``carry_run``'s ``.partial``)."""
+    return sorted(p for p in Path(folder).iterdir() if p.is_dir() and not p.name.endswith(".partial"))
+
+
 def _saved_seed(config: dict[str, Any]) -> Optional[int]:
     """The training seed a run's config.json holds (a bilevel run keeps it at the top or per stage)."""
     if "seed" in config:
@@ -74,7 +80,7 @@ def carried_runs(folder: Optional[Path], spec: SweepSpec) -> dict[str, Path]:
         return {}
     trials = {t["name"]: t for t in spec.trials()}
     found = {}
-    for run in sorted(p for p in Path(folder).iterdir() if p.is_dir() and not p.name.endswith(".partial")):
+    for run in carried_trials(Path(folder)):
         if run.name not in trials:
             raise SweepError(f"--carried {folder}: {run.name} is not a trial of this sweep")
         try:

@@ -161,10 +161,26 @@ def parse_pairs(pairs: list[str], what: str, many: bool) -> dict[str, Any]:
     return out
 
 
-def check_spec(spec: SweepSpec) -> None:
-    """Every trial's arguments parse and make a valid config, before anything is written."""
+def trial_options(spec: SweepSpec, trial: dict[str, Any]) -> Any:
+    """The options one trial of ``spec`` (an item of ``spec.trials()``) trains with: the PPO
+    trainers' config (a bilevel run's acceleration stage), or a bandit's. :class:`SweepError` names
+    a trial whose options do not parse or make no valid config."""
     from training.common.cli_args import parse
     script = script_module(spec.behaviour)
+    argv = trial["argv"] + ["--out", "unused"]
+    try:
+        args = parse(script.Args, argv)
+    except SystemExit:  # argparse has printed which option and value
+        raise SweepError(f"trial {trial['name']}: its options do not parse: {' '.join(argv)}") from None
+    try:
+        config = algorithm(spec.behaviour).config(script.ENV_ID, args)
+    except ValueError as exc:
+        raise SweepError(f"trial {trial['name']}: {exc}") from None
+    return getattr(config, "accel", config)
+
+
+def check_spec(spec: SweepSpec) -> None:
+    """Every trial's arguments parse and make a valid config, before anything is written."""
     trainer = algorithm(spec.behaviour)
     if spec.seeds < 1 or spec.episodes < 1:
         raise SweepError(f"--seeds and --episodes must be >= 1, got {spec.seeds} and {spec.episodes}")
@@ -177,16 +193,7 @@ def check_spec(spec: SweepSpec) -> None:
     worlds: dict[str, set] = {key: set() for key in PINNED_WORLD}
     updates: dict[str, set] = {key: set() for key in PINNED_UPDATE}
     for trial in spec.trials():
-        argv = trial["argv"] + ["--out", "unused"]
-        try:
-            args = parse(script.Args, argv)
-        except SystemExit:  # argparse has printed which option and value
-            raise SweepError(f"trial {trial['name']}: its options do not parse: {' '.join(argv)}") from None
-        try:
-            config = trainer.config(script.ENV_ID, args)
-        except ValueError as exc:
-            raise SweepError(f"trial {trial['name']}: {exc}") from None
-        flat = getattr(config, "accel", config)  # the PPO trainers' options, or a bandit's config
+        flat = trial_options(spec, trial)
         encoders.add(getattr(flat, "lidar_encoder", None))
         env = getattr(flat, "env_overrides", {}) or {}
         for key, values in worlds.items():
