@@ -262,6 +262,30 @@ def test_our_side_records_the_same_columns_and_compares():
     assert text.count("\n") == len(STATISTICS) + 1
 
 
+def test_the_constant_speed_driver_is_one_rule_in_both_worlds():
+    """The worker's constant-speed actions (sdriving's speeds in m/s) and our policy's (the sat-nav's
+    ``v / v_lim``) on the same hand-built speeds: the same levels, ties to the lower one."""
+    from box2d_driving.policies.scripted import ConstantSpeedPolicy
+    from box2d_driving.registry import make
+
+    env = make("intersection-v0", preset="paper", num_cars=4)
+    ours = ConstantSpeedPolicy(env)
+    layout = env.observation_layout
+    speed_at = layout.satnav.start + (layout.history - 1) * layout.n_satnav + layout.field("speed")
+    speeds = np.array([0.0, 2.0, 3.875, 4.0, 4.1, 6.0, 8.0, -2.0, 3.0, 3.5])  # 3.875: (4 - v) / 1 s = 0.125, a tie
+    observations = {}
+    for k, v in enumerate(speeds):
+        obs = np.zeros(env.observation_space("car_0").shape, dtype=np.float32)
+        obs[speed_at] = v / env.config.v_lim
+        observations[f"car_{k}"] = obs
+    mine = ours.act(observations)
+    levels = np.asarray(env.config.accelerations)
+    theirs = _worker().constant_speed_actions(levels, speeds, np.full(len(speeds), 8.0), 1.0, 0.5)
+    assert [mine[f"car_{k}"] for k in range(len(speeds))] == theirs.tolist()
+    assert levels[theirs].tolist() == [1.5, 1.5, 0.0, 0.0, 0.0, -1.5, -1.5, 1.5, 1.0, 0.5]
+    env.close()
+
+
 def test_the_paper_preset_reads_its_sat_nav_as_the_original_recording_does():
     """The readings no statistic of motion sees (which side of the axis, an arrived car's
     heading error at the cut): the preset's against the committed sdriving recording."""
@@ -299,16 +323,21 @@ def test_both_worlds_must_place_cars_by_the_same_rule(tmp_path, monkeypatch, cap
     assert cli.section_name(None, 4) == "default" and cli.section_name("paper-turns", 1) == "paper-turns-1car"
 
 
-def test_the_page_section_is_replaced_whole_and_only_it(tmp_path):
+def test_the_page_section_takes_the_new_driver_tables_and_keeps_the_others(tmp_path):
     from training.original.compare import write_section
 
+    def table(driver, value):
+        return f"| {driver} | original | ours | agree |\n|---|---|---|---|\n| arrival_rate | {value} | {value} | yes |"
+
     page = tmp_path / "p.md"
-    page.write_text("intro\n<!-- compare: paper -->\nold\n<!-- /compare: paper -->\nafter\n")
-    write_section(page, "paper", "| new |")
-    assert page.read_text() == "intro\n<!-- compare: paper -->\n| new |\n<!-- /compare: paper -->\nafter\n"
+    page.write_text(f"intro\n<!-- compare: paper -->\nold words\n\n{table('rule', 1)}\n\n{table('random', 2)}\n"
+                    "<!-- /compare: paper -->\nafter\n")
+    write_section(page, "paper", f"{table('random', 3)}\n\n{table('constant-speed', 4)}")
+    tables = f"{table('constant-speed', 4)}\n\n{table('rule', 1)}\n\n{table('random', 3)}"
+    assert page.read_text() == f"intro\n<!-- compare: paper -->\n{tables}\n<!-- /compare: paper -->\nafter\n"
     with pytest.raises(ValueError, match="no single section"):
-        write_section(page, "default", "x")
-    assert "| new |" in page.read_text()  # a refused write leaves the page as it was
+        write_section(page, "default", table("rule", 5))
+    assert "| 5 |" not in page.read_text()  # a refused write leaves the page as it was
 
 
 def test_a_finished_run_carried_without_its_full_weights_is_scored_from_its_last_actor(tmp_path):

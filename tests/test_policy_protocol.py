@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import box2d_driving
-from box2d_driving.policies import SCRIPTED, CheckpointError, NumpyPolicy, Policy, load_trained, make_policy
+from box2d_driving.policies import (SCRIPTED, CheckpointError, ConstantSpeedPolicy, NumpyPolicy, Policy, load_trained,
+                                    make_policy)
 
 
 @pytest.mark.parametrize("name", sorted(SCRIPTED))
@@ -18,6 +19,24 @@ def test_every_scripted_driver_is_a_policy(name):
     actions = policy.act({a: obs[a] for a in env.agents})
     assert set(actions) == set(env.agents) and all(isinstance(int(v), int) for v in actions.values())
     env.close()
+
+
+def test_the_constant_speed_driver_reaches_half_the_limit_and_holds_it():
+    """A lone car from a standstill (exact integration, 1 s decisions, levels 0.25 m/s^2 apart):
+    +1.5, +1.5, +1.0 m/s^2 to 4 m/s, then level 0 until it arrives; on a quarter of the limit
+    it settles at 2 m/s."""
+    for fraction, expected in ((0.5, [0.0, 1.5, 3.0, 4.0, 4.0, 4.0]), (0.25, [0.0, 1.5, 2.0, 2.0, 2.0, 2.0])):
+        env = box2d_driving.make("intersection-v0", num_cars=1)
+        policy = ConstantSpeedPolicy(env, fraction=fraction)
+        obs, infos = env.reset(seed=3)
+        speeds = [infos["car_0"]["speed"]]
+        while env.agents and len(speeds) < len(expected):
+            obs, _, _, _, infos = env.step(policy.act(obs))
+            speeds.append(infos["car_0"]["speed"])
+        assert speeds == pytest.approx(expected, abs=1e-9)
+        env.close()
+    with pytest.raises(ValueError, match="fraction"):
+        ConstantSpeedPolicy(box2d_driving.make("intersection-v0"), fraction=1.5)
 
 
 def test_both_loaders_give_policies_from_the_same_names_with_the_same_actions():

@@ -14,10 +14,11 @@ shipped policies.
 """
 
 from box2d_driving.policies.checkpoint_file import CheckpointError
-from box2d_driving.policies.scripted import (SCRIPTED, FullThrottlePolicy, LightRulePolicy,
+from box2d_driving.policies.scripted import (SCRIPTED, ConstantSpeedPolicy, FullThrottlePolicy, LightRulePolicy,
                                              PedestrianOraclePolicy, RandomPolicy, make_policy)
 from box2d_driving.policies.protocol import Policy
 from box2d_driving.policies.trained import NumpyPolicy, RunPolicy, TrainedPolicy, load_trained
 
-__all__ = ["CheckpointError", "FullThrottlePolicy", "LightRulePolicy", "NumpyPolicy", "PedestrianOraclePolicy",
-           "Policy", "RandomPolicy", "RunPolicy", "SCRIPTED", "TrainedPolicy", "load_trained", "make_policy"]
+__all__ = ["CheckpointError", "ConstantSpeedPolicy", "FullThrottlePolicy", "LightRulePolicy", "NumpyPolicy",
+           "PedestrianOraclePolicy", "Policy", "RandomPolicy", "RunPolicy", "SCRIPTED", "TrainedPolicy", "load_trained",
+           "make_policy"]

@@ -3,6 +3,8 @@
 * :class:`RandomPolicy`: uniform random actions (seeded).
 * :class:`FullThrottlePolicy`: the largest acceleration always (bit 0): driving blind, the lower
   reference for every safety metric.
+* :class:`ConstantSpeedPolicy`: light-blind, holding half the speed limit: at each decision the
+  acceleration level that would bring the car to its target speed by the next one.
 * :class:`LightRulePolicy`: the crude hand rule for the intersection: brake hard while the light
   shows 0.5 or 1.0 (yellow or red in the default colours), otherwise accelerate fully. A reference
   for what obeying the lights achieves, and a check on the metric code.
@@ -40,6 +42,44 @@ class FullThrottlePolicy:
 
     def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
         return {a: self._go for a in observations}
+
+
+CONSTANT_SPEED_FRACTION = 0.5  # the constant-speed driver's target, as a share of the speed limit
+
+
+class ConstantSpeedPolicy:
+    """Hold ``fraction`` of the speed limit, blind to the light and to other cars.
+
+    At each decision every car takes the acceleration level nearest to ``(target - v) / T``, the
+    acceleration that brings it from its speed ``v`` (read from its sat-nav, ``v / v_lim``) to
+    ``target = fraction * v_lim`` in one decision of ``T = dt * substeps`` seconds: full throttle
+    from a standstill, braking above the target, and from the target on the level nearest zero.
+    A car's rating scales its limit and its accelerations alike, so the rule reads the same for
+    every rating. The paper-world comparison (``original compare``) drives the same rule in the
+    paper's simulator.
+
+    Args:
+        fraction: the target speed as a share of the speed limit, in ``(0, 1]``.
+    """
+
+    def __init__(self, env: Any, fraction: float = CONSTANT_SPEED_FRACTION) -> None:
+        if not 0.0 < fraction <= 1.0:
+            raise ValueError(f"constant-speed fraction must lie in (0, 1], got {fraction!r}")
+        layout = env.observation_layout
+        self._speed = layout.satnav.start + (layout.history - 1) * layout.n_satnav + layout.field("speed")
+        cfg = env.config
+        self._levels = np.asarray(cfg.accelerations, dtype=float)
+        self._fraction = fraction
+        self._gain = cfg.v_lim / (cfg.dt * cfg.substeps)  # m/s^2 per unit of v / v_lim, over one decision
+
+    def act(self, observations: dict[str, np.ndarray]) -> dict[str, int]:
+        return {a: nearest_level(self._levels, (self._fraction - float(o[self._speed])) * self._gain)
+                for a, o in observations.items()}
+
+
+def nearest_level(levels: np.ndarray, wanted: float) -> int:
+    """The index of the level nearest ``wanted`` (m/s^2); on a tie, the lower one."""
+    return int(np.argmin(np.abs(levels - wanted)))
 
 
 class LightRulePolicy:
@@ -104,16 +144,19 @@ class PedestrianOraclePolicy:
         return out
 
 
-SCRIPTED = {"random": RandomPolicy, "full-throttle": FullThrottlePolicy, "rule": LightRulePolicy,
-            "pedestrian-oracle": PedestrianOraclePolicy}
+SCRIPTED = {"random": RandomPolicy, "full-throttle": FullThrottlePolicy, "constant-speed": ConstantSpeedPolicy,
+            "rule": LightRulePolicy, "pedestrian-oracle": PedestrianOraclePolicy}
 
 
 def make_policy(name: str, env: Any, seed: int | None = None):
-    """A scripted policy by name (``random``, ``full-throttle``, ``rule`` or ``pedestrian-oracle``)."""
+    """A scripted policy by name (``random``, ``full-throttle``, ``constant-speed``, ``rule`` or
+    ``pedestrian-oracle``)."""
     if name == "random":
         return RandomPolicy(env, seed)
     if name == "full-throttle":
         return FullThrottlePolicy(env)
+    if name == "constant-speed":
+        return ConstantSpeedPolicy(env)
     if name == "rule":
         return LightRulePolicy(env)
     if name == "pedestrian-oracle":

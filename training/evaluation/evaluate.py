@@ -35,7 +35,8 @@ from training.common.seeds import REPORT
 class Args:
     """Evaluate a policy.
 
-    checkpoint: run folder or model.safetensors, or a scripted policy (random, full-throttle, rule, pedestrian-oracle)
+    checkpoint: run folder or model.safetensors, or a scripted policy (random, full-throttle, constant-speed, rule,
+        pedestrian-oracle)
     env_id: env for scripted policies (trained ones use the env they were trained on)
     episodes: evaluation episodes
     out: output folder (must not exist unless --overwrite)

@@ -306,7 +306,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     c.add_argument("--out", type=Path, required=True,
                    help="folder for the rollout tables (tables already there are read, not rerun)")
     c.add_argument("--page", type=Path, default=None,
-                   help="also write the tables into this page's <!-- compare: NAME --> section")
+                   help="also write the tables into this page's <!-- compare: NAME --> section (each driver's "
+                        "table replaced, the other drivers' tables there kept)")
     c.add_argument("--section", default=None,
                    help="the page's section name (default: the preset's name, or 'default'; "
                         "'-Ncars' appended for N cars other than 4)")
@@ -318,9 +319,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                      help="a policy of ours trained with the paper preset and the paper code's LiDAR encoder "
                           "(a run folder, a kept trial, a shipped name)")
     who.add_argument("--driver", choices=DRIVERS,
-                     help="a scripted driver (light-blind full throttle, the light rule, uniform random) in the "
-                          "noise runs' world at LiDAR noise 0 (--cars, --turns choose another): the rule-free "
-                          "rates a trained policy is read against on the same episodes")
+                     help="a scripted driver (light-blind full throttle or constant speed, the light rule, uniform "
+                          "random) in the noise runs' world at LiDAR noise 0 (--cars, --turns choose another): "
+                          "the rule-free rates a trained policy is read against on the same episodes")
     e.add_argument("--cars", type=int, default=None,
                    help="with --driver: cars per episode (default: 4, 1 with --turns)")
     e.add_argument("--turns", action="store_true",

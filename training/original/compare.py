@@ -19,11 +19,11 @@ import numpy as np
 
 from box2d_driving.metrics.rollouts import RolloutRecorder, load_table, save_table
 from box2d_driving.metrics.world_compare import agree, world_statistics
-from box2d_driving.policies.scripted import make_policy
+from box2d_driving.policies.scripted import CONSTANT_SPEED_FRACTION, make_policy
 from box2d_driving.registry import make
 from training.original.commands import OriginalError, OriginalRun
 
-DRIVERS = ("full-throttle", "rule", "random")
+DRIVERS = ("full-throttle", "constant-speed", "rule", "random")
 
 
 class _ObservationRecorder(RolloutRecorder):
@@ -114,7 +114,8 @@ def original_table(python: Path, worker: Path, driver: str, episodes: int, first
     spec_path = out.with_suffix(".run.json")
     spec_path.write_text(json.dumps(spec))
     subprocess.run([str(python), str(worker), "rollout", str(spec_path), "--driver", driver,
-                    "--episodes", str(episodes), "--first-seed", str(first_seed), "--out", str(out)],
+                    "--episodes", str(episodes), "--first-seed", str(first_seed), "--out", str(out),
+                    "--target-fraction", repr(CONSTANT_SPEED_FRACTION)],
                    check=True, stderr=subprocess.DEVNULL)
     spec_path.unlink()
     return load_table(out)
@@ -161,14 +162,30 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
 
 
 def write_section(page: Path, name: str, text: str) -> None:
-    """Replace what stands between ``<!-- compare: NAME -->`` and ``<!-- /compare: NAME -->`` in
-    ``page`` with ``text`` (the page is rewritten whole, through a temporary file)."""
+    """Write ``text`` (driver tables, as :func:`compare` returns them) between ``<!-- compare: NAME
+    -->`` and ``<!-- /compare: NAME -->`` in ``page``: a driver's table there is replaced by its
+    new one, the tables of drivers this run did not drive are kept, anything else in the section
+    is dropped, and the tables stand in :data:`DRIVERS` order (the page is rewritten whole,
+    through a temporary file)."""
     body = page.read_text()
     start, end = f"<!-- compare: {name} -->", f"<!-- /compare: {name} -->"
     if body.count(start) != 1 or body.count(end) != 1 or body.index(start) > body.index(end):
         raise ValueError(f"{page} has no single section '{start}' ... '{end}'")
     head, rest = body.split(start)
-    _, tail = rest.split(end)
+    old, tail = rest.split(end)
+    tables = {**_driver_tables(old), **_driver_tables(text)}
+    order = sorted(tables, key=lambda d: (DRIVERS.index(d) if d in DRIVERS else len(DRIVERS), d))
     tmp = page.with_name(page.name + ".partial")
-    tmp.write_text(f"{head}{start}\n{text}\n{end}{tail}")
+    tmp.write_text(f"{head}{start}\n" + "\n\n".join(tables[d] for d in order) + f"\n{end}{tail}")
     tmp.replace(page)
+
+
+def _driver_tables(text: str) -> dict[str, str]:
+    """The driver tables in ``text`` by driver: blocks whose first line is ``| DRIVER | original |
+    ours | agree |``."""
+    out = {}
+    for block in text.strip().split("\n\n"):
+        cells = [c.strip() for c in block.strip().splitlines()[0].strip("|").split("|")] if block.strip() else []
+        if len(cells) == 4 and cells[1:] == ["original", "ours", "agree"]:
+            out[cells[0]] = block.strip()
+    return out

@@ -261,8 +261,19 @@ def train(folder: str, time_limit_s: float) -> int:
 
 
 # -- rollouts: the original world driven by a scripted or trained driver, as our table -----------
-DRIVERS = ("full-throttle", "rule", "random", "trained")
+DRIVERS = ("full-throttle", "constant-speed", "rule", "random", "trained")
 COLLIDED_WITH = ("", "car", "edge", "pedestrian")  # box2d_driving.metrics.rollouts.COLLIDED_WITH
+
+
+def constant_speed_actions(levels, speed, v_lim, period: float, fraction: float):
+    """The constant-speed driver (``box2d_driving.policies.scripted.ConstantSpeedPolicy``, the same
+    rule): for each car the index of the acceleration level (m/s^2) nearest to ``(fraction * v_lim
+    - speed) / period``, the lower on a tie; ``speed`` and ``v_lim`` per car (m/s), ``period`` the
+    seconds of one decision."""
+    import numpy as np
+
+    wanted = (fraction * np.asarray(v_lim, dtype=float) - np.asarray(speed, dtype=float)) / period
+    return np.argmin(np.abs(np.asarray(levels, dtype=float)[None, :] - wanted[:, None]), axis=1)
 
 
 def _actor(weights: str, env):
@@ -278,12 +289,14 @@ def _actor(weights: str, env):
     return ac
 
 
-def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: str, weights: str | None) -> None:
+def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: str, weights: str | None,
+            target_fraction: float = 0.5) -> None:
     """``episodes`` episodes of the original env, episode ``k`` seeded with ``first_seed + k``
     (torch, numpy and Python's generators), one row per car per decision in the columns of
     ``box2d_driving.metrics.rollouts`` (x right, y up, m; speed m/s; angles rad). Row ``decision
     == 0`` is the state at reset. A car's rows end on its collision decision or at the horizon:
-    in this world an arrived car stays, so ``arrived`` is true from its arrival decision on."""
+    in this world an arrived car stays, so ``arrived`` is true from its arrival decision on.
+    ``target_fraction``: the constant-speed driver's target, a share of the speed limit."""
     import math
 
     install_stubs()
@@ -368,6 +381,9 @@ def rollout(run_spec: dict, driver: str, episodes: int, first_seed: int, out: st
                 break
             if driver == "full-throttle":
                 act = np.full(n, n_act - 1)
+            elif driver == "constant-speed":  # the dynamics' own limit and the decision's seconds
+                act = constant_speed_actions(levels, speed, env.dynamics.v_lim[:, 0].numpy(),
+                                             env.timesteps * env.dynamics.dt, target_fraction)
             elif driver == "rule":
                 act = np.where(np.isin(light, (0.5, 1.0)), 0, n_act - 1)
             elif driver == "random":
@@ -403,10 +419,13 @@ def main(argv=None) -> int:
     r.add_argument("--episodes", type=int, required=True)
     r.add_argument("--first-seed", type=int, required=True)
     r.add_argument("--out", required=True)
+    r.add_argument("--target-fraction", type=float, default=0.5,
+                   help="the constant-speed driver's target speed, a share of the speed limit")
     args = parser.parse_args(argv)
     if args.command == "rollout":
         with open(args.run_json) as f:
-            rollout(json.load(f), args.driver, args.episodes, args.first_seed, args.out, args.weights)
+            rollout(json.load(f), args.driver, args.episodes, args.first_seed, args.out, args.weights,
+                    args.target_fraction)
         return 0
     return train(args.folder, args.time_limit * 60.0)
 
