@@ -323,6 +323,31 @@ def test_both_worlds_must_place_cars_by_the_same_rule(tmp_path, monkeypatch, cap
     assert cli.section_name(None, 4) == "default" and cli.section_name("paper-turns", 1) == "paper-turns-1car"
 
 
+def test_a_kept_table_of_another_length_is_refused_not_read(tmp_path, monkeypatch, capsys):
+    import shutil
+
+    from training.original.compare import kept_table
+
+    out = tmp_path / "c"
+    out.mkdir()
+    shutil.copy(FIXTURE, out / "original_rule.npz")  # 3 episodes
+    assert len(np.unique(kept_table(out / "original_rule.npz", 3)["episode"])) == 3
+    fake = tmp_path / "venv" / "bin"
+    fake.mkdir(parents=True)
+    (fake / "python").write_text("")
+    monkeypatch.setenv("BOX2D_DRIVING_SDRIVING_VENV", str(tmp_path / "venv"))
+    assert cli.main(["compare", "--drivers", "rule", "--episodes", "5", "--preset", "paper", "--out", str(out)]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(err) == 1 and "holds 3 episodes, not the 5" in err[0]
+    assert sorted(p.name for p in out.iterdir()) == ["original_rule.npz"]  # nothing run or written
+    monkeypatch.setattr(cli, "venv_python", lambda: Path("no-python"))
+    monkeypatch.setattr("training.original.compare.ours_table", lambda *a, **k: load_table(FIXTURE))
+    assert cli.main(["compare", "--drivers", "rule", "--episodes", "3", "--preset", "paper", "--out", str(out)]) == 0
+    assert json.loads((out / "settings.json").read_text())["preset"] == "paper"
+    assert cli.main(["compare", "--drivers", "rule", "--episodes", "3", "--out", str(out)]) == 2  # our defaults
+    assert "drawn with" in capsys.readouterr().err and not (out / "ours_random.npz").exists()
+
+
 def test_the_page_section_takes_the_new_driver_tables_and_keeps_the_others(tmp_path):
     from training.original.compare import write_section
 

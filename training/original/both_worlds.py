@@ -31,7 +31,7 @@ from training.original.tables import policy_source, run_weights, write_table
 
 WORLDS = ("original", "ours")
 RATE_NAMES = ("red_light_violation_rate", "success_rate", "collision_rate")
-SETTINGS_FILE, REPORT_FILE = "settings.json", "report.json"
+REPORT_FILE = "report.json"
 
 
 @dataclass(frozen=True)
@@ -60,23 +60,6 @@ def drivers(runs: Sequence[Path], policies: Sequence[Path]) -> list[Driver]:
         raise OriginalError(f"two drivers named {twice[0]!r}: their tables would share a file; give folders "
                             "with different names")
     return found
-
-
-def check_settings(out: Path, settings: dict) -> None:
-    """Record ``settings`` (episodes, first seed, our world's overrides) in ``out``; an ``out``
-    whose tables were drawn with other settings is refused (its tables would not pool)."""
-    path = out / SETTINGS_FILE
-    if path.exists():
-        try:
-            before = json.loads(path.read_text())
-        except (OSError, ValueError) as exc:
-            raise OriginalError(f"--out {out}: {SETTINGS_FILE} is unreadable ({exc})") from None
-        if before != settings:
-            raise OriginalError(f"--out {out}: its tables were drawn with {before}, not {settings}: choose "
-                                "another --out")
-        return
-    out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(settings, indent=1) + "\n")
 
 
 def table_path(out: Path, driver: Driver, world: str) -> Path:

@@ -35,8 +35,8 @@ from training.common.cli_args import OneLineParser, error, prog_name
 from training.common.seeds import REPORT, SELECTION, SeedError
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun, lone_car_run
 from training.original.compare import DRIVERS
-from training.original.tables import (WORKER, driver_table, policy_source, require_venv, run_weights, score_table,
-                                      trained_original_table, venv_dir, venv_python, write_table)
+from training.original.tables import (WORKER, check_settings, driver_table, policy_source, require_venv, run_weights,
+                                      score_table, trained_original_table, venv_dir, venv_python, write_table)
 
 # what the worker's environment installs: sdriving without its training-only dependencies, and
 # what its trainer and our worker import
@@ -254,7 +254,7 @@ def _both_worlds(args) -> int:
         overrides = _parse_overrides(args.set)
         found = bw.drivers(args.run, args.policy)
         require_venv()
-        bw.check_settings(args.out, {"episodes": args.episodes, "first_seed": args.first_seed,
+        check_settings(args.out, {"episodes": args.episodes, "first_seed": args.first_seed,
                                      "overrides": overrides})
         bw.drive(args.out, found, args.episodes, args.first_seed, overrides)
     except (OriginalError, SeedError, OSError, ValueError) as exc:  # CheckpointError is a ValueError
@@ -304,7 +304,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     c.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override of our intersection's config, e.g. --set horizon=25")
     c.add_argument("--out", type=Path, required=True,
-                   help="folder for the rollout tables (tables already there are read, not rerun)")
+                   help="folder for the rollout tables (tables already there are read, not rerun; a folder "
+                        "whose tables were drawn with other settings, in its settings.json, is refused)")
     c.add_argument("--page", type=Path, default=None,
                    help="also write the tables into this page's <!-- compare: NAME --> section (each driver's "
                         "table replaced, the other drivers' tables there kept)")

@@ -22,6 +22,7 @@ from box2d_driving.metrics.world_compare import agree, world_statistics
 from box2d_driving.policies.scripted import CONSTANT_SPEED_FRACTION, make_policy
 from box2d_driving.registry import make
 from training.original.commands import OriginalError, OriginalRun
+from training.original.tables import check_settings
 
 DRIVERS = ("full-throttle", "constant-speed", "rule", "random")
 
@@ -146,19 +147,35 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
     """Record both worlds per driver into ``out`` and return the markdown tables."""
     check_spawns(nagents, overrides, preset)
     turns = bool(_ours(overrides, preset).get("turns", False))  # the original's junction to match
-    out.mkdir(parents=True, exist_ok=True)
+    for driver in drivers:  # tables already there, checked before anything is written
+        for side in ("original", "ours"):
+            if (out / f"{side}_{driver}.npz").exists():
+                kept_table(out / f"{side}_{driver}.npz", episodes)
+    check_settings(out, {"episodes": episodes, "first_seed": first_seed, "cars": nagents, "preset": preset,
+                         "overrides": overrides})
     parts = []
     for driver in drivers:
         theirs_path = out / f"original_{driver}.npz"
-        theirs = (load_table(theirs_path) if theirs_path.exists()
+        theirs = (kept_table(theirs_path, episodes) if theirs_path.exists()
                   else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path, turns))
         ours_path = out / f"ours_{driver}.npz"
-        ours = load_table(ours_path) if ours_path.exists() else ours_table(
+        ours = kept_table(ours_path, episodes) if ours_path.exists() else ours_table(
             driver, episodes, first_seed, {"num_cars": nagents, **overrides}, preset)
         if not ours_path.exists():
             save_table(ours, ours_path)
         parts.append(format_rows(driver, comparison_rows(ours, theirs)))
     return "\n\n".join(parts)
+
+
+def kept_table(path: Path, episodes: int) -> dict[str, np.ndarray]:
+    """A table an earlier comparison left in its ``--out`` folder, refused (:class:`OriginalError`)
+    unless it holds ``episodes`` episodes: a table of another length is never read as this one."""
+    table = load_table(path)
+    held = len(np.unique(table["episode"]))
+    if held != episodes:
+        raise OriginalError(f"{path} holds {held} episodes, not the {episodes} asked for: "
+                            "give another --out, or --episodes " + str(held) + " to read it")
+    return table
 
 
 def write_section(page: Path, name: str, text: str) -> None:
