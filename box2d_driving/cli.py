@@ -187,8 +187,8 @@ def build_parser() -> OneLineParser:
     r = sub.add_parser("render", help="record episodes as a video and/or PNG frames")
     r.add_argument("env_id", help="a scenario id (see `box2d-driving list`)")
     r.add_argument("--policy", default="random",
-                   help="random (default), rule (brake on 0.5/1.0 lights) or a checkpoint "
-                        "(run folder or model.safetensors)")
+                   help="random (default), rule (brake on 0.5/1.0 lights), full-throttle, constant-speed, "
+                        "pedestrian-oracle, or a checkpoint (run folder or model.safetensors)")
     r.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
     r.add_argument("--out", type=Path, help="video file, .mp4 or .gif")
     r.add_argument("--frames", type=Path, help="also write PNG frames into this folder")
@@ -203,7 +203,7 @@ def build_parser() -> OneLineParser:
     g = sub.add_parser("play", help="drive one car yourself among trained cars (a pygame window)")
     g.add_argument("env_id", help="intersection-v0, highway-v0, crosswalk-v0 or real-junction-v0")
     g.add_argument("--policy", help="who drives the other cars: a scripted policy (rule, random, "
-                                    "full-throttle, pedestrian-oracle) or a checkpoint "
+                                    "full-throttle, constant-speed, pedestrian-oracle) or a checkpoint "
                                     "(default: the scenario's shipped policy in a source checkout, "
                                     "else a scripted one)")
     g.add_argument("--fps", type=float, default=2.0,
