@@ -248,6 +248,13 @@ def test_satnav_statistics_on_a_hand_built_table():
 def test_agreement_is_the_interval_of_the_difference():
     assert agree({"value": 0.5, "half_width": 0.03}, {"value": 0.54, "half_width": 0.03})
     assert not agree({"value": 0.5, "half_width": 0.02}, {"value": 0.54, "half_width": 0.02})
+    # every car at 4 m/s in both: float32's 3.9999995 (1.5, 1.5 and 1.0 m/s^2 in 0.1 s steps) agrees
+    held = np.float32(0.0)
+    for a in [1.5] * 20 + [1.0] * 10:
+        held = np.float32(held + np.float32(a) * np.float32(0.1))
+    held = float(held)
+    assert held != 4.0 and agree({"value": held, "half_width": 0.0}, {"value": 4.0, "half_width": 0.0})
+    assert not agree({"value": 3.9999, "half_width": 0.0}, {"value": 4.0, "half_width": 0.0})
 
 
 def test_our_side_records_the_same_columns_and_compares():
