@@ -156,10 +156,10 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
     parts = []
     for driver in drivers:
         theirs_path = out / f"original_{driver}.npz"
-        theirs = (kept_table(theirs_path, episodes) if theirs_path.exists()
+        theirs = (load_table(theirs_path) if theirs_path.exists()  # its length checked above
                   else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path, turns))
         ours_path = out / f"ours_{driver}.npz"
-        ours = kept_table(ours_path, episodes) if ours_path.exists() else ours_table(
+        ours = load_table(ours_path) if ours_path.exists() else ours_table(
             driver, episodes, first_seed, {"num_cars": nagents, **overrides}, preset)
         if not ours_path.exists():
             save_table(ours, ours_path)
@@ -173,8 +173,8 @@ def kept_table(path: Path, episodes: int) -> dict[str, np.ndarray]:
     table = load_table(path)
     held = len(np.unique(table["episode"]))
     if held != episodes:
-        raise OriginalError(f"{path} holds {held} episodes, not the {episodes} asked for: "
-                            "give another --out, or --episodes " + str(held) + " to read it")
+        raise OriginalError(f"{path} holds {held} episodes, not the {episodes} asked for: give another "
+                            f"--out, or --episodes {held} to read it")
     return table
 
 
