@@ -355,6 +355,25 @@ def test_a_kept_table_of_another_length_is_refused_not_read(tmp_path, monkeypatc
     assert "drawn with" in capsys.readouterr().err and not (out / "ours_random.npz").exists()
 
 
+def test_a_stopped_rollout_leaves_no_table_to_read_later(tmp_path, monkeypatch):
+    import subprocess
+
+    from box2d_driving.metrics.rollouts import save_table
+    from training.original import compare as cmp
+
+    def dies_midway(cmd, **kwargs):  # the worker writes part of its file, then is stopped
+        Path(cmd[cmd.index("--out") + 1]).write_bytes(b"PK\x03\x04 half a zip")
+        raise subprocess.CalledProcessError(-9, cmd)
+    monkeypatch.setattr(cmp.subprocess, "run", dies_midway)
+    out = tmp_path / "original_rule.npz"
+    with pytest.raises(subprocess.CalledProcessError):
+        cmp.original_table(Path("python"), Path("worker.py"), "rule", 3, 1_500_000_000, 4, out)
+    assert not out.exists()
+    save_table(load_table(FIXTURE), tmp_path / "t")  # numpy's rule: .npz added
+    assert sorted(p.name for p in tmp_path.iterdir() if "partial" not in p.name) == ["t.npz"]
+    assert len(np.unique(load_table(tmp_path / "t.npz")["episode"])) == 3
+
+
 def test_the_page_section_takes_the_new_driver_tables_and_keeps_the_others(tmp_path):
     from training.original.compare import write_section
 

@@ -7,6 +7,7 @@ decision its trajectory ends.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Optional
 
@@ -108,8 +109,14 @@ def _num(value: Optional[float]) -> float:
 
 
 def save_table(table: dict[str, np.ndarray], path: Path) -> None:
-    """A rollout table as a compressed ``.npz`` (plain arrays only)."""
-    np.savez_compressed(path, **table)  # type: ignore[arg-type]  # numpy's stub types the keywords as its flags
+    """A rollout table as a compressed ``.npz`` (plain arrays only; ``.npz`` added to a ``path``
+    without it, as numpy does), written whole or not at all: into a partial file, then renamed."""
+    path = Path(path)
+    if path.suffix != ".npz":
+        path = path.with_name(path.name + ".npz")
+    partial = path.with_name(path.name + ".partial.npz")
+    np.savez_compressed(partial, **table)  # type: ignore[arg-type]  # numpy's stub types the keywords as its flags
+    os.replace(partial, path)
 
 
 def load_table(path: Path) -> dict[str, np.ndarray]:

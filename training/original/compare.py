@@ -11,6 +11,7 @@ numbers can be read again without rerunning either world.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 from pathlib import Path
 from typing import Any, Optional, Sequence
@@ -114,11 +115,15 @@ def original_table(python: Path, worker: Path, driver: str, episodes: int, first
     spec = OriginalRun(lidar_noise=0.0, epochs=1, nagents=nagents, turns=turns).spec()
     spec_path = out.with_suffix(".run.json")
     spec_path.write_text(json.dumps(spec))
-    subprocess.run([str(python), str(worker), "rollout", str(spec_path), "--driver", driver,
-                    "--episodes", str(episodes), "--first-seed", str(first_seed), "--out", str(out),
-                    "--target-fraction", repr(CONSTANT_SPEED_FRACTION)],
-                   check=True, stderr=subprocess.DEVNULL)
-    spec_path.unlink()
+    partial = out.with_name(out.stem + ".partial.npz")  # a stopped rollout leaves no table at ``out``
+    try:
+        subprocess.run([str(python), str(worker), "rollout", str(spec_path), "--driver", driver,
+                        "--episodes", str(episodes), "--first-seed", str(first_seed), "--out", str(partial),
+                        "--target-fraction", repr(CONSTANT_SPEED_FRACTION)],
+                       check=True, stderr=subprocess.DEVNULL)
+    finally:
+        spec_path.unlink()
+    os.replace(partial, out)
     return load_table(out)
 
 
