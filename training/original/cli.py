@@ -35,8 +35,9 @@ from training.common.cli_args import OneLineParser, error, prog_name
 from training.common.seeds import REPORT, SELECTION, SeedError
 from training.original.commands import NOISE_EPOCHS, OriginalError, OriginalRun, lone_car_run
 from training.original.compare import DRIVERS
-from training.original.tables import (WORKER, check_settings, driver_table, policy_source, require_venv, run_weights,
-                                      score_table, trained_original_table, venv_dir, venv_python, write_table)
+from training.original.out_folder import check_settings
+from training.original.tables import (WORKER, driver_table, policy_source, require_venv, run_weights, score_table,
+                                      trained_original_table, venv_dir, venv_python, write_table)
 
 # what the worker's environment installs: sdriving without its training-only dependencies, and
 # what its trainer and our worker import

@@ -23,7 +23,7 @@ from box2d_driving.metrics.world_compare import agree, world_statistics
 from box2d_driving.policies.scripted import CONSTANT_SPEED_FRACTION, make_policy
 from box2d_driving.registry import make
 from training.original.commands import OriginalError, OriginalRun
-from training.original.tables import check_settings
+from training.original.out_folder import check_settings
 
 DRIVERS = ("full-throttle", "constant-speed", "rule", "random")
 
