@@ -277,8 +277,7 @@ def test_the_constant_speed_driver_is_one_rule_in_both_worlds():
 
     env = make("intersection-v0", preset="paper", num_cars=4)
     ours = ConstantSpeedPolicy(env)
-    layout = env.observation_layout
-    speed_at = layout.satnav.start + (layout.history - 1) * layout.n_satnav + layout.field("speed")
+    speed_at = env.observation_layout.newest("speed")
     speeds = np.array([0.0, 2.0, 3.875, 4.0, 4.1, 6.0, 8.0, -2.0, 3.0, 3.5])  # 3.875: (4 - v) / 1 s = 0.125, a tie
     observations = {}
     for k, v in enumerate(speeds):

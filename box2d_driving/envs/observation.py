@@ -63,6 +63,10 @@ class ObservationLayout:
         """Index of a sat-nav field within a frame."""
         return self.satnav_fields.index(name)
 
+    def newest(self, name: str) -> int:
+        """Index in the flat observation of a sat-nav field's newest reading (the last frame)."""
+        return self.satnav.start + (self.history - 1) * self.n_satnav + self.field(name)
+
 
 class FrameHistory:
     """Rolling ``(N, H, F)`` buffers of LiDAR and sat-nav frames for N cars."""

@@ -65,8 +65,7 @@ class ConstantSpeedPolicy:
     def __init__(self, env: Any, fraction: float = CONSTANT_SPEED_FRACTION) -> None:
         if not 0.0 < fraction <= 1.0:
             raise ValueError(f"constant-speed fraction must lie in (0, 1], got {fraction!r}")
-        layout = env.observation_layout
-        self._speed = layout.satnav.start + (layout.history - 1) * layout.n_satnav + layout.field("speed")
+        self._speed = env.observation_layout.newest("speed")
         cfg = env.config
         self._levels = np.asarray(cfg.accelerations, dtype=float)
         self._fraction = fraction
@@ -86,8 +85,7 @@ class LightRulePolicy:
     """Brake while the light seen is in ``stop_values``, else full acceleration (bit 0)."""
 
     def __init__(self, env: Any, stop_values: tuple[float, ...] = (YELLOW, RED)) -> None:
-        layout = env.observation_layout
-        self._light = layout.satnav.start + (layout.history - 1) * layout.n_satnav + layout.field("light")
+        self._light = env.observation_layout.newest("light")
         self._stop_values = np.asarray(stop_values)
         self._brake = 0
         self._go = len(env.config.accelerations) - 1
