@@ -152,21 +152,20 @@ def compare(python: Path, worker: Path, drivers: Sequence[str], episodes: int, f
     """Record both worlds per driver into ``out`` and return the markdown tables."""
     check_spawns(nagents, overrides, preset)
     turns = bool(_ours(overrides, preset).get("turns", False))  # the original's junction to match
-    for driver in drivers:  # tables already there, checked before anything is written
-        for side in ("original", "ours"):
-            if (out / f"{side}_{driver}.npz").exists():
-                kept_table(out / f"{side}_{driver}.npz", episodes)
+    # tables already there, read and checked before anything is written
+    kept = {path: kept_table(path, episodes) for driver in drivers for side in ("original", "ours")
+            if (path := out / f"{side}_{driver}.npz").exists()}
     check_settings(out, {"episodes": episodes, "first_seed": first_seed, "cars": nagents, "preset": preset,
                          "overrides": overrides})
     parts = []
     for driver in drivers:
         theirs_path = out / f"original_{driver}.npz"
-        theirs = (load_table(theirs_path) if theirs_path.exists()  # its length checked above
-                  else original_table(python, worker, driver, episodes, first_seed, nagents, theirs_path, turns))
+        theirs = kept.get(theirs_path) or original_table(python, worker, driver, episodes, first_seed, nagents,
+                                                         theirs_path, turns)
         ours_path = out / f"ours_{driver}.npz"
-        ours = load_table(ours_path) if ours_path.exists() else ours_table(
-            driver, episodes, first_seed, {"num_cars": nagents, **overrides}, preset)
-        if not ours_path.exists():
+        ours = kept.get(ours_path)
+        if ours is None:
+            ours = ours_table(driver, episodes, first_seed, {"num_cars": nagents, **overrides}, preset)
             save_table(ours, ours_path)
         parts.append(format_rows(driver, comparison_rows(ours, theirs)))
     return "\n\n".join(parts)
